@@ -1,0 +1,53 @@
+#pragma once
+// Small POSIX helpers shared by the transports and by event loops that poll
+// their descriptors (the twin's server): an owning file descriptor, errno text,
+// and a deadline-bounded poll that never busy-waits.
+
+#include <poll.h>
+
+#include <string>
+#include <utility>
+
+#include "lec6/clock.hpp"
+
+namespace lec6::transport {
+
+// Owns one file descriptor; closes it on destruction. Move-only.
+class UniqueFd {
+ public:
+  UniqueFd() = default;
+  explicit UniqueFd(int fd) noexcept : fd_(fd) {}
+  UniqueFd(UniqueFd&& other) noexcept : fd_(other.release()) {}
+  UniqueFd& operator=(UniqueFd&& other) noexcept {
+    if (this != &other) reset(other.release());
+    return *this;
+  }
+  UniqueFd(const UniqueFd&) = delete;
+  UniqueFd& operator=(const UniqueFd&) = delete;
+  ~UniqueFd() { reset(); }
+
+  int get() const noexcept { return fd_; }
+  bool valid() const noexcept { return fd_ >= 0; }
+  explicit operator bool() const noexcept { return valid(); }
+  int release() noexcept { return std::exchange(fd_, -1); }
+  // Closes the current descriptor (if any) and takes `fd`.
+  void reset(int fd = -1) noexcept;
+
+ private:
+  int fd_ = -1;
+};
+
+// strerror for `err`, thread-safe.
+std::string errno_text(int err);
+
+// Waits until `fd` reports one of `events` (or an error/hang-up condition), or
+// until `deadline` passes as read on `clock`. Returns the revents, or 0 once
+// the deadline has passed (never before it). A deadline already in the past
+// still checks the descriptor once. Retries on EINTR; throws std::system_error
+// if poll itself fails.
+short poll_until(int fd, short events, TimePoint deadline, const Clock& clock);
+
+// Sets or clears O_NONBLOCK; returns false (errno set) on failure.
+bool set_nonblocking(int fd, bool on = true);
+
+}  // namespace lec6::transport

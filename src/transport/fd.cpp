@@ -1,0 +1,61 @@
+#include "lec6/transport/fd.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+#include <system_error>
+
+namespace lec6::transport {
+
+void UniqueFd::reset(int fd) noexcept {
+  if (fd_ >= 0 && fd_ != fd) {
+    // Linux closes the descriptor even when close() reports EINTR: never retry.
+    ::close(fd_);
+  }
+  fd_ = fd;
+}
+
+std::string errno_text(int err) {
+  char buffer[256];
+  // GNU strerror_r returns the message (possibly a static string, not buffer).
+  const char* text = ::strerror_r(err, buffer, sizeof buffer);
+  return text;
+}
+
+short poll_until(int fd, short events, TimePoint deadline, const Clock& clock) {
+  pollfd pfd{};
+  pfd.fd = fd;
+  pfd.events = events;
+  for (;;) {
+    Duration remaining = deadline - clock.now();
+    if (remaining < Duration::zero()) remaining = Duration::zero();
+    timespec timeout{};
+    timeout.tv_sec = static_cast<time_t>(remaining.count() / 1'000'000'000);
+    timeout.tv_nsec = static_cast<long>(remaining.count() % 1'000'000'000);
+    pfd.revents = 0;
+    int r = ::ppoll(&pfd, 1, &timeout, nullptr);
+    if (r > 0) return pfd.revents;
+    if (r == 0) {
+      // ppoll does not return early, but the steady clock and the poll timer
+      // may round differently: only report a timeout once it is one.
+      if (clock.now() >= deadline) return 0;
+      continue;
+    }
+    if (errno == EINTR) continue;
+    throw std::system_error(errno, std::generic_category(), "poll");
+  }
+}
+
+bool set_nonblocking(int fd, bool on) {
+  int flags = ::fcntl(fd, F_GETFL);
+  if (flags < 0) return false;
+  int wanted = on ? (flags | O_NONBLOCK) : (flags & ~O_NONBLOCK);
+  if (wanted == flags) return true;
+  return ::fcntl(fd, F_SETFL, wanted) == 0;
+}
+
+}  // namespace lec6::transport

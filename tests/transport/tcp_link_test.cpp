@@ -1,0 +1,208 @@
+// TcpLink against TcpListener on the loopback interface: real sockets, every
+// wait a poll() with a deadline.
+
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "lec6/transport/fd.hpp"
+#include "lec6/transport/tcp_link.hpp"
+#include "lec6/transport/tcp_server.hpp"
+
+namespace lec6::transport {
+namespace {
+
+using namespace std::chrono_literals;
+using client::LinkError;
+using client::LinkErrorKind;
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+const SteadyClock kClock;
+using Bytes = std::vector<uint8_t>;
+const Bytes kQuery = {0x01, 0x03, 0x90, 0x00, 0x00, 0x02, 0xE9, 0x0B};
+const Bytes kReply = {0x01, 0x03, 0x04, 0x00, 0x00, 0x27, 0x10, 0xE2, 0x1F};
+
+TimePoint from_now(Duration d) {
+  return kClock.now() + d;
+}
+
+LinkError link_error(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const LinkError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "no LinkError thrown";
+  return LinkError(LinkErrorKind::Io, "none");
+}
+
+UniqueFd accept_one(TcpListener& listener) {
+  const TimePoint deadline = from_now(2s);
+  for (;;) {
+    if (poll_until(listener.fd(), POLLIN, deadline, kClock) == 0) return UniqueFd();
+    if (UniqueFd fd = listener.accept()) return fd;
+  }
+}
+
+Bytes recv_fd(int fd, std::size_t count) {
+  const TimePoint deadline = from_now(2s);
+  Bytes out;
+  while (out.size() < count && poll_until(fd, POLLIN, deadline, kClock) != 0) {
+    uint8_t buffer[256];
+    const ssize_t n = ::recv(fd, buffer, std::min(sizeof buffer, count - out.size()), 0);
+    if (n <= 0) break;
+    out.insert(out.end(), buffer, buffer + n);
+  }
+  return out;
+}
+
+void send_fd(int fd, std::span<const uint8_t> data) {
+  ASSERT_EQ(::send(fd, data.data(), data.size(), MSG_NOSIGNAL), static_cast<ssize_t>(data.size()));
+}
+
+Bytes read_link(client::Link& link, std::size_t count) {
+  const TimePoint deadline = from_now(2s);
+  Bytes out(count);
+  std::size_t got = 0;
+  while (got < count) {
+    const std::size_t n = link.read_some(std::span(out).subspan(got), deadline);
+    if (n == 0) break;
+    got += n;
+  }
+  out.resize(got);
+  return out;
+}
+
+struct Connected {
+  TcpListener listener;
+  TcpLink link;
+  UniqueFd server;
+  explicit Connected(TcpOptions options = {})
+      : link("127.0.0.1", listener.port(), options), server(accept_one(listener)) {}
+};
+
+TEST(TcpListener, BindsTheLoopbackOnAFreePortAndAcceptsWithoutBlocking) {
+  TcpListener listener;
+  EXPECT_NE(listener.port(), 0);
+  EXPECT_EQ(listener.address(), "127.0.0.1");
+  EXPECT_EQ(listener.url(), "tcp://127.0.0.1:" + std::to_string(listener.port()));
+  EXPECT_FALSE(listener.accept().valid());  // nothing pending: returns at once
+}
+
+TEST(TcpListener, APortInUseIsPortUnavailable) {
+  TcpListener first;
+  const LinkError e = link_error([&] { TcpListener second(first.port()); });
+  EXPECT_EQ(e.kind(), LinkErrorKind::PortUnavailable);
+  EXPECT_THAT(e.what(),
+              HasSubstr("cannot listen on tcp://127.0.0.1:" + std::to_string(first.port())));
+}
+
+TEST(TcpLink, RoundTrip) {
+  Connected c(TcpOptions{.baud = 115200});
+  ASSERT_TRUE(c.server.valid());
+  EXPECT_EQ(c.link.baud(), 115200u);
+  EXPECT_EQ(c.link.describe(),
+            "tcp://127.0.0.1:" + std::to_string(c.listener.port()) + " @ 115200");
+
+  c.link.write(kQuery);
+  EXPECT_EQ(recv_fd(c.server.get(), kQuery.size()), kQuery);
+  send_fd(c.server.get(), kReply);
+  EXPECT_EQ(read_link(c.link, kReply.size()), kReply);
+}
+
+TEST(TcpLink, ReadSomeReturnsZeroOnlyOnceTheDeadlineHasPassed) {
+  Connected c;
+  uint8_t buffer[16];
+  const TimePoint deadline = from_now(30ms);
+  EXPECT_EQ(c.link.read_some(buffer, deadline), 0u);
+  EXPECT_GE(c.link.clock().now(), deadline);
+}
+
+TEST(TcpLink, DiscardInputDropsStaleBytes) {
+  Connected c;
+  send_fd(c.server.get(), Bytes{0xAA, 0xBB});
+  ASSERT_NE(poll_until(c.link.fd(), POLLIN, from_now(2s), kClock), 0);
+  c.link.discard_input();
+  uint8_t buffer[16];
+  EXPECT_EQ(c.link.read_some(buffer, from_now(20ms)), 0u);
+  send_fd(c.server.get(), kReply);
+  EXPECT_EQ(read_link(c.link, kReply.size()), kReply);
+}
+
+TEST(TcpLink, PeerClosingIsPortLostPromptly) {
+  Connected c;
+  c.server.reset();
+  uint8_t buffer[16];
+  const TimePoint deadline = from_now(10s);
+  const LinkError e = link_error([&] { c.link.read_some(buffer, deadline); });
+  EXPECT_EQ(e.kind(), LinkErrorKind::PortLost);
+  EXPECT_THAT(e.what(), HasSubstr("tcp://127.0.0.1:"));
+  EXPECT_LT(kClock.now(), deadline - 9s);
+}
+
+TEST(TcpLink, WritingToAClosedPeerIsPortLost) {
+  Connected c;
+  c.server.reset();
+  // The first send is still accepted locally; the peer answers it with a
+  // reset, which poll reports as an error condition (events 0: errors only).
+  c.link.write(kQuery);
+  ASSERT_NE(poll_until(c.link.fd(), 0, from_now(2s), kClock), 0);
+  const LinkError e = link_error([&] { c.link.write(kQuery); });
+  EXPECT_EQ(e.kind(), LinkErrorKind::PortLost);
+  EXPECT_THAT(e.what(), AllOf(HasSubstr("the connection to tcp://127.0.0.1:"),
+                              HasSubstr("went away (write: ")));
+}
+
+TEST(TcpLink, ConnectionRefusedIsPortUnavailable) {
+  uint16_t port = 0;
+  {
+    TcpListener listener;
+    port = listener.port();
+  }
+  const LinkError e = link_error([&] { TcpLink link("127.0.0.1", port); });
+  EXPECT_EQ(e.kind(), LinkErrorKind::PortUnavailable);
+  EXPECT_EQ(std::string(e.what()),
+            "cannot connect to tcp://127.0.0.1:" + std::to_string(port) + ": Connection refused");
+}
+
+TEST(TcpLink, ConnectIsBoundedByTheTimeout) {
+  // A listener whose accept queue is full drops further SYNs, so the next
+  // connect gets no answer at all: the timeout must end it.
+  TcpListener listener(0, "127.0.0.1", 0);
+  std::vector<std::unique_ptr<TcpLink>> queued;
+  const TcpOptions options{.connect_timeout = milliseconds(200)};
+  std::optional<LinkError> error;
+  Duration took{};
+  for (int i = 0; i < 8 && !error; ++i) {
+    const TimePoint start = kClock.now();
+    try {
+      queued.push_back(std::make_unique<TcpLink>("127.0.0.1", listener.port(), options));
+    } catch (const LinkError& e) {
+      error = e;
+      took = kClock.now() - start;
+    }
+  }
+  ASSERT_TRUE(error.has_value()) << "the accept queue never filled up";
+  EXPECT_EQ(error->kind(), LinkErrorKind::PortUnavailable);
+  EXPECT_EQ(std::string(error->what()),
+            "cannot connect to tcp://127.0.0.1:" + std::to_string(listener.port()) +
+                ": no answer within 200 ms");
+  EXPECT_GE(took, milliseconds(200));
+  EXPECT_LT(took, 2s);
+}
+
+}  // namespace
+}  // namespace lec6::transport
