@@ -1,0 +1,77 @@
+#pragma once
+// What can go wrong talking to a controller, kept apart by who is at fault:
+// the line (TransportError), the controller refusing a request
+// (ControllerException), the controller stopping with an alarm (AlarmError),
+// or an operation running past its deadline (DeadlineError).
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "lec6/modbus/pdu.hpp"
+
+namespace lec6::client {
+
+enum class TransportErrorKind {
+  Port,          // cannot open, or the port went away
+  Timeout,       // no reply within Tx + margin
+  Crc,           // reply bytes arrived but failed the CRC (noise, or wrong baud)
+  Framing,       // bytes arrived that never formed the expected reply
+  EchoMismatch,  // 2-wire echo differs: bus collision
+};
+
+std::string_view transport_error_name(TransportErrorKind k) noexcept;
+
+class TransportError : public std::runtime_error {
+ public:
+  TransportError(TransportErrorKind kind, const std::string& what)
+      : std::runtime_error(what), kind_(kind) {}
+  TransportErrorKind kind() const noexcept { return kind_; }
+
+ private:
+  TransportErrorKind kind_;
+};
+
+// The controller answered with an exception reply (01/02/03).
+class ControllerException : public std::runtime_error {
+ public:
+  ControllerException(modbus::ExceptionCode code, const std::string& what)
+      : std::runtime_error(what), code_(code) {}
+  modbus::ExceptionCode code() const noexcept { return code_; }
+
+ private:
+  modbus::ExceptionCode code_;
+};
+
+// The controller raised an alarm (X4F = 1) during an operation.
+class AlarmError : public std::runtime_error {
+ public:
+  AlarmError(std::vector<uint8_t> codes, const std::string& what)
+      : std::runtime_error(what), codes_(std::move(codes)) {}
+  const std::vector<uint8_t>& codes() const noexcept { return codes_; }
+
+ private:
+  std::vector<uint8_t> codes_;
+};
+
+// An operation did not finish by its deadline (the controller kept answering).
+class DeadlineError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// The caller asked to stop (Ctrl-C); the axis was stopped before this was thrown.
+class Cancelled : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// A request refused before anything was sent (value out of range, address
+// outside the map): nothing reached the controller.
+class InvalidRequest : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+}  // namespace lec6::client

@@ -1,0 +1,274 @@
+#include "lec6/client/client.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "lec6/lec/explain.hpp"
+#include "lec6/lec/memory_map.hpp"
+
+namespace lec6::client {
+namespace {
+
+using namespace modbus;
+
+std::string join(const std::vector<std::string>& lines) {
+  std::string out;
+  for (const auto& l : lines) out += (out.empty() ? "" : "; ") + l;
+  return out;
+}
+
+TransportErrorKind kind_of(LinkErrorKind k) {
+  return k == LinkErrorKind::EchoMismatch ? TransportErrorKind::EchoMismatch : TransportErrorKind::Port;
+}
+
+template <typename T>
+const T& expect_reply(const Response& r, std::string_view what) {
+  if (const T* t = std::get_if<T>(&r)) return *t;
+  throw TransportError(TransportErrorKind::Framing, fmt::format("unexpected reply type to {}", what));
+}
+
+void check_step_number(unsigned step) {
+  if (step >= lec::kStepCount) {
+    throw InvalidRequest(fmt::format("step {} does not exist: steps are numbered 0 to 63", step));
+  }
+}
+
+void check_record(const lec::StepData& data, std::optional<unsigned> step) {
+  if (data.is_blank() && step) return;  // a blank step is a legal (unregistered) record
+  const auto issues = lec::validation_messages(data, step);
+  if (!issues.empty()) throw InvalidRequest(join(issues));
+}
+
+}  // namespace
+
+Client::Client(Link& link, ClientOptions options) : link_(link), options_(std::move(options)) {
+  timing_.line.baud = link_.baud();
+  timing_.line.silent_interval_k = options_.silent_interval_k;
+  timing_.line.delay_td = options_.delay_td;
+  timing_.margin = options_.timeout_margin;
+}
+
+void Client::trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes, const RequestFrame& request,
+                   const ResponseFrame* response) {
+  if (!options_.trace) return;
+  std::string text = outgoing ? lec::explain_request(request)
+                              : (response ? lec::explain_response(*response, &request) : std::string("?"));
+  options_.trace(TraceEvent{outgoing, at, bytes, std::move(text)});
+}
+
+// The manual's frame delimiter works both ways: the controller must see Ts of
+// silence before our query, so anything still arriving (a late reply, noise)
+// is drained until the line has been quiet for Ts.
+void Client::wait_for_silence() {
+  const Duration ts = timing_.line.silent_interval();
+  std::array<uint8_t, 256> sink{};
+  for (;;) {
+    const TimePoint quiet_at = line_busy_until_ + ts;
+    if (link_.clock().now() >= quiet_at) break;
+    if (link_.read_some(sink, quiet_at) > 0) {
+      stats_.bytes_discarded += 1;
+      line_busy_until_ = link_.clock().now();
+    }
+  }
+  link_.discard_input();
+}
+
+ResponseFrame Client::run_once(const RequestFrame& frame) {
+  Transaction tx(frame, timing_);
+  std::array<uint8_t, kMaxAdu * 2> buffer{};
+  try {
+    wait_for_silence();
+    const TimePoint start = link_.clock().now();
+    link_.write(tx.bytes());
+    tx.sent(link_.clock().now());
+    trace(true, start, tx.bytes(), frame, nullptr);
+    while (tx.step() == Transaction::Step::Receive) {
+      const std::size_t n = link_.read_some(buffer, tx.deadline());
+      const TimePoint now = link_.clock().now();
+      if (n > 0) {
+        tx.received(std::span(buffer.data(), n), now);
+      } else if (now >= tx.deadline()) {
+        tx.timed_out(now);
+      }
+    }
+    line_busy_until_ = link_.clock().now();
+    ++stats_.transactions;
+    stats_.bytes_discarded += tx.discarded();
+    if (tx.step() == Transaction::Step::Failed) {
+      switch (tx.error_kind()) {
+        case TransportErrorKind::Timeout: ++stats_.timeouts; break;
+        case TransportErrorKind::Crc: ++stats_.crc_errors; break;
+        default: ++stats_.framing_errors; break;
+      }
+      throw TransportError(tx.error_kind(), tx.error());
+    }
+    if (tx.broadcast()) return ResponseFrame{kBroadcastId, WriteMultipleResponse{}};
+    last_round_trip_ = tx.finished_at() - start;
+    const auto& reply = tx.response();
+    const auto encoded = encode_response(reply);
+    trace(false, tx.finished_at(), encoded, frame, &reply);
+    return reply;
+  } catch (const LinkError& e) {
+    line_busy_until_ = link_.clock().now();
+    throw TransportError(kind_of(e.kind()), e.what());
+  }
+}
+
+Response Client::transact(const Request& request, Retry retry, std::optional<uint8_t> id) {
+  // Refuse what the memory map refuses before it reaches the line. The input
+  // mode is the controller's business (it answers 02), so assume serial mode.
+  if (auto refusal = lec::check_request(request, true)) {
+    throw InvalidRequest(fmt::format("refused before sending: {} (use `lec raw` to send it anyway)",
+                                     refusal->reason));
+  }
+  const RequestFrame frame{id.value_or(options_.id), request};
+  const int attempts = retry == Retry::Safe ? 1 + std::max(0, options_.retries) : 1;
+  for (int attempt = 1;; ++attempt) {
+    try {
+      ResponseFrame reply = run_once(frame);
+      if (const auto* ex = std::get_if<ExceptionResponse>(&reply.pdu)) {
+        ++stats_.exceptions;
+        throw ControllerException(ex->code, fmt::format("controller ID {} refused \"{}\": {}", frame.id,
+                                                        lec::explain_request(frame), lec::explain_exception(ex->code)));
+      }
+      return std::move(reply.pdu);
+    } catch (const TransportError& e) {
+      const bool line_fault = e.kind() == TransportErrorKind::Timeout || e.kind() == TransportErrorKind::Crc ||
+                              e.kind() == TransportErrorKind::Framing;
+      if (!line_fault || attempt >= attempts) throw;
+      ++stats_.retries;
+    }
+  }
+}
+
+ResponseFrame Client::transact_raw(const RequestFrame& frame) { return run_once(frame); }
+
+void Client::broadcast(const Request& request) {
+  if (!is_write(request)) {
+    throw InvalidRequest("a broadcast (ID 0) only carries writes (05, 0F, 10): reads get no reply");
+  }
+  run_once(RequestFrame{kBroadcastId, request});
+}
+
+// ---- reads ------------------------------------------------------------------
+
+std::vector<uint16_t> Client::read_registers(uint16_t start, uint16_t count) {
+  const auto reply = transact(ReadRegistersRequest{start, count});
+  return expect_reply<ReadRegistersResponse>(reply, "read").values;
+}
+
+lec::StateData Client::read_state() {
+  return lec::StateData::from_registers(read_registers(lec::kStateData, lec::kStateDataRegisters));
+}
+
+lec::StatusFlags Client::read_flags() {
+  const auto reply = transact(ReadBitsRequest{FunctionCode::ReadInputs, lec::kStatusInputs, lec::kStatusInputCount});
+  return lec::StatusFlags::from_packed(expect_reply<ReadBitsResponse>(reply, "read flags").packed);
+}
+
+lec::ControlFlags Client::read_controls() {
+  // Y10–Y30 in one read: 33 coils inside the coil area (field practice).
+  const auto reply = transact(ReadBitsRequest{FunctionCode::ReadCoils, 0x10, 33});
+  const auto& bits = expect_reply<ReadBitsResponse>(reply, "read coils");
+  lec::ControlFlags c;
+  for (unsigned i = 0; i < 16; ++i) {
+    if (bits.bit(i)) c.y10_1f = static_cast<uint16_t>(c.y10_1f | (1U << i));
+  }
+  c.serial_mode = bits.bit(32);
+  return c;
+}
+
+lec::StepData Client::read_step(unsigned step) {
+  check_step_number(step);
+  return lec::StepData::from_registers(read_registers(lec::step_address(step), lec::StepData::kRegisters));
+}
+
+std::array<lec::StepData, lec::kStepCount> Client::read_all_steps() {
+  std::array<lec::StepData, lec::kStepCount> steps{};
+  constexpr unsigned kPerRead = kMaxReadRegisters / lec::StepData::kRegisters;  // 7 steps, 112 registers
+  for (unsigned first = 0; first < lec::kStepCount; first += kPerRead) {
+    const unsigned n = std::min<unsigned>(kPerRead, lec::kStepCount - first);
+    const auto regs = read_registers(lec::step_address(first), static_cast<uint16_t>(n * lec::StepData::kRegisters));
+    for (unsigned i = 0; i < n; ++i) {
+      steps[first + i] = lec::StepData::from_registers(
+          std::span(regs).subspan(i * lec::StepData::kRegisters, lec::StepData::kRegisters));
+    }
+  }
+  return steps;
+}
+
+lec::StepData Client::read_direct() {
+  return lec::StepData::from_registers(read_registers(lec::kDirectData, lec::StepData::kRegisters));
+}
+
+lec::AlarmHistory Client::read_alarms() {
+  return lec::AlarmHistory::from_registers(read_registers(lec::kAlarmHistory, lec::kAlarmHistoryRegisters));
+}
+
+lec::EquipmentName Client::read_name() {
+  return lec::EquipmentName::from_registers(read_registers(lec::kEquipmentName, lec::kEquipmentNameRegisters));
+}
+
+uint16_t Client::echo(uint16_t data) {
+  const auto reply = transact(EchoRequest{0, data});
+  const auto& e = expect_reply<EchoResponse>(reply, "echo");
+  if (e.data != data) {
+    throw TransportError(TransportErrorKind::Framing,
+                         fmt::format("echo returned {:04X}h for {:04X}h", e.data, data));
+  }
+  return e.data;
+}
+
+// ---- writes -----------------------------------------------------------------
+
+void Client::write_coil(lec::Coil coil, bool on) {
+  // Coils are levels: writing the same level twice is harmless, so retries are safe.
+  transact(WriteCoilRequest{lec::address(coil), on ? kCoilOn : kCoilOff});
+}
+
+void Client::select_step(unsigned step) {
+  check_step_number(step);
+  std::array<bool, 8> bits{};
+  for (unsigned i = 0; i < 6; ++i) bits[i] = (step >> i) & 1U;
+  transact(WriteCoilsRequest::of(lec::address(lec::Coil::IN0), bits));
+}
+
+void Client::write_registers(uint16_t start, std::span<const uint16_t> values, Retry retry) {
+  transact(WriteRegistersRequest::of(start, values), retry);
+}
+
+void Client::write_step(unsigned step, const lec::StepData& data) {
+  check_step_number(step);
+  check_record(data, step);
+  const auto regs = data.to_registers();
+  write_registers(lec::step_address(step), regs);
+}
+
+void Client::write_step_registers(unsigned step, const lec::StepData& data, unsigned first, unsigned count) {
+  check_step_number(step);
+  check_record(data, step);
+  if (first + count > lec::StepData::kRegisters || count == 0) {
+    throw InvalidRequest(fmt::format("registers {}+{} are outside a step record", first, count));
+  }
+  const auto regs = data.to_registers();
+  write_registers(static_cast<uint16_t>(lec::step_address(step) + first), std::span(regs).subspan(first, count));
+}
+
+void Client::write_direct(const lec::StepData& data) { write_direct_registers(data, 0, lec::StepData::kRegisters); }
+
+void Client::write_direct_registers(const lec::StepData& data, unsigned first, unsigned count) {
+  check_record(data, std::nullopt);
+  if (first + count > lec::StepData::kRegisters || count == 0) {
+    throw InvalidRequest(fmt::format("registers {}+{} are outside the direct-operation record", first, count));
+  }
+  const auto regs = data.to_registers();
+  write_registers(static_cast<uint16_t>(lec::kDirectData + first), std::span(regs).subspan(first, count));
+}
+
+void Client::write_direct_start(Retry retry) {
+  const uint16_t start[] = {lec::kDirectStartValue};
+  write_registers(lec::kDirectStart, start, retry);
+}
+
+}  // namespace lec6::client

@@ -1,0 +1,226 @@
+#include "lec6/client/client.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "lec6/modbus/timing.hpp"
+#include "sim_fixture.hpp"
+
+namespace lec6::client {
+namespace {
+
+using lec::Coil;
+using testing::SimFixture;
+using ::testing::HasSubstr;
+
+lec::StepData step_150mm() {
+  return {lec::MovementMode::Absolute, 500, 15000, 5000, 5000, 0, 0, 20, 100, 0, 0, 100};
+}
+
+TEST(Client, ManualOperationExamplesOneToFour) {
+  SimFixture f;
+  f.prepare();
+  auto flags = f.client->read_flags();
+  EXPECT_EQ(flags.bits, 0x0E00) << flags.describe();  // SVRE SETON INP, as the manual's reply
+
+  // Example 2: edit step 1; example 1: run it; example 3: read the position.
+  f.client->write_step(1, step_150mm());
+  auto r = f.axis->run_step(1, f.axis->deadline_in(std::chrono::seconds(10)));
+  EXPECT_TRUE(r.in_position);
+  EXPECT_EQ(f.client->read_state().position_001mm, 15000);
+  EXPECT_EQ(f.client->read_flags().out(), 1);
+
+  // Example 4: direct operation to 300.00 mm.
+  DirectMove m;
+  m.position_001mm = 30000;
+  m.speed_mm_s = 500;
+  m.acceleration_mm_s2 = 5000;
+  m.deceleration_mm_s2 = 5000;
+  m.in_position_001mm = 100;
+  r = f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)));
+  EXPECT_TRUE(r.in_position);
+  EXPECT_EQ(r.state.position_001mm, 30000);
+  EXPECT_FALSE(r.flags.busy());
+}
+
+TEST(Client, ReadStateTakesExactlyTheWireLimitInRealTiming) {
+  for (uint32_t baud : {38400u, 115200u}) {
+    sim::LineConfig line;
+    line.line.baud = baud;
+    SimFixture f(line);
+    f.client->read_state();
+    const modbus::LineTiming t{baud};
+    // query 8 bytes, reply 5 + 14 bytes: the digest §1 limit, to the nanosecond.
+    EXPECT_NEAR(to_ms(f.client->last_round_trip()), to_ms(t.transaction_limit(8, 19)), 0.001) << baud;
+  }
+}
+
+TEST(Client, ExceptionRepliesAreTypedAndExplained) {
+  SimFixture f;  // power-on: parallel input mode
+  try {
+    f.client->write_coil(Coil::SVON, true);
+    FAIL() << "expected exception 02";
+  } catch (const ControllerException& e) {
+    EXPECT_EQ(e.code(), modbus::ExceptionCode::IllegalAddress);
+    EXPECT_THAT(e.what(), HasSubstr("lec serial on"));
+    EXPECT_THAT(e.what(), HasSubstr("Y19 SVON"));
+  }
+  EXPECT_EQ(f.client->stats().exceptions, 1u);
+  EXPECT_EQ(f.client->stats().retries, 0u);  // an answer is an answer: not retried
+}
+
+TEST(Client, RequestsOutsideTheMapAreRefusedBeforeSending) {
+  SimFixture f;
+  EXPECT_THROW(f.client->read_registers(0x5000, 1), InvalidRequest);
+  EXPECT_THROW(f.client->read_registers(0x9000, 126), InvalidRequest);
+  EXPECT_TRUE(f.sent.empty());
+  EXPECT_EQ(f.bus.stats().frames, 0u);
+  // A step with a bad value is refused before anything is written.
+  auto bad = step_150mm();
+  bad.trigger_level_pct = 80;
+  bad.pushing_force_pct = 50;
+  try {
+    f.client->write_step(3, bad);
+    FAIL();
+  } catch (const InvalidRequest& e) {
+    EXPECT_STREQ(e.what(), "step 3: trigger level 80 % exceeds pushing force 50 %");
+  }
+  EXPECT_TRUE(f.sent.empty());
+}
+
+TEST(Client, SilentIdTimesOutAfterRetriesWithinTheDeadline) {
+  SimFixture f;
+  f.client->set_id(7);
+  const TimePoint start = f.clock.now();
+  try {
+    f.client->read_state();
+    FAIL();
+  } catch (const TransportError& e) {
+    EXPECT_EQ(e.kind(), TransportErrorKind::Timeout);
+    EXPECT_THAT(e.what(), HasSubstr("ID 7"));
+  }
+  EXPECT_EQ(f.client->stats().retries, 2u);
+  EXPECT_EQ(f.sent.size(), 3u);
+  const modbus::LineTiming t;
+  const Duration per_try = t.wire_time(8) + t.response_time(19) + milliseconds(50);
+  EXPECT_LE(f.clock.now() - start, 3 * (per_try + t.silent_interval()) + milliseconds(1));
+}
+
+TEST(Client, CorruptedRepliesAreNeverAcceptedAndClassifiedAsCrc) {
+  SimFixture f;
+  sim::FaultConfig faults;
+  faults.corrupt = 1.0;
+  f.bus.set_faults(faults);
+  try {
+    f.client->read_state();
+    FAIL();
+  } catch (const TransportError& e) {
+    EXPECT_EQ(e.kind(), TransportErrorKind::Crc);
+    EXPECT_THAT(e.what(), HasSubstr("baud"));
+  }
+}
+
+TEST(Client, GarbageBeforeTheReplyIsSkipped) {
+  SimFixture f;
+  sim::FaultConfig faults;
+  faults.garbage = 1.0;
+  f.bus.set_faults(faults);
+  for (int i = 0; i < 50; ++i) EXPECT_EQ(f.client->echo(static_cast<uint16_t>(i)), i);
+}
+
+TEST(Client, RetriesRecoverIdempotentReadsFromDroppedReplies) {
+  SimFixture f;
+  sim::FaultConfig faults;
+  faults.drop = 0.3;
+  faults.seed = 42;
+  f.bus.set_faults(faults);
+  int ok = 0;
+  for (int i = 0; i < 100; ++i) {
+    try {
+      EXPECT_EQ(f.client->echo(static_cast<uint16_t>(i)), i);
+      ++ok;
+    } catch (const TransportError& e) {
+      EXPECT_EQ(e.kind(), TransportErrorKind::Timeout);
+    }
+  }
+  EXPECT_GT(f.client->stats().retries, 10u);
+  EXPECT_GE(ok, 95);  // 0.3³ of the calls may fail all three tries
+}
+
+TEST(Client, LostReplyToAnIncStartDoesNotMoveTwice) {
+  SimFixture f;
+  f.prepare();
+  DirectMove to100;
+  to100.position_001mm = 10000;
+  f.axis->move(to100, f.axis->deadline_in(std::chrono::seconds(10)));
+
+  // Drop exactly the reply to the D9100 start; the controller still starts.
+  f.on_trace = [&](const TraceEvent& e) {
+    if (!e.outgoing) return;
+    const bool start = e.bytes.size() > 3 && e.bytes[1] == 0x10 && e.bytes[2] == 0x91 && e.bytes[3] == 0x00;
+    sim::FaultConfig faults;
+    faults.drop = start ? 1.0 : 0.0;
+    f.bus.set_faults(faults);
+  };
+  DirectMove plus50;
+  plus50.position_001mm = 5000;
+  plus50.relative = true;
+  auto r = f.axis->move(plus50, f.axis->deadline_in(std::chrono::seconds(10)));
+  EXPECT_EQ(r.state.position_001mm, 15000);  // 100 + 50, not 100 + 2 × 50
+  int starts = 0;
+  for (const auto& q : f.sent) starts += q.size() > 3 && q[1] == 0x10 && q[2] == 0x91 && q[3] == 0x00;
+  EXPECT_EQ(starts, 2);  // the two moves' starts: the lost one was not resent
+}
+
+TEST(Client, MoveRewritesOnlyTheFieldsThatChanged) {
+  SimFixture f;
+  f.prepare();
+  DirectMove m;
+  m.position_001mm = 10000;
+  f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)));
+  f.sent.clear();
+  m.position_001mm = 20000;
+  f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)));
+  // The only direct-data write is D9105, the low word of the position (the
+  // high word is 0 for both targets).
+  int data_writes = 0;
+  for (const auto& q : f.sent) {
+    if (q[1] == 0x10 && q[2] == 0x91 && q[3] != 0x00) {
+      ++data_writes;
+      EXPECT_EQ(q[3], 0x05);
+      EXPECT_EQ(q[5], 1);
+    }
+  }
+  EXPECT_EQ(data_writes, 1);
+}
+
+TEST(Client, BroadcastReachesEveryControllerWithoutReply) {
+  SimFixture f({}, {1, 2, 3});
+  const TimePoint start = f.clock.now();
+  f.client->broadcast(modbus::WriteCoilRequest{lec::address(Coil::SerialMode), modbus::kCoilOn});
+  const modbus::LineTiming t;
+  EXPECT_GE(f.clock.now() - start, t.response_time(8));  // waited Tx
+  for (uint8_t id : {1, 2, 3}) {
+    const auto reply =
+        f.client->transact(modbus::ReadBitsRequest{modbus::FunctionCode::ReadCoils, 0x30, 1}, Retry::Safe, id);
+    EXPECT_TRUE(std::get<modbus::ReadBitsResponse>(reply).bit(0)) << "ID " << int(id);
+  }
+  EXPECT_THROW(f.client->broadcast(modbus::ReadRegistersRequest{0x9000, 1}), InvalidRequest);
+}
+
+TEST(Client, ReadsAllStepsInTenTransactions) {
+  SimFixture f;
+  f.client->write_step(0, step_150mm());
+  auto s = step_150mm();
+  s.position_001mm = -2500;
+  f.client->write_step(63, s);
+  f.sent.clear();
+  const auto steps = f.client->read_all_steps();
+  EXPECT_EQ(f.sent.size(), 10u);
+  EXPECT_EQ(steps[0], step_150mm());
+  EXPECT_EQ(steps[63].position_001mm, -2500);
+  EXPECT_TRUE(steps[5].is_blank());
+}
+
+}  // namespace
+}  // namespace lec6::client
