@@ -1,0 +1,165 @@
+#pragma once
+// Everything the twin decides where the manual is silent, in one place.
+//
+// `ActuatorConfig` and `LineConfig` are the twin's settings (each field has a
+// default; `lec sim --help` prints them). The `behaviour` namespace holds the
+// fixed decisions ("assumed" in the digest, docs/protocol-decisions.md), each
+// citing the digest section it implements.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "lec6/clock.hpp"
+#include "lec6/modbus/timing.hpp"
+
+namespace lec6::sim {
+
+// A closed range [lo, hi] in mm (either order is accepted).
+struct RangeMm {
+  double lo = 0.0;
+  double hi = 0.0;
+  bool contains(double x) const noexcept {
+    const double a = lo < hi ? lo : hi;
+    const double b = lo < hi ? hi : lo;
+    return a <= x && x <= b;
+  }
+};
+
+// One actuator + controller (digest §6). Positions are in the homed
+// coordinate (mm): 0 is the origin, where return to origin ends.
+struct ActuatorConfig {
+  // Stroke ends, mm, in the homed coordinate. Targets outside are refused
+  // with alarm 52 (step) / 62 (direct). Return to origin drives to the min
+  // end, then to 0 if min < 0; so min ≤ 0 ≤ max is required.
+  double stroke_min_mm = 0.0;
+  double stroke_max_mm = 400.0;
+  // Speed and acceleration limits; larger step values are clamped to them.
+  double max_speed_mm_s = 1000.0;
+  double max_accel_mm_s2 = 10000.0;
+  // JOG−/JOG+ speed and the acceleration/deceleration used to start/stop a jog.
+  double jog_speed_mm_s = 50.0;
+  double jog_accel_mm_s2 = 1000.0;
+  // Return to origin (SETUP): speed and acceleration/deceleration.
+  double origin_speed_mm_s = 20.0;
+  double origin_accel_mm_s2 = 1000.0;
+  // Where the carriage physically stands at power-on (homed coordinate, mm).
+  // Before the first homing the reported position counts from here (reads 0).
+  double initial_position_mm = 10.0;
+  // A workpiece (rigid obstacle) at this position, mm; none by default.
+  // Pushing meets it; a positioning move or homing that runs into it stalls
+  // there and raises alarm 149 (positioning) / 97 (homing) after
+  // `stall_alarm_delay`.
+  std::optional<double> workpiece_mm;
+  Duration stall_alarm_delay = milliseconds(1000);
+  // The controller's W-AREA setting; X4D WAREA = 1 while the position is in
+  // it. None by default (WAREA always 0), so power-on replies match the manual.
+  std::optional<RangeMm> warea_mm;
+  // Time from SVON ← 1 to SVRE = 1.
+  Duration svre_delay = milliseconds(50);
+  // Thrust model (D9003, %): while moving, friction_thrust_pct plus
+  // accel_thrust_pct × |acceleration| / max_accel_mm_s2; 0 at rest; capped by
+  // the step's moving force while positioning, equal to the pushing force
+  // while pressing on the workpiece.
+  double friction_thrust_pct = 10.0;
+  double accel_thrust_pct = 50.0;
+  // Equipment name at D000E (≤ 14 ASCII characters), unless a state file has one.
+  std::string equipment_name = "LEC6-TWIN";
+};
+
+enum class Timing {
+  Real,  // reply ends at end of query + Ts + 4 ms + Td + wire time (digest §1)
+  Fast,  // no artificial delay; frames also complete on expected length + CRC
+};
+
+// The serial line as the twin's controllers are set up (digest §1). All
+// controllers on one twin bus share it.
+struct LineConfig {
+  // baud (default 38400), silent interval k (default 1: Ts = 3.5 chars),
+  // minimum communication delay Td (default 5 ms). T0 is LineTiming::kProcessing.
+  modbus::LineTiming line;
+  Timing timing = Timing::Real;
+};
+
+namespace behaviour {
+
+// Digest §1: the reply's last byte leaves at end of query + Ts + T0 (4 ms,
+// modbus::LineTiming::kProcessing, nominal) + Td + wire time; the manual's
+// ×1.5 on T0 is the master's margin, not the controller's time. A query is
+// acted on (writes applied, reads sampled) when its frame is complete: at its
+// last byte + Ts in real timing, at its last byte in fast timing.
+
+// Digest §6, alarm codes: lec6::lec::alarm (lec/alarms.hpp). The twin raises
+//   48 invalid data (lec::validate finds an issue in the started record),
+//   51 DRIVE of a blank step, 52 step target (or pushing start) beyond the
+//   stroke, 62 the same for direct operation (decision: 52 for steps, 62 for
+//   direct operation), 97 return to origin stalled against the workpiece,
+//   98 DRIVE / direct start while SVRE = 0, 99 ABS start before the first
+//   return to origin, 149 positioning stalled against the workpiece. 97 and
+//   149 are raised `stall_alarm_delay` after the carriage stalled.
+// Checks on a start, first failing wins: alarm present → refused (no new
+// alarm); SVRE = 0 → 98; blank step → 51; lec::validate → 48; ABS before
+// homing → 99; target beyond the stroke → 52/62.
+
+// Decision (assumed): RESET clears the alarm when lec::alarm_resettable() says
+// so (48–99); other codes (149) clear only with RESET while the servo is off
+// (SVON ← 0 first), so a twin never needs a restart.
+
+// Decision (assumed): an alarm cancels the running operation with a
+// decelerating stop (BUSY 0, INP 0); the servo stays on.
+
+// Decision (assumed): step speed above max_speed_mm_s and acceleration /
+// deceleration above max_accel_mm_s2 are clamped to those limits (no alarm).
+
+// Decision (assumed): direct operation shows step No. 0 on OUT0–OUT5 and D9006.
+
+// Decision (assumed): return to origin leaves OUT0–OUT5 and D9006 unchanged,
+// sets the target (D9004) to 0 and forgets the AREA range (digest §6).
+
+// Decision (assumed): JOG moves set BUSY = 1 while moving, INP = 0, and do
+// not change the target (D9004); INC after a jog counts from the last target.
+
+// Decision (assumed): SVON ← 0 and ESTOP stop the carriage at once (servo
+// released, no deceleration modelled); SETON is kept (the encoder still knows
+// where it is). After ESTOP is released, a write of SVON ← 1 (even if Y19 is
+// already 1) starts the SVRE delay again.
+
+// Decision (assumed): switching Y30 1 → 0 (back to parallel mode) clears
+// Y10–Y1F, since the twin's parallel inputs are all open; the falling edges
+// act as usual (servo off, jog stop, hold release).
+
+// Decision (assumed): within one write, all coil values are stored first,
+// then edges act in this order: SVON, RESET, HOLD, SETUP, DRIVE, JOG.
+// Within one FC10, all registers are stored first, then D9100 acts.
+
+// Decision (assumed): pushing into the workpiece raises thrust to the pushing
+// force at contact at once (no ramp), so INP = 1, BUSY = 0 at the contact
+// instant whenever trigger ≤ pushing force (validated at start, else 48).
+
+// Decision (assumed): a start with HOLD = 1 is accepted (BUSY 1) and waits
+// suspended until HOLD ← 0.
+
+// Decision (assumed): the approach of a pushing operation ends at rest at the
+// pushing start, then the pushing phase starts from rest at pushing speed
+// (with the step's acceleration/deceleration) toward start ± in-position
+// (clamped to the stroke).
+
+// Decision (assumed): a JOG release decelerates with jog_accel_mm_s2 and BUSY
+// falls when the carriage is at rest; RESET cancels with BUSY 0 at once.
+
+// Decision (assumed): SETON stays 1 while a later return to origin runs.
+
+// Decision (assumed): RESET with no alarm also ends a pushing hold against the
+// workpiece (thrust 0, INP 0).
+
+// Decision (assumed): a frame with a good CRC and a known function whose
+// byte count disagrees with its length gets exception 03; a frame whose
+// length does not fit its function gets no reply.
+
+// Thrust caps (%) for the operations that have no moving force of their own.
+inline constexpr double kHomingThrustPct = 100.0;
+inline constexpr double kJogThrustPct = 100.0;
+
+}  // namespace behaviour
+
+}  // namespace lec6::sim

@@ -1,0 +1,148 @@
+#pragma once
+// Several simulated controllers on one RS485 line (digest §1–§2), sans-I/O.
+//
+// The bus is fed the bytes the master sent, each chunk stamped with the time
+// its last byte arrived, and hands back the replies with the time their first
+// byte must start leaving. It never reads a clock and never sleeps.
+//
+// Driving it from an event loop (real port or pty, SteadyClock):
+//
+//   for (;;) {
+//     wait for input until bus.next_deadline() (forever when nullopt);
+//     if bytes arrived: bus.receive(bytes, clock.now());
+//     bus.advance(clock.now());
+//     for (auto& r : bus.take_replies(clock.now())) write(r.bytes);
+//   }
+//
+// Driving it from an in-process link on a VirtualClock (waiting costs nothing):
+//
+//   write(query):  clock.advance(line.wire_time(query.size()));   // the query's last byte is in
+//                  bus.receive(query, clock.now());
+//   read_some(buf, deadline):
+//     for (;;) {
+//       bus.advance(clock.now());
+//       if (auto rs = bus.take_replies(clock.now()); !rs.empty()) {
+//         clock.set(rs.front().end);  // the reply's last byte has arrived
+//         return copy of rs.front().bytes (keep the rest for the next read);
+//       }
+//       auto d = bus.next_deadline();
+//       if (!d || *d > deadline) { clock.set(max(now, deadline)); return 0; }
+//       clock.set(max(now, *d));
+//     }
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <random>
+#include <span>
+#include <vector>
+
+#include "lec6/clock.hpp"
+#include "lec6/modbus/framer.hpp"
+#include "lec6/modbus/pdu.hpp"
+#include "lec6/modbus/timing.hpp"
+#include "lec6/sim/behaviour.hpp"
+#include "lec6/sim/controller.hpp"
+
+namespace lec6::sim {
+
+// Faults applied to outgoing replies, each with its own probability per reply
+// (0 = never, 1 = always), drawn from a generator seeded with `seed`, so a
+// run is reproducible.
+struct FaultConfig {
+  double drop = 0.0;     // the reply is not sent at all
+  double corrupt = 0.0;  // one byte of the reply is changed (the CRC then fails)
+  double garbage = 0.0;  // 1–garbage_max_bytes random bytes are sent right before the reply
+  unsigned garbage_max_bytes = 4;
+  double delay = 0.0;  // the reply starts `extra_delay` later than it should
+  Duration extra_delay = milliseconds(50);
+  uint64_t seed = 1;
+  bool any() const noexcept { return drop > 0 || corrupt > 0 || garbage > 0 || delay > 0; }
+};
+
+// One reply on the wire.
+struct Reply {
+  uint8_t id = 0;
+  TimePoint start;  // the first byte starts leaving
+  TimePoint end;    // the last byte has left: start + wire time of `bytes`
+  modbus::Bytes bytes;
+};
+
+class Bus {
+ public:
+  struct Stats {
+    uint64_t frames = 0;      // frames delimited on the line
+    uint64_t replies = 0;     // replies scheduled (before faults)
+    uint64_t broadcasts = 0;  // broadcast writes executed
+    uint64_t bad_frames = 0;  // bad CRC, too short / long: silence
+    uint64_t other_ids = 0;   // addressed to an ID not on this bus: silence
+    uint64_t exceptions = 0;  // exception replies
+    uint64_t faults_dropped = 0;
+    uint64_t faults_corrupted = 0;
+    uint64_t faults_garbage = 0;
+    uint64_t faults_delayed = 0;
+  };
+
+  explicit Bus(const LineConfig& line = {}, const FaultConfig& faults = {});
+
+  // Adds controller `id` (1–255). Throws std::invalid_argument for ID 0 or a
+  // duplicate, and for a config that validate() refuses.
+  Controller& add(uint8_t id, const ActuatorConfig& config = {}, TimePoint power_on = TimePoint{},
+                  const std::optional<Eeprom>& eeprom = std::nullopt);
+  Controller* find(uint8_t id);
+  const Controller* find(uint8_t id) const;
+  std::vector<uint8_t> ids() const;
+
+  // Every controller's EEPROM, by ID (what a state file holds), and a number
+  // that changes whenever any of them changes (save when it moved).
+  std::map<uint8_t, Eeprom> eeproms() const;
+  uint64_t eeprom_generation() const;
+
+  // Bytes from the master; `arrival` is when the chunk's last byte arrived.
+  void receive(std::span<const uint8_t> bytes, TimePoint arrival);
+
+  // Completes the frames whose silent interval has run out by `now`, acts on
+  // them (each at the instant its frame was complete: last byte + Ts in real
+  // timing, last byte in fast timing), and advances every controller to `now`.
+  void advance(TimePoint now);
+
+  // Removes and returns the replies due to start by `now`, in order.
+  std::vector<Reply> take_replies(TimePoint now);
+
+  // The earliest instant something on the line is due: a frame's silent
+  // interval running out, or a reply's start. nullopt when nothing is pending.
+  // (Motion needs no wake-ups: controllers are evaluated when asked.)
+  std::optional<TimePoint> next_deadline() const;
+
+  // When a controller changes a flag by itself next (for a UI that redraws).
+  std::optional<TimePoint> next_model_event() const;
+
+  const LineConfig& line() const { return line_; }
+  const FaultConfig& faults() const { return faults_; }
+  void set_faults(const FaultConfig& f);
+  const Stats& stats() const { return stats_; }
+
+ private:
+  void act_on(const modbus::DeviceFramer::Frame& frame);
+  void schedule(uint8_t id, modbus::Bytes bytes, TimePoint start);
+
+  LineConfig line_;
+  FaultConfig faults_;
+  std::mt19937_64 rng_;
+  modbus::DeviceFramer framer_;
+  std::map<uint8_t, std::unique_ptr<Controller>> controllers_;
+  std::vector<Reply> pending_;  // sorted by start
+  TimePoint line_free_{};       // our last reply's end (half duplex)
+  Stats stats_;
+};
+
+// For virtual-time drivers and tests: the query's first byte leaves at
+// `start`, its last byte arrives after its wire time; the bus then runs until
+// the first reply has fully arrived, or until `timeout` after the query's end.
+// Returns that reply (its `end` is when the master has it), or nullopt
+// (broadcast, silence, a dropped reply). Any other reply due by then is discarded.
+std::optional<Reply> transact(Bus& bus, std::span<const uint8_t> query, TimePoint start,
+                              Duration timeout = milliseconds(1000));
+
+}  // namespace lec6::sim

@@ -1,0 +1,184 @@
+#pragma once
+// One simulated LEC□6 controller with its actuator (digest §3–§6), sans-I/O.
+//
+// The model never reads a clock: every call carries the time point it happens
+// at, and the model advances itself to it (time only moves forward; an earlier
+// time point acts at the model's current time). Between calls nothing runs:
+// the carriage follows an analytic MotionProfile, and events (SVRE rising,
+// a move ending, the carriage meeting the workpiece) are found analytically
+// and applied in order by advance().
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lec6/clock.hpp"
+#include "lec6/lec/alarms.hpp"
+#include "lec6/lec/equipment_name.hpp"
+#include "lec6/lec/flags.hpp"
+#include "lec6/lec/state_data.hpp"
+#include "lec6/lec/step_data.hpp"
+#include "lec6/modbus/pdu.hpp"
+#include "lec6/sim/behaviour.hpp"
+#include "lec6/sim/motion_profile.hpp"
+
+namespace lec6::sim {
+
+// What the controller keeps in EEPROM (digest §6 "Memory"); the rest is RAM.
+struct Eeprom {
+  static constexpr std::size_t kSteps = 64;
+  std::array<lec::StepData, kSteps> steps{};
+  lec::AlarmHistory alarms;
+  lec::EquipmentName name;
+  // Write transactions per step (a step counts once per FC10 touching it);
+  // the manual's endurance guideline is 100 000 writes (§3).
+  std::array<uint32_t, kSteps> step_writes{};
+  bool operator==(const Eeprom&) const = default;
+};
+
+// Problems with a configuration, one message each; empty when it is usable.
+std::vector<std::string> validate(const ActuatorConfig& config);
+
+class Controller {
+ public:
+  // Powers on at `power_on`. EEPROM contents come from `eeprom` when given
+  // (a state file), else factory state (blank steps, empty history, the
+  // configured equipment name). Throws std::invalid_argument for a config
+  // that validate() refuses.
+  explicit Controller(const ActuatorConfig& config = {}, TimePoint power_on = TimePoint{},
+                      const std::optional<Eeprom>& eeprom = std::nullopt);
+
+  // ---- the serial interface ----------------------------------------------
+  // Acts on one decoded request addressed to this controller at time `t` and
+  // returns its reply (an ExceptionResponse when refused, digest §3). The
+  // write is applied first, then the reply is built: a start has already set
+  // BUSY and cleared INP in a reply read after it.
+  modbus::Response handle(const modbus::Request& request, TimePoint t);
+
+  // ---- external inputs ---------------------------------------------------
+  // The EMG stop input (digest §6): on = stop at once, SVRE 0, ESTOP 1;
+  // off = ESTOP 0, servo stays off until the next SVON ← 1 write.
+  void set_estop(bool on, TimePoint t);
+
+  // ---- time ---------------------------------------------------------------
+  // Applies every event up to `t` (SVRE delay, move ends, contact, alarms).
+  void advance(TimePoint t);
+  TimePoint now() const { return now_; }
+  // The next instant the model changes a flag by itself, if one is pending.
+  std::optional<TimePoint> next_event() const;
+
+  // ---- what the master could read, at time t (advances to t) --------------
+  lec::StatusFlags status(TimePoint t);
+  lec::StateData state(TimePoint t);
+  lec::ControlFlags control() const { return control_; }
+  // Reported position (mm, the controller's coordinate) and the carriage's
+  // physical state (homed coordinate of the config).
+  double position_mm(TimePoint t);
+  Kinematics physical(TimePoint t);
+  double thrust_pct(TimePoint t);
+  // The alarm present (X4F), if any, as of now() (does not advance).
+  std::optional<uint8_t> alarm() const { return alarm_; }
+
+  // ---- EEPROM -----------------------------------------------------------
+  const Eeprom& eeprom() const { return eeprom_; }
+  void restore_eeprom(const Eeprom& e);
+  // Bumped on every EEPROM change, so a program knows when to save.
+  uint64_t eeprom_generation() const { return eeprom_generation_; }
+
+  const ActuatorConfig& config() const { return config_; }
+
+ private:
+  enum class OpKind { None, Homing, Move, Jog, JogStop, Stalled };
+  enum class MovePhase { Approach, Push };
+
+  // A started step or direct operation, in physical mm.
+  struct MoveSpec {
+    MoveLimits approach;
+    bool pushing = false;
+    double target_phys = 0.0;  // target or pushing start
+    double push_end_phys = 0.0;
+    MoveLimits push;
+    double moving_force = 100.0;
+    double pushing_force = 0.0;
+    double trigger_level = 0.0;
+  };
+
+  struct Op {
+    OpKind kind = OpKind::None;
+    bool held = false;     // HOLD: decelerated and suspended
+    int homing_phase = 0;  // 0: toward the min end, 1: to the origin
+    MovePhase phase = MovePhase::Approach;
+    MoveSpec move;
+    int jog_dir = 0;
+    TimePoint stall_alarm_at{};
+    uint8_t stall_alarm = 0;
+    double stall_thrust = 0.0;
+  };
+
+  enum class EventKind { Svre, PhaseEnd, Contact, StallAlarm };
+  struct Event {
+    TimePoint at;
+    EventKind kind;
+  };
+
+  std::optional<Event> next_pending() const;
+  void fire(const Event& e);
+  std::optional<TimePoint> contact_time(TimePoint from) const;
+
+  // Requests.
+  modbus::Response read_bits(const modbus::ReadBitsRequest& q);
+  modbus::Response read_registers(const modbus::ReadRegistersRequest& q);
+  uint16_t read_register(uint16_t address);
+  void write_registers(const modbus::WriteRegistersRequest& q);
+
+  // Coils: store the new Y10–Y1F / Y30 values, then act on edges.
+  void apply_coils(uint16_t new_y10_1f, bool new_serial, bool wrote_svon);
+
+  // Operations.
+  Kinematics kin() const { return profile_.at(now_); }
+  void servo_off();
+  void cancel_op(double deceleration);
+  void start_homing();
+  void start_record(const lec::StepData& data, bool is_step, uint8_t step_no);
+  void plan_phase();
+  void hold_on();
+  void hold_off();
+  void update_jog();
+  void raise_alarm(uint8_t code);
+  void reset();
+  double current_decel() const;
+  double reported(double phys) const { return phys - offset_mm_; }
+  int32_t to_001mm(double mm) const;
+
+  ActuatorConfig config_;
+  Eeprom eeprom_;
+  uint64_t eeprom_generation_ = 0;
+  TimePoint now_{};
+
+  // RAM: flags, direct data, state.
+  lec::ControlFlags control_{};
+  std::array<uint16_t, 16> direct_{};
+  bool svre_ = false;
+  std::optional<TimePoint> svre_at_;
+  bool seton_ = false;
+  bool inp_ = false;
+  bool busy_ = false;
+  bool estop_ = false;
+  bool pressing_ = false;
+  double pressing_force_ = 0.0;
+  std::optional<uint8_t> alarm_;
+  uint8_t out_ = 0;
+  uint16_t step_no_ = 0;
+  int64_t target_001mm_ = 0;
+  std::optional<RangeMm> area_mm_;  // reported coordinate
+
+  // Physics.
+  MotionProfile profile_;
+  double offset_mm_ = 0.0;  // reported = physical − offset
+  int workpiece_side_ = 1;  // which side of the workpiece the carriage is on
+  Op op_;
+};
+
+}  // namespace lec6::sim

@@ -1,0 +1,216 @@
+#include "lec6/sim/bus.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include "lec6/modbus/crc.hpp"
+
+namespace lec6::sim {
+
+Bus::Bus(const LineConfig& line, const FaultConfig& faults)
+    : line_(line),
+      faults_(faults),
+      rng_(faults.seed),
+      framer_(line.line.silent_interval(), line.timing == Timing::Fast) {}
+
+void Bus::set_faults(const FaultConfig& f) {
+  faults_ = f;
+  rng_.seed(f.seed);
+}
+
+Controller& Bus::add(uint8_t id, const ActuatorConfig& config, TimePoint power_on,
+                     const std::optional<Eeprom>& eeprom) {
+  if (id == modbus::kBroadcastId)
+    throw std::invalid_argument("controller ID 0 is the broadcast address");
+  if (controllers_.count(id)) {
+    throw std::invalid_argument("controller ID " + std::to_string(id) + " is already on the bus");
+  }
+  auto c = std::make_unique<Controller>(config, power_on, eeprom);
+  Controller& ref = *c;
+  controllers_.emplace(id, std::move(c));
+  return ref;
+}
+
+Controller* Bus::find(uint8_t id) {
+  auto it = controllers_.find(id);
+  return it == controllers_.end() ? nullptr : it->second.get();
+}
+
+const Controller* Bus::find(uint8_t id) const {
+  auto it = controllers_.find(id);
+  return it == controllers_.end() ? nullptr : it->second.get();
+}
+
+std::map<uint8_t, Eeprom> Bus::eeproms() const {
+  std::map<uint8_t, Eeprom> out;
+  for (const auto& [id, c] : controllers_) out.emplace(id, c->eeprom());
+  return out;
+}
+
+uint64_t Bus::eeprom_generation() const {
+  uint64_t sum = 0;
+  for (const auto& [id, c] : controllers_) sum += c->eeprom_generation();
+  return sum;
+}
+
+std::vector<uint8_t> Bus::ids() const {
+  std::vector<uint8_t> out;
+  for (const auto& [id, c] : controllers_) out.push_back(id);
+  return out;
+}
+
+void Bus::receive(std::span<const uint8_t> bytes, TimePoint arrival) {
+  framer_.feed(bytes, arrival);
+  advance(arrival);
+}
+
+void Bus::advance(TimePoint now) {
+  while (auto frame = framer_.poll(now)) act_on(*frame);
+  for (auto& [id, c] : controllers_) c->advance(now);
+}
+
+void Bus::act_on(const modbus::DeviceFramer::Frame& frame) {
+  ++stats_.frames;
+  const bool real = line_.timing == Timing::Real;
+  const Duration ts = line_.line.silent_interval();
+  // The controller knows a frame is complete Ts after its last byte (real);
+  // in fast timing the moment its expected length is in.
+  const TimePoint act_at = frame.end_of_query + (real ? ts : Duration::zero());
+  // The reply's last byte leaves at end of query + Ts + T0 + Td + wire (digest §1).
+  const TimePoint reply_start =
+      real ? frame.end_of_query + ts + modbus::LineTiming::kProcessing + line_.line.delay_td
+           : act_at;
+
+  const modbus::Bytes& bytes = frame.bytes;
+  if (bytes.size() < 4 || bytes.size() > modbus::kMaxAdu || !modbus::crc_ok(bytes)) {
+    ++stats_.bad_frames;  // garbled: no reply, no effect
+    return;
+  }
+  const uint8_t id = bytes[0];
+  const bool broadcast = id == modbus::kBroadcastId;
+  Controller* target = broadcast ? nullptr : find(id);
+  if (!broadcast && !target) {
+    ++stats_.other_ids;
+    return;
+  }
+  auto decoded = modbus::decode_request(bytes);
+  if (!decoded) {
+    if (broadcast) return;
+    const uint8_t fc = bytes[1];
+    modbus::ExceptionCode code;
+    switch (decoded.error().kind) {
+      case modbus::ErrorKind::UnknownFunction:
+        code = modbus::ExceptionCode::IllegalFunction;
+        break;
+      case modbus::ErrorKind::BadByteCount:
+        code = modbus::ExceptionCode::IllegalAccessRange;
+        break;
+      default:
+        ++stats_.bad_frames;  // a frame whose length does not fit its function: silence
+        return;
+    }
+    target->advance(act_at);
+    ++stats_.exceptions;
+    modbus::Bytes out = modbus::encode_response(
+        {id, modbus::ExceptionResponse{static_cast<modbus::FunctionCode>(fc), fc, code}});
+    schedule(id, std::move(out), reply_start);
+    return;
+  }
+  const modbus::Request& request = decoded->pdu;
+  if (broadcast) {
+    // FC05/0F/10 act on every controller with no reply; reads and echo are ignored.
+    if (!modbus::is_write(request)) return;
+    ++stats_.broadcasts;
+    for (auto& [cid, c] : controllers_) (void)c->handle(request, act_at);
+    return;
+  }
+  modbus::Response reply = target->handle(request, act_at);
+  if (std::holds_alternative<modbus::ExceptionResponse>(reply)) ++stats_.exceptions;
+  schedule(id, modbus::encode_response({id, std::move(reply)}), reply_start);
+}
+
+void Bus::schedule(uint8_t id, modbus::Bytes bytes, TimePoint start) {
+  ++stats_.replies;
+  auto chance = [&](double p) {
+    if (p <= 0.0) return false;
+    if (p >= 1.0) return true;
+    return std::bernoulli_distribution(p)(rng_);
+  };
+  if (chance(faults_.drop)) {
+    ++stats_.faults_dropped;
+    return;
+  }
+  if (chance(faults_.corrupt) && !bytes.empty()) {
+    const std::size_t i = std::uniform_int_distribution<std::size_t>(0, bytes.size() - 1)(rng_);
+    bytes[i] =
+        static_cast<uint8_t>(bytes[i] ^ std::uniform_int_distribution<unsigned>(1, 255)(rng_));
+    ++stats_.faults_corrupted;
+  }
+  if (chance(faults_.garbage) && faults_.garbage_max_bytes > 0) {
+    const unsigned n = std::uniform_int_distribution<unsigned>(1, faults_.garbage_max_bytes)(rng_);
+    modbus::Bytes junk(n);
+    for (auto& b : junk)
+      b = static_cast<uint8_t>(std::uniform_int_distribution<unsigned>(0, 255)(rng_));
+    bytes.insert(bytes.begin(), junk.begin(), junk.end());
+    ++stats_.faults_garbage;
+  }
+  if (chance(faults_.delay)) {
+    start += faults_.extra_delay;
+    ++stats_.faults_delayed;
+  }
+  // Half duplex: one reply at a time on the line.
+  start = std::max(start, line_free_);
+  Reply r{id, start, start + line_.line.wire_time(bytes.size()), std::move(bytes)};
+  line_free_ = r.end;
+  auto pos = std::upper_bound(pending_.begin(), pending_.end(), r.start,
+                              [](TimePoint t, const Reply& x) { return t < x.start; });
+  pending_.insert(pos, std::move(r));
+}
+
+std::vector<Reply> Bus::take_replies(TimePoint now) {
+  std::vector<Reply> out;
+  auto it = pending_.begin();
+  while (it != pending_.end() && it->start <= now) ++it;
+  std::move(pending_.begin(), it, std::back_inserter(out));
+  pending_.erase(pending_.begin(), it);
+  return out;
+}
+
+std::optional<TimePoint> Bus::next_deadline() const {
+  std::optional<TimePoint> d = framer_.deadline();
+  if (!pending_.empty() && (!d || pending_.front().start < *d)) d = pending_.front().start;
+  return d;
+}
+
+std::optional<TimePoint> Bus::next_model_event() const {
+  std::optional<TimePoint> d;
+  for (const auto& [id, c] : controllers_) {
+    if (auto e = c->next_event(); e && (!d || *e < *d)) d = e;
+  }
+  return d;
+}
+
+std::optional<Reply> transact(Bus& bus, std::span<const uint8_t> query, TimePoint start,
+                              Duration timeout) {
+  const TimePoint end_of_query = start + bus.line().line.wire_time(query.size());
+  bus.receive(query, end_of_query);
+  const TimePoint give_up = end_of_query + timeout;
+  TimePoint now = end_of_query;
+  for (;;) {
+    bus.advance(now);
+    if (auto rs = bus.take_replies(now); !rs.empty()) {
+      Reply r = std::move(rs.front());
+      bus.advance(r.end);
+      return r;
+    }
+    const auto d = bus.next_deadline();
+    if (!d || *d > give_up) {
+      bus.advance(give_up);
+      return std::nullopt;
+    }
+    now = std::max(now, *d);
+  }
+}
+
+}  // namespace lec6::sim
