@@ -1,7 +1,121 @@
-// Placeholder entry point while the command line is being built.
-#include <cstdio>
+// `lec`: the command line for LEC□6 controllers.
 
-int main() {
-  std::puts("lec: command line under construction");
-  return 0;
+#include <csignal>
+
+#include "cli/app.hpp"
+#include "lec6/client/errors.hpp"
+#include "lec6/client/link.hpp"
+
+namespace lec6::cli {
+std::atomic<bool> g_interrupted{false};
+}
+
+namespace {
+
+using namespace lec6;
+
+constexpr const char* kExitCodes = R"(Exit codes:
+  0  success
+  2  usage error (bad arguments or values; nothing was sent)
+  3  transport error (port missing or busy, timeout, CRC, framing)
+  4  the controller answered with an exception (01/02/03)
+  5  the controller raised an alarm
+  6  a wait ran past its deadline
+  130 interrupted by Ctrl-C (a moving axis is stopped first)
+
+Ports: --port /dev/ttyUSB0 | tcp://host:502 | sim (in-process twin); LEC_PORT sets a default.)";
+
+void on_signal(int) { cli::g_interrupted = true; }
+
+void install_signal_handlers() {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+int fail(int code, const std::string& message) {
+  fmt::print(stderr, "lec: {}\n", message);
+  return code;
+}
+
+void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
+  app.add_option("--port,-p", o.port, "Port: /dev/ttyUSB0, tcp://host:502 or sim (default: $LEC_PORT)");
+  app.add_option("--baud,-b", o.baud, "Line speed (9600 19200 38400 57600 115200 230400)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({9600, 19200, 38400, 57600, 115200, 230400}));
+  app.add_option("--id", o.id, "Controller ID (1-255)")->capture_default_str()->check(CLI::Range(1, 255));
+  app.add_option("--timeout", o.timeout_margin_ms, "Margin added to the manual's response time Tx, ms")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 60000));
+  app.add_option("--retries", o.retries, "Retries of reads and absolute writes after a lost reply")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 10));
+  app.add_flag("--json", o.json, "Machine-readable JSON output");
+  app.add_flag("--trace", o.trace, "Show every frame sent and received (hex and decoded) on stderr");
+  app.add_flag("--rs485", o.rs485, "Kernel RS485 mode (TIOCSRS485): RTS on while sending");
+  app.add_flag("--rs485-rts-after-send", o.rs485_rts_after_send, "RS485: RTS level after sending is 1");
+  app.add_option("--rs485-delay-before", o.rs485_delay_before_ms, "RS485: delay before send, ms")
+      ->check(CLI::Range(0, 1000));
+  app.add_option("--rs485-delay-after", o.rs485_delay_after_ms, "RS485: delay after send, ms")
+      ->check(CLI::Range(0, 1000));
+  app.add_flag("--echo", o.echo, "The adapter echoes what it sends (2-wire): verify and discard the echo");
+  app.add_option("--silent-interval", o.silent_interval_k, "The controller's silent interval setting k (Ts = k x 3.5 chars)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100));
+  app.add_option("--delay-ms", o.delay_td_ms, "The controller's minimum communication delay Td, ms")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"lec: drive SMC LEC\u25A16 electric-actuator controllers over RS485 (Modbus RTU)", "lec"};
+  app.footer(kExitCodes);
+  app.require_subcommand(1);
+  app.fallthrough();
+  cli::GlobalOptions options;
+  add_global_options(app, options);
+  cli::Session session(options);
+  cli::add_status_commands(app, session);
+  cli::add_motion_commands(app, session);
+  cli::add_line_commands(app, session);
+  cli::add_demo_command(app, session);
+  cli::add_step_commands(app, session);
+  cli::add_sim_command(app);
+  install_signal_handlers();
+
+  try {
+    app.parse(argc, argv);
+    return cli::kSuccess;
+  } catch (const CLI::Success& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return cli::kUsage;
+  } catch (const cli::UsageError& e) {
+    return fail(cli::kUsage, e.what());
+  } catch (const client::InvalidRequest& e) {
+    return fail(cli::kUsage, e.what());
+  } catch (const std::invalid_argument& e) {
+    return fail(cli::kUsage, e.what());
+  } catch (const client::TransportError& e) {
+    return fail(cli::kTransport, e.what());
+  } catch (const client::LinkError& e) {
+    return fail(cli::kTransport, e.what());
+  } catch (const client::ControllerException& e) {
+    return fail(cli::kException, e.what());
+  } catch (const client::AlarmError& e) {
+    return fail(cli::kAlarm, e.what());
+  } catch (const client::DeadlineError& e) {
+    return fail(cli::kDeadline, e.what());
+  } catch (const client::Cancelled& e) {
+    return fail(cli::kInterrupted, e.what());
+  } catch (const cli::CommandFailed& e) {
+    return fail(e.code(), e.what());
+  } catch (const std::exception& e) {
+    return fail(cli::kFailure, e.what());
+  }
 }

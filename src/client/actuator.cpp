@@ -140,8 +140,9 @@ MoveResult Actuator::home(TimePoint deadline, const WaitOptions& wait) {
   client_.write_coil(Coil::SETUP, true);
   const TimePoint start = client_.clock().now();
   for (;;) {
-    const auto state = client_.read_state();
+    // Flags first: the state read after them is at least as new.
     const auto flags = client_.read_flags();
+    const auto state = client_.read_state();
     const Duration elapsed = client_.clock().now() - start;
     if (wait.progress) wait.progress({state, flags, elapsed});
     if (flags.alarm()) raise_alarm(flags, "return to origin");

@@ -1,0 +1,110 @@
+#pragma once
+// What every `lec` command shares: the global options, the session (the
+// opened port and client), output helpers and the exit codes.
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "lec6/client/actuator.hpp"
+#include "lec6/client/client.hpp"
+
+namespace lec6::cli {
+
+// Exit codes (documented in `lec --help` and the README).
+enum ExitCode : int {
+  kSuccess = 0,
+  kFailure = 1,        // anything else (e.g. a file could not be written)
+  kUsage = 2,          // every argument error, including the parser's own
+  kTransport = 3,      // port missing or busy, timeout, CRC, framing
+  kException = 4,      // the controller answered with an exception (01/02/03)
+  kAlarm = 5,          // the controller raised an alarm
+  kDeadline = 6,       // a wait ran past its deadline
+  kInterrupted = 130,  // Ctrl-C (the axis was stopped first)
+};
+
+// An argument the user got wrong, found after parsing (exit 2).
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// A command that failed with a message and an exit code of its own.
+class CommandFailed : public std::runtime_error {
+ public:
+  CommandFailed(int code, const std::string& what) : std::runtime_error(what), code_(code) {}
+  int code() const noexcept { return code_; }
+
+ private:
+  int code_;
+};
+
+struct GlobalOptions {
+  std::string port;            // --port, else $LEC_PORT
+  uint32_t baud = 38400;
+  int id = 1;
+  int timeout_margin_ms = 50;  // added to the manual's Tx
+  int retries = 2;
+  bool json = false;
+  bool trace = false;
+  bool rs485 = false;
+  bool rs485_rts_after_send = false;
+  int rs485_delay_before_ms = 0;
+  int rs485_delay_after_ms = 0;
+  bool echo = false;           // 2-wire adapter echoes what it sends
+  unsigned silent_interval_k = 1;
+  int delay_td_ms = 5;
+};
+
+// Set by SIGINT/SIGTERM; waiting operations poll it and stop the axis.
+extern std::atomic<bool> g_interrupted;
+
+class Session {
+ public:
+  explicit Session(const GlobalOptions& options);
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+
+  // Opens the port on first use. With no port at all: UsageError listing the
+  // serial ports found. `default_port` is used when neither --port nor
+  // LEC_PORT is given (only `lec demo` has one: "sim").
+  client::Client& client(std::string_view default_port = {});
+  client::Actuator& axis(std::string_view default_port = {});
+  const GlobalOptions& options() const noexcept { return options_; }
+  bool json() const noexcept { return options_.json; }
+  // What the port is, for messages ("/dev/ttyUSB0 @ 38400").
+  std::string port_description() const;
+  // Wait options that honour Ctrl-C, with an optional progress printer.
+  client::WaitOptions wait_options(std::function<void(const client::Progress&)> progress = {}) const;
+  TimePoint deadline_in(Duration d);
+
+ private:
+  struct Impl;
+  const GlobalOptions& options_;  // filled in by the parser after construction
+  std::unique_ptr<Impl> impl_;
+};
+
+// Each group of commands registers itself on the app. The callback runs the
+// command and may throw; main() turns exceptions into messages and exit codes.
+void add_status_commands(CLI::App& app, Session& session);   // status, watch, alarms, name
+void add_motion_commands(CLI::App& app, Session& session);   // serial, servo, home, move, jog, hold, stop, reset
+void add_line_commands(CLI::App& app, Session& session);     // ping, scan, decode, raw, ports, bench
+void add_demo_command(CLI::App& app, Session& session);      // demo
+void add_step_commands(CLI::App& app, Session& session);     // step list/get/set/backup/restore/diff
+void add_sim_command(CLI::App& app);                         // sim (the twin program)
+
+// ---- output helpers -----------------------------------------------------------
+void print_json(const nlohmann::json& j);
+// The JSON text, with millimetres from mm_json() as decimals with two places.
+std::string dump_json(const nlohmann::json& j, int indent = -1);
+// "150.00" for 15000 (0.01 mm), as a JSON number with two decimals.
+nlohmann::json mm_json(int64_t value_001mm);
+
+}  // namespace lec6::cli

@@ -1,0 +1,253 @@
+// serial, servo, home, move, jog, hold, stop, reset: commands that change
+// what the actuator does. Every value is checked against the manual's ranges
+// before anything is sent.
+
+#include <poll.h>
+#include <unistd.h>
+
+#include "cli/app.hpp"
+#include "cli/views.hpp"
+#include "lec6/lec/step_data.hpp"
+#include "lec6/lec/units.hpp"
+
+namespace lec6::cli {
+namespace {
+
+using lec::StepField;
+
+bool parse_on_off(const std::string& v, std::string_view what) {
+  if (v == "on" || v == "1") return true;
+  if (v == "off" || v == "0") return false;
+  throw UsageError(fmt::format("{}: expected on or off, got '{}'", what, v));
+}
+
+// A progress printer: a refreshing line on a terminal, nothing otherwise.
+std::function<void(const client::Progress&)> progress_printer(const Session& s) {
+  if (s.json() || !isatty(fileno(stderr))) return {};
+  return [](const client::Progress& p) {
+    fmt::print(stderr, "\r{:6.2f} s {}\033[K", to_seconds(p.elapsed), progress_line(p.state, p.flags));
+  };
+}
+
+void end_progress(const Session& s) {
+  if (!s.json() && isatty(fileno(stderr))) fmt::print(stderr, "\r\033[K");
+}
+
+int64_t field_value(StepField f, const std::string& text) {
+  auto v = lec::parse_field(f, text);
+  if (!v) throw UsageError(v.error());
+  return *v;
+}
+
+void report_move(const Session& s, const client::MoveResult& r, std::string_view what) {
+  end_progress(s);
+  if (s.json()) {
+    auto j = state_json(r.state, r.flags, {});
+    j["in_position"] = r.in_position;
+    j["elapsed_s"] = to_seconds(r.elapsed);
+    print_json(j);
+  } else {
+    fmt::print("{} done in {:.2f} s: position {} mm, {}\n", what, to_seconds(r.elapsed),
+               lec::format_mm(r.state.position_001mm),
+               r.in_position ? "INP = 1 (in position)" : "INP = 0 (NOT in position)");
+  }
+  if (!r.in_position) {
+    throw CommandFailed(kFailure, r.flags.busy() ? "the operation is still running"
+                                                 : "BUSY fell without INP: the move ended outside its in-position "
+                                                   "width (a push that missed the workpiece, or a stop)");
+  }
+}
+
+struct MoveArgs {
+  int step = -1;
+  std::string to, speed, accel, decel, moving_force, in_position, area, push, trigger, push_speed;
+  bool relative = false;
+  bool no_wait = false;
+  double timeout_s = 60;
+};
+
+client::DirectMove direct_move(const MoveArgs& a) {
+  client::DirectMove m;
+  m.relative = a.relative;
+  m.position_001mm = static_cast<int32_t>(field_value(StepField::Position, a.to));
+  auto u16 = [](StepField f, const std::string& t) -> std::optional<uint16_t> {
+    if (t.empty()) return std::nullopt;
+    return static_cast<uint16_t>(field_value(f, t));
+  };
+  auto i32 = [](StepField f, const std::string& t) -> std::optional<int32_t> {
+    if (t.empty()) return std::nullopt;
+    return static_cast<int32_t>(field_value(f, t));
+  };
+  m.speed_mm_s = u16(StepField::Speed, a.speed);
+  m.acceleration_mm_s2 = u16(StepField::Acceleration, a.accel);
+  m.deceleration_mm_s2 = u16(StepField::Deceleration, a.decel);
+  m.moving_force_pct = u16(StepField::MovingForce, a.moving_force);
+  m.in_position_001mm = i32(StepField::InPosition, a.in_position);
+  m.pushing_force_pct = u16(StepField::PushingForce, a.push);
+  m.trigger_level_pct = u16(StepField::TriggerLevel, a.trigger);
+  m.pushing_speed_mm_s = u16(StepField::PushingSpeed, a.push_speed);
+  if (!a.area.empty()) {
+    const auto colon = a.area.find(':');
+    if (colon == std::string::npos) throw UsageError(fmt::format("--area '{}': expected A:B in mm, e.g. 100:200", a.area));
+    m.area1_001mm = static_cast<int32_t>(field_value(StepField::Area1, a.area.substr(0, colon)));
+    m.area2_001mm = static_cast<int32_t>(field_value(StepField::Area2, a.area.substr(colon + 1)));
+  }
+  if (m.pushing_force_pct == 0 && (m.trigger_level_pct || m.pushing_speed_mm_s)) {
+    throw UsageError("--trigger and --push-speed belong to a pushing move: give --push PCT too");
+  }
+  return m;
+}
+
+void run_move(Session& s, const MoveArgs& a) {
+  const bool by_step = a.step >= 0;
+  if (by_step == !a.to.empty()) throw UsageError("move: give exactly one of --step N or --to MM");
+  if (by_step && (a.relative || !a.speed.empty() || !a.push.empty() || !a.area.empty())) {
+    throw UsageError("move --step runs the stored step as it is: edit it with `lec step set`");
+  }
+  const client::DirectMove m = by_step ? client::DirectMove{} : direct_move(a);  // validate before opening
+  auto& axis = s.axis();
+  const auto deadline = s.deadline_in(milliseconds(a.timeout_s * 1000));
+  auto wait = s.wait_options(progress_printer(s));
+  if (by_step) {
+    report_move(s, axis.run_step(static_cast<unsigned>(a.step), deadline, wait), fmt::format("Step {}", a.step));
+    return;
+  }
+  const auto r = axis.move(m, deadline, wait, a.no_wait);
+  if (a.no_wait) {
+    if (s.json()) {
+      print_json(state_json(r.state, r.flags, {}));
+    } else {
+      fmt::print("Started: target {} mm ({})\n", lec::format_mm(r.state.target_001mm), r.flags.describe());
+    }
+    return;
+  }
+  report_move(s, r, fmt::format("Move to {} mm{}", a.to, a.relative ? " (relative)" : ""));
+}
+
+bool stdin_has_input() {
+  pollfd p{STDIN_FILENO, POLLIN, 0};
+  return ::poll(&p, 1, 0) > 0 && (p.revents & (POLLIN | POLLHUP));
+}
+
+void run_jog(Session& s, const std::string& dir, double seconds) {
+  if (dir != "+" && dir != "-") throw UsageError(fmt::format("jog: direction must be + or -, got '{}'", dir));
+  auto& axis = s.axis();
+  const bool held = seconds <= 0;
+  if (held && !s.json()) fmt::print(stderr, "Jogging {}: press Enter or Ctrl-C to stop\n", dir);
+  auto wait = s.wait_options(progress_printer(s));
+  if (held && isatty(STDIN_FILENO)) {
+    wait.cancel = [] { return g_interrupted.load() || stdin_has_input(); };
+  }
+  const TimePoint until = held ? TimePoint::max() : s.deadline_in(milliseconds(seconds * 1000));
+  const auto r = axis.jog(dir == "+", until, s.deadline_in(std::chrono::hours(24)), wait);
+  g_interrupted = false;  // Ctrl-C meant "release the jog"
+  end_progress(s);
+  if (s.json()) {
+    print_json(state_json(r.state, r.flags, {}));
+  } else {
+    fmt::print("Jog stopped at {} mm\n", lec::format_mm(r.state.position_001mm));
+  }
+}
+
+void say(const Session& s, const std::string& text, nlohmann::json j = {}) {
+  if (s.json()) {
+    j["ok"] = true;
+    print_json(j);
+  } else {
+    fmt::print("{}\n", text);
+  }
+}
+
+}  // namespace
+
+void add_motion_commands(CLI::App& app, Session& session) {
+  auto value = std::make_shared<std::string>();
+  auto timeout_s = std::make_shared<double>(10.0);
+
+  auto* serial = app.add_subcommand("serial", "Serial (on) or parallel (off) input mode: Y30");
+  serial->add_option("state", *value, "on|off")->required();
+  serial->callback([&session, value] {
+    const bool on = parse_on_off(*value, "serial");
+    session.axis().set_serial_mode(on);
+    say(session, on ? "Serial input mode (Y30 = 1)" : "Parallel input mode (Y30 = 0)", {{"serial_mode", on}});
+  });
+
+  auto* servo = app.add_subcommand("servo", "Servo on/off (Y19 SVON), waiting for SVRE");
+  servo->add_option("state", *value, "on|off")->required();
+  servo->add_option("--timeout-s", *timeout_s, "How long to wait for SVRE")->capture_default_str();
+  servo->callback([&session, value, timeout_s] {
+    const bool on = parse_on_off(*value, "servo");
+    auto& axis = session.axis();
+    const auto deadline = session.deadline_in(milliseconds(*timeout_s * 1000));
+    if (on) {
+      axis.servo_on(deadline, session.wait_options());
+    } else {
+      axis.servo_off(deadline, session.wait_options());
+    }
+    say(session, on ? "Servo on (SVRE = 1)" : "Servo off (SVRE = 0)", {{"svre", on}});
+  });
+
+  auto home_timeout = std::make_shared<double>(60.0);
+  auto* home = app.add_subcommand("home", "Return to origin: SETUP, wait SETON and BUSY 0, SETUP off");
+  home->add_option("--timeout-s", *home_timeout, "Deadline for the return to origin")->capture_default_str();
+  home->callback([&session, home_timeout] {
+    auto& axis = session.axis();
+    const auto r = axis.home(session.deadline_in(milliseconds(*home_timeout * 1000)),
+                             session.wait_options(progress_printer(session)));
+    end_progress(session);
+    say(session, fmt::format("Homed in {:.2f} s: position {} mm, {}", to_seconds(r.elapsed),
+                             lec::format_mm(r.state.position_001mm), r.flags.describe()),
+        state_json(r.state, r.flags, {}));
+  });
+
+  auto a = std::make_shared<MoveArgs>();
+  auto* move = app.add_subcommand("move", "Run a stored step (--step N) or a direct operation (--to MM)");
+  move->add_option("--step", a->step, "Step number 0-63 (IN0-IN5 + DRIVE)")->check(CLI::Range(0, 63));
+  move->add_option("--to", a->to, "Target position, mm (direct operation, D9102-D9111 + D9100)");
+  move->add_flag("--relative", a->relative, "--to is a distance from the last target (INC)");
+  move->add_option("--speed", a->speed, "Speed, mm/s (1-65535)");
+  move->add_option("--accel", a->accel, "Acceleration, mm/s² (1-65535)");
+  move->add_option("--decel", a->decel, "Deceleration, mm/s² (1-65535)");
+  move->add_option("--moving-force", a->moving_force, "Moving force, % (0-300)");
+  move->add_option("--in-position", a->in_position, "In-position width (pushing: distance), mm");
+  move->add_option("--area", a->area, "AREA output range A:B, mm");
+  move->add_option("--push", a->push, "Pushing force, % (1-100): a pushing move");
+  move->add_option("--trigger", a->trigger, "Trigger level, % (≤ pushing force)");
+  move->add_option("--push-speed", a->push_speed, "Pushing speed, mm/s");
+  move->add_flag("--no-wait", a->no_wait, "Return right after the start");
+  move->add_option("--timeout-s", a->timeout_s, "Deadline for the move")->capture_default_str();
+  move->callback([&session, a] { run_move(session, *a); });
+
+  auto dir = std::make_shared<std::string>();
+  auto jog_for = std::make_shared<double>(0);
+  auto* jog = app.add_subcommand("jog", "Jog + or - while held (Enter/Ctrl-C stops) or --for SECONDS");
+  jog->add_option("direction", *dir, "+ or -")->required();
+  jog->add_option("--for", *jog_for, "Jog for this many seconds")->check(CLI::PositiveNumber);
+  jog->callback([&session, dir, jog_for] { run_jog(session, *dir, *jog_for); });
+
+  auto* hold = app.add_subcommand("hold", "HOLD on (decelerate and suspend) or off (resume)");
+  hold->add_option("state", *value, "on|off")->required();
+  hold->callback([&session, value] {
+    const bool on = parse_on_off(*value, "hold");
+    session.axis().hold(on);
+    say(session, on ? "HOLD on: operation suspended" : "HOLD off: operation resumed", {{"hold", on}});
+  });
+
+  app.add_subcommand("stop", "Decelerating stop of the running operation (RESET pulse)")->callback([&session] {
+    session.axis().stop();
+    say(session, "Stopped (decelerating stop)");
+  });
+
+  app.add_subcommand("reset", "Reset alarms (RESET pulse)")->callback([&session] {
+    const auto left = session.axis().reset_alarms();
+    if (!left.empty()) {
+      std::string codes;
+      for (uint8_t c : left) codes += fmt::format(" {} ({})", c, lec::alarm_meaning(c));
+      throw client::AlarmError(left, "alarm still active after RESET:" + codes +
+                                         "; it may need the servo off (`lec servo off`) or a power cycle");
+    }
+    say(session, "Alarms reset: none active", {{"alarms", nlohmann::json::array()}});
+  });
+}
+
+}  // namespace lec6::cli
