@@ -44,7 +44,6 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
   if (!as_is && !modbus::crc_ok(frame)) modbus::append_crc(frame);
   auto& c = s.client();
   auto& link = c.link();
-  const auto expected = modbus::response_length(frame);  // guess: the reply's shape follows the query's FC
   link.discard_input();
   const TimePoint start = c.clock().now();
   link.write(frame);
@@ -57,11 +56,16 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
     reply.insert(reply.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(n));
     const auto len = modbus::response_length(reply);
     if (len.status == modbus::FrameLength::Status::Known && reply.size() >= len.bytes) break;
-    (void)expected;
   }
   const double ms = to_ms(c.clock().now() - start);
   const std::string sent_text = lec::explain_bytes(frame, false);
-  const std::string reply_text = reply.empty() ? "no reply" : lec::explain_bytes(reply, true);
+  std::string reply_text = "no reply";
+  if (!reply.empty()) {
+    // Explain the reply with the query's addresses when the query decodes.
+    const auto query = modbus::decode_request(frame);
+    const auto answer = modbus::decode_response(reply);
+    reply_text = answer && query ? lec::explain_response(*answer, &*query) : lec::explain_bytes(reply, true);
+  }
   if (s.json()) {
     print_json({{"sent", modbus::to_hex(frame)}, {"sent_explanation", sent_text}, {"reply", modbus::to_hex(reply)},
                 {"reply_explanation", reply_text}, {"time_ms", ms}});
