@@ -74,6 +74,9 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
                reply.empty() ? "(nothing)" : modbus::to_hex(reply), reply_text, ms);
   }
   if (reply.empty() && frame[0] != 0) throw client::TransportError(client::TransportErrorKind::Timeout, "no reply");
+  if (reply.size() >= 2 && (reply[1] & modbus::kExceptionFlag)) {
+    throw CommandFailed(kException, "the controller answered with an exception");
+  }
 }
 
 struct PingArgs {

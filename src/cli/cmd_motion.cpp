@@ -92,7 +92,7 @@ client::DirectMove direct_move(const MoveArgs& a) {
     m.area1_001mm = static_cast<int32_t>(field_value(StepField::Area1, a.area.substr(0, colon)));
     m.area2_001mm = static_cast<int32_t>(field_value(StepField::Area2, a.area.substr(colon + 1)));
   }
-  if (m.pushing_force_pct == 0 && (m.trigger_level_pct || m.pushing_speed_mm_s)) {
+  if (!m.pushing_force_pct && (m.trigger_level_pct || m.pushing_speed_mm_s)) {
     throw UsageError("--trigger and --push-speed belong to a pushing move: give --push PCT too");
   }
   return m;
