@@ -60,6 +60,7 @@ struct GlobalOptions {
   bool echo = false;           // 2-wire adapter echoes what it sends
   unsigned silent_interval_k = 1;
   int delay_td_ms = 5;
+  bool no_silence_wait = false;  // skip the Ts gap before queries (fast twins, benchmarks only)
 };
 
 // Set by SIGINT/SIGTERM; waiting operations poll it and stop the axis.

@@ -67,6 +67,8 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
   app.add_option("--delay-ms", o.delay_td_ms, "The controller's minimum communication delay Td, ms")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
+  app.add_flag("--no-silence-wait", o.no_silence_wait,
+               "Do not wait Ts of silence before each query (only for a --timing fast twin or TCP; never on RS485)");
 }
 
 }  // namespace

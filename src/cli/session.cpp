@@ -88,6 +88,7 @@ client::Client& Session::client(std::string_view default_port) {
   co.timeout_margin = milliseconds(options_.timeout_margin_ms);
   co.silent_interval_k = options_.silent_interval_k;
   co.delay_td = milliseconds(options_.delay_td_ms);
+  co.wait_for_silence = !options_.no_silence_wait;
   if (options_.trace) co.trace = print_trace_event;
   impl->client = std::make_unique<client::Client>(*impl->link, co);
   impl->axis = std::make_unique<client::Actuator>(*impl->client);

@@ -61,6 +61,10 @@ void Client::trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes, 
 // silence before our query, so anything still arriving (a late reply, noise)
 // is drained until the line has been quiet for Ts.
 void Client::wait_for_silence() {
+  if (!options_.wait_for_silence) {
+    link_.discard_input();
+    return;
+  }
   const Duration ts = timing_.line.silent_interval();
   std::array<uint8_t, 256> sink{};
   for (;;) {

@@ -54,6 +54,11 @@ struct ClientOptions {
   Duration delay_td = milliseconds(5);  // the controller's "Min Resp delay"
   Duration timeout_margin = milliseconds(50);  // added to Tx
   int retries = 2;                       // for Retry::Safe requests
+  // Wait for Ts of line silence before each query (manual §8.2: a controller
+  // delimits frames by it). Keep it on for any real RS485 line. Off only for
+  // peers that frame by length (a `--timing fast` twin, software benchmarks),
+  // where it would measure the line rule rather than the software.
+  bool wait_for_silence = true;
   std::function<void(const TraceEvent&)> trace;  // every frame, when set
 };
 
