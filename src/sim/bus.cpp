@@ -159,9 +159,11 @@ void Bus::schedule(uint8_t id, modbus::Bytes bytes, TimePoint start) {
     start += faults_.extra_delay;
     ++stats_.faults_delayed;
   }
-  // Half duplex: one reply at a time on the line.
+  // Half duplex: one reply at a time on the line. Fast timing models no line
+  // at all (digest §1: no artificial delay), so a reply takes no wire time.
   start = std::max(start, line_free_);
-  Reply r{id, start, start + line_.line.wire_time(bytes.size()), std::move(bytes)};
+  const Duration wire = line_.timing == Timing::Fast ? Duration{0} : line_.line.wire_time(bytes.size());
+  Reply r{id, start, start + wire, std::move(bytes)};
   line_free_ = r.end;
   auto pos = std::upper_bound(pending_.begin(), pending_.end(), r.start,
                               [](TimePoint t, const Reply& x) { return t < x.start; });
