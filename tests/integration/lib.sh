@@ -15,7 +15,8 @@ trap cleanup EXIT
 start_twin() {
   local name=$1
   shift
-  "$LEC" sim --pty "$tmp/$name" "$@" >"$tmp/$name.out" 2>"$tmp/$name.err" &
+  : >"$tmp/$name.out"  # emptied before the child starts (see step_cli_test.sh)
+  "$LEC" sim --pty "$tmp/$name" "$@" >>"$tmp/$name.out" 2>"$tmp/$name.err" &
   TWIN_PID=$!
   twin_pids+=("$TWIN_PID")
   for _ in $(seq 1 200); do

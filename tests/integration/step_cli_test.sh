@@ -51,8 +51,11 @@ fail() {
 start_twin() {
   local name=$1
   shift
+  # Empty the log here, not in the child's redirection: the child truncates
+  # it only once it runs, so a restarted twin's old "ready" line could be read.
+  : >"$WORK/$name.log"
   "$LEC" sim --pty "$WORK/$name" --state "$WORK/$name.state" --timing fast "$@" \
-    >"$WORK/$name.log" 2>&1 &
+    >>"$WORK/$name.log" 2>&1 &
   PID[$name]=$!
   local i
   for ((i = 0; i < 200; i++)); do  # at most 10 s

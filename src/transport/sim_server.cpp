@@ -1,0 +1,546 @@
+// The twin's event loop. See the header for the timing rule.
+
+#include "lec6/transport/sim_server.hpp"
+
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <sys/prctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+#include <system_error>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "lec6/client/link.hpp"
+#include "lec6/lec/explain.hpp"
+#include "lec6/modbus/framer.hpp"
+#include "lec6/sim/state_file.hpp"
+
+namespace lec6::transport {
+
+namespace {
+
+using client::LinkError;
+using client::LinkErrorKind;
+
+constexpr int kPtySource = 0;
+constexpr int kNoSource = -1;
+
+timespec to_timespec(Duration d) {
+  if (d < Duration::zero()) d = Duration::zero();
+  timespec ts{};
+  ts.tv_sec = static_cast<time_t>(d.count() / 1'000'000'000);
+  ts.tv_nsec = static_cast<long>(d.count() % 1'000'000'000);
+  return ts;
+}
+
+inline void cpu_relax() noexcept {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield");
+#endif
+}
+
+void min_into(std::optional<TimePoint>& acc, std::optional<TimePoint> t) {
+  if (t && (!acc || *t < *acc)) acc = t;
+}
+
+}  // namespace
+
+struct SimServer::Impl {
+  // A reply waiting for its write instant.
+  struct Outgoing {
+    TimePoint at;
+    int owner = kNoSource;
+    uint8_t id = 0;
+    modbus::Bytes bytes;
+  };
+
+  struct Connection {
+    UniqueFd fd;
+    modbus::Bytes pending;  // what the socket could not take yet
+  };
+
+  SimServer& self;
+  sim::Bus& bus;
+  const SimServerOptions& options;
+  SteadyClock clock;
+  TimePoint origin = clock.now();
+  const bool real = bus.line().timing == sim::Timing::Real;
+  const Duration char_time = bus.line().line.char_time();
+
+  // The virtual line from the masters: when its last byte has arrived.
+  TimePoint line_in{};
+  // Who fed the bus last; a frame the bus completes belongs to its last byte's source.
+  int last_source = kNoSource;
+  // Owners of the replies the bus has scheduled but not yet handed out, in order.
+  std::deque<int> owners;
+  uint64_t scheduled_seen = 0;
+  std::deque<Outgoing> outbox;
+
+  std::map<int, Connection> connections;
+  int next_source = kPtySource + 1;
+  bool pty_full_warned = false;
+
+  // --trace: a second framer fed exactly like the bus's, to see its frames.
+  std::optional<modbus::DeviceFramer> mirror;
+  std::map<uint8_t, modbus::RequestFrame> last_request;
+
+  // State file.
+  uint64_t saved_generation = 0;
+  std::optional<TimePoint> save_at;
+  TimePoint last_save{};
+  bool have_saved = false;
+  std::thread saver;
+  std::mutex saver_mutex;
+  std::condition_variable saver_cv;
+  std::optional<sim::EepromSet> saver_pending;
+  bool saver_quit = false;
+
+  std::atomic<uint64_t> bytes_in{0}, replies_sent{0}, replies_undeliverable{0}, accepted{0},
+      saves{0}, save_failures{0};
+  std::atomic<int64_t> late_total_ns{0}, late_max_ns{0};
+
+  Impl(SimServer& s, sim::Bus& b, const SimServerOptions& o) : self(s), bus(b), options(o) {
+    if (options.trace) mirror.emplace(bus.line().line.silent_interval(), !real);
+  }
+
+  ~Impl() { stop_saver(); }
+
+  void warn(const std::string& text) {
+    if (options.warn) options.warn(text);
+  }
+
+  // ---- the bus -----------------------------------------------------------
+
+  uint64_t scheduled_count() const {
+    const auto& s = bus.stats();
+    return s.replies - s.faults_dropped;
+  }
+
+  // Replies the bus scheduled since the last call answer frames `source` ended.
+  void account(int source) {
+    const uint64_t n = scheduled_count();
+    for (; scheduled_seen < n; ++scheduled_seen) owners.push_back(source);
+  }
+
+  void advance(TimePoint t) {
+    bus.advance(t);
+    account(last_source);
+    poll_mirror(t);
+  }
+
+  void feed(std::span<const uint8_t> bytes, TimePoint t, int source) {
+    if (source != last_source) {
+      // Frames that ended before these bytes belong to the previous source.
+      advance(t);
+      last_source = source;
+    }
+    bus.receive(bytes, t);
+    account(source);
+    if (mirror) {
+      mirror->feed(bytes, t);
+      poll_mirror(t);
+    }
+  }
+
+  // Bytes read from `source` at `t`.
+  void ingest(std::span<const uint8_t> bytes, TimePoint t, int source) {
+    bytes_in += bytes.size();
+    if (!real) {
+      feed(bytes, t, source);
+      return;
+    }
+    // The virtual RS485 line: one character per char time from when the
+    // bytes were written (≈ read), each handed over when its last bit is in.
+    for (std::size_t i = 0; i < bytes.size(); ++i) {
+      line_in = std::max(line_in, t) + char_time;
+      feed(bytes.subspan(i, 1), line_in, source);
+    }
+  }
+
+  void collect(TimePoint now) {
+    for (sim::Reply& r : bus.take_replies(now)) {
+      int owner = kNoSource;
+      if (!owners.empty()) {
+        owner = owners.front();
+        owners.pop_front();
+      }
+      // Real timing: the whole reply at the instant its last byte would
+      // have arrived (see the header). Fast: at once.
+      const TimePoint at = real ? r.end : r.start;
+      outbox.push_back(Outgoing{at, owner, r.id, std::move(r.bytes)});
+    }
+  }
+
+  // ---- output ------------------------------------------------------------
+
+  void flush_outbox(TimePoint now) {
+    while (!outbox.empty() && outbox.front().at <= now) {
+      Outgoing o = std::move(outbox.front());
+      outbox.pop_front();
+      const bool ok = deliver(o);
+      const int64_t late = (clock.now() - o.at).count();
+      late_total_ns += late;
+      if (late > late_max_ns) late_max_ns = late;
+      if (options.trace) trace_tx(o, ok);
+    }
+  }
+
+  bool deliver(const Outgoing& o) {
+    if (o.owner == kPtySource && self.pty_) {
+      const ssize_t n = ::write(self.pty_->master_fd(), o.bytes.data(), o.bytes.size());
+      if (n == static_cast<ssize_t>(o.bytes.size())) {
+        ++replies_sent;
+        return true;
+      }
+      // Nobody has read the pty for a long while (its buffer is full): the
+      // line has no listener, the reply is lost, as on a real line.
+      ++replies_undeliverable;
+      if (!pty_full_warned) {
+        pty_full_warned = true;
+        warn(fmt::format("{}: a reply could not be written ({}); is a client reading it?",
+                         self.pty_->client_path(),
+                         n < 0 ? errno_text(errno) : std::string("short write")));
+      }
+      return false;
+    }
+    auto it = connections.find(o.owner);
+    if (it == connections.end()) {
+      ++replies_undeliverable;
+      return false;
+    }
+    Connection& c = it->second;
+    c.pending.insert(c.pending.end(), o.bytes.begin(), o.bytes.end());
+    ++replies_sent;
+    send_pending(o.owner);
+    return true;
+  }
+
+  // Sends what a connection has pending; closes it on error.
+  void send_pending(int source) {
+    auto it = connections.find(source);
+    if (it == connections.end()) return;
+    Connection& c = it->second;
+    while (!c.pending.empty()) {
+      const ssize_t n =
+          ::send(c.fd.get(), c.pending.data(), c.pending.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n > 0) {
+        c.pending.erase(c.pending.begin(), c.pending.begin() + n);
+        continue;
+      }
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;  // POLLOUT later
+      connections.erase(it);
+      return;
+    }
+  }
+
+  // ---- trace -------------------------------------------------------------
+
+  double ms_since_start(TimePoint t) const { return to_ms(t - origin); }
+
+  void poll_mirror(TimePoint t) {
+    if (!mirror) return;
+    while (auto f = mirror->poll(t)) {
+      std::string meaning;
+      if (auto q = modbus::decode_request(f->bytes)) {
+        meaning = lec::explain_request(*q);
+        last_request[q->id] = *q;
+      } else {
+        meaning = lec::explain_bytes(f->bytes, false);
+      }
+      options.trace(fmt::format("{:12.3f} ms  <- {}  | {}", ms_since_start(f->end_of_query),
+                                modbus::to_hex(f->bytes), meaning));
+    }
+  }
+
+  void trace_tx(const Outgoing& o, bool delivered) {
+    std::string meaning;
+    if (auto r = modbus::decode_response(o.bytes)) {
+      auto q = last_request.find(r->id);
+      meaning = lec::explain_response(*r, q == last_request.end() ? nullptr : &q->second);
+    } else {
+      meaning = lec::explain_bytes(o.bytes, true);
+    }
+    options.trace(fmt::format("{:12.3f} ms  -> {}  | {}{}", ms_since_start(clock.now()),
+                              modbus::to_hex(o.bytes), meaning,
+                              delivered ? "" : "  (not delivered: no receiver)"));
+  }
+
+  // ---- state file ----------------------------------------------------------
+
+  uint64_t eeprom_generation() {
+    uint64_t g = 0;
+    for (uint8_t id : bus.ids()) g += bus.find(id)->eeprom_generation();
+    return g;
+  }
+
+  sim::EepromSet snapshot() {
+    sim::EepromSet s = options.state_carry;
+    for (uint8_t id : bus.ids()) s.insert_or_assign(id, bus.find(id)->eeprom());
+    return s;
+  }
+
+  void start_saver() {
+    if (options.state_file.empty()) return;
+    saved_generation = eeprom_generation();
+    saver = std::thread([this] { saver_loop(); });
+  }
+
+  void saver_loop() {
+    std::unique_lock lock(saver_mutex);
+    for (;;) {
+      saver_cv.wait(lock, [&] { return saver_pending.has_value() || saver_quit; });
+      if (!saver_pending) return;
+      sim::EepromSet state = std::move(*saver_pending);
+      saver_pending.reset();
+      lock.unlock();
+      auto saved = sim::save_state_file(options.state_file, state);
+      if (!saved) {
+        ++save_failures;
+        warn(saved.error());
+      }
+      lock.lock();
+    }
+  }
+
+  void submit_save(TimePoint now) {
+    {
+      std::lock_guard lock(saver_mutex);
+      saver_pending = snapshot();  // replaces a save not yet written: the newest wins
+    }
+    saver_cv.notify_one();
+    ++saves;
+    saved_generation = eeprom_generation();
+    last_save = now;
+    have_saved = true;
+    save_at.reset();
+  }
+
+  void check_save(TimePoint now) {
+    if (options.state_file.empty()) return;
+    if (!save_at && eeprom_generation() != saved_generation) {
+      save_at = have_saved ? std::max(now, last_save + options.save_interval) : now;
+    }
+    if (save_at && *save_at <= now) submit_save(now);
+  }
+
+  void final_save() {
+    if (options.state_file.empty() || !saver.joinable()) return;
+    std::error_code ec;
+    if (eeprom_generation() != saved_generation ||
+        !std::filesystem::exists(options.state_file, ec)) {
+      submit_save(clock.now());
+    }
+  }
+
+  void stop_saver() {
+    if (!saver.joinable()) return;
+    {
+      std::lock_guard lock(saver_mutex);
+      saver_quit = true;  // the loop writes what is pending first
+    }
+    saver_cv.notify_one();
+    saver.join();
+  }
+
+  // ---- the loop --------------------------------------------------------------
+
+  void step(TimePoint now) {
+    advance(now);
+    collect(now);
+    // The last moments before a write instant: spin, the timer would be late.
+    if (!outbox.empty() && outbox.front().at > now &&
+        outbox.front().at - now <= options.spin_before_write) {
+      const TimePoint at = outbox.front().at;
+      while ((now = clock.now()) < at) cpu_relax();
+    }
+    flush_outbox(now);
+    check_save(now);
+  }
+
+  std::optional<TimePoint> deadline() const {
+    std::optional<TimePoint> d = bus.next_deadline();
+    if (!outbox.empty()) min_into(d, outbox.front().at - options.spin_before_write);
+    min_into(d, save_at);
+    return d;
+  }
+
+  void read_pty() {
+    std::array<uint8_t, 512> buf{};
+    for (;;) {
+      const ssize_t n = ::read(self.pty_->master_fd(), buf.data(), buf.size());
+      if (n > 0) {
+        ingest(std::span<const uint8_t>(buf.data(), static_cast<std::size_t>(n)), clock.now(),
+               kPtySource);
+        continue;
+      }
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
+      // The Pty holds its slave open, so the master never hangs up: this is a real error.
+      throw LinkError(LinkErrorKind::Io,
+                      fmt::format("{}: read failed: {}", self.pty_->client_path(),
+                                  n < 0 ? errno_text(errno) : "end of file"));
+    }
+  }
+
+  void read_connection(int source) {
+    std::array<uint8_t, 512> buf{};
+    for (;;) {
+      auto it = connections.find(source);
+      if (it == connections.end()) return;
+      const ssize_t n = ::recv(it->second.fd.get(), buf.data(), buf.size(), MSG_DONTWAIT);
+      if (n > 0) {
+        ingest(std::span<const uint8_t>(buf.data(), static_cast<std::size_t>(n)), clock.now(),
+               source);
+        continue;
+      }
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
+      connections.erase(it);  // closed by the client, or reset
+      return;
+    }
+  }
+
+  void accept_all() {
+    for (;;) {
+      UniqueFd fd = self.listener_->accept();
+      if (!fd) return;
+      connections.emplace(next_source++, Connection{std::move(fd), {}});
+      ++accepted;
+    }
+  }
+
+  void run() {
+    // Wake at the instant asked, not up to 50 µs later (the default slack).
+    ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+    start_saver();
+    std::vector<pollfd> fds;
+    std::vector<int> sources;  // per entry of fds: -2 stop, -3 listener, else a source
+    constexpr int kStop = -2, kListener = -3;
+    for (;;) {
+      step(clock.now());
+
+      fds.clear();
+      sources.clear();
+      fds.push_back({self.stop_fd_.get(), POLLIN, 0});
+      sources.push_back(kStop);
+      if (self.pty_) {
+        fds.push_back({self.pty_->master_fd(), POLLIN, 0});
+        sources.push_back(kPtySource);
+      }
+      if (self.listener_) {
+        fds.push_back({self.listener_->fd(), POLLIN, 0});
+        sources.push_back(kListener);
+      }
+      for (const auto& [source, c] : connections) {
+        const short events = static_cast<short>(POLLIN | (c.pending.empty() ? 0 : POLLOUT));
+        fds.push_back({c.fd.get(), events, 0});
+        sources.push_back(source);
+      }
+
+      timespec timeout{};
+      const timespec* tp = nullptr;
+      if (auto d = deadline()) {
+        timeout = to_timespec(*d - clock.now());
+        tp = &timeout;
+      }
+      const int r = ::ppoll(fds.data(), fds.size(), tp, nullptr);
+      if (r < 0) {
+        if (errno == EINTR) continue;
+        throw std::system_error(errno, std::generic_category(), "ppoll");
+      }
+      if (r == 0) continue;
+      bool stop = false;
+      for (std::size_t i = 0; i < fds.size(); ++i) {
+        const short re = fds[i].revents;
+        if (re == 0) continue;
+        const int source = sources[i];
+        if (source == kStop) {
+          stop = true;
+        } else if (source == kListener) {
+          accept_all();
+        } else if (source == kPtySource) {
+          if (re & (POLLIN | POLLERR | POLLHUP)) read_pty();
+        } else {
+          if (re & POLLOUT) send_pending(source);
+          if (re & (POLLIN | POLLERR | POLLHUP)) read_connection(source);
+          if (re & POLLNVAL) connections.erase(source);
+        }
+      }
+      if (stop) break;
+    }
+    // Replies already due still go out; then the last save.
+    step(clock.now());
+    final_save();
+    stop_saver();
+  }
+};
+
+SimServer::SimServer(sim::Bus& bus, SimServerOptions options)
+    : bus_(bus), options_(std::move(options)) {
+  if (!options_.pty && !options_.tcp) {
+    throw std::invalid_argument("the twin needs somewhere to serve: a pty, TCP, or both");
+  }
+  stop_fd_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
+  if (!stop_fd_) throw std::system_error(errno, std::generic_category(), "eventfd");
+  impl_ = std::make_unique<Impl>(*this, bus_, options_);
+  if (options_.tcp) {
+    listener_ = std::make_unique<TcpListener>(options_.tcp->second, options_.tcp->first);
+  }
+  // Last: the symlink appears only once everything else is ready.
+  if (options_.pty) pty_ = std::make_unique<Pty>(options_.pty_link);
+}
+
+SimServer::~SimServer() {
+  impl_.reset();  // joins the saver
+  pty_.reset();   // removes the symlink
+}
+
+void SimServer::run() {
+  impl_->run();
+}
+
+void SimServer::stop() noexcept {
+  const uint64_t one = 1;
+  // eventfd writes are async-signal-safe; a full counter still wakes the loop.
+  [[maybe_unused]] const ssize_t n = ::write(stop_fd_.get(), &one, sizeof one);
+}
+
+std::string SimServer::endpoints() const {
+  std::string out;
+  if (pty_) out = pty_->client_path();
+  if (listener_) {
+    if (!out.empty()) out += " and ";
+    out += listener_->url();
+  }
+  return out;
+}
+
+SimServer::Stats SimServer::stats() const {
+  Stats s;
+  s.bytes_in = impl_->bytes_in;
+  s.replies_sent = impl_->replies_sent;
+  s.replies_undeliverable = impl_->replies_undeliverable;
+  s.connections = impl_->accepted;
+  s.saves = impl_->saves;
+  s.save_failures = impl_->save_failures;
+  s.lateness_total = Duration(impl_->late_total_ns.load());
+  s.lateness_max = Duration(impl_->late_max_ns.load());
+  return s;
+}
+
+}  // namespace lec6::transport

@@ -1,0 +1,376 @@
+// The twin's event loop on real pseudo-terminals and sockets: a server on a
+// thread, masters through SerialLink / TcpLink. Timing is checked as ratios
+// to the wire limit (digest §1), never as absolute times.
+
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <mutex>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "lec6/modbus/pdu.hpp"
+#include "lec6/sim/state_file.hpp"
+#include "lec6/transport/serial_link.hpp"
+#include "lec6/transport/sim_server.hpp"
+#include "lec6/transport/tcp_link.hpp"
+
+namespace lec6::transport {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using Bytes = std::vector<uint8_t>;
+using ::testing::HasSubstr;
+
+const SteadyClock kClock;
+
+Bytes frame(uint8_t id, const modbus::Request& request) {
+  auto bytes = modbus::encode_request({id, request});
+  EXPECT_TRUE(bytes.has_value());
+  return bytes ? *bytes : Bytes{};
+}
+
+// Read D9000–D9006 (the state area: position, speed, thrust, target, step).
+Bytes read_state(uint8_t id = 1) {
+  return frame(id, modbus::ReadRegistersRequest{0x9000, 7});
+}
+constexpr std::size_t kReadStateReply = 5 + 14;
+
+Bytes echo(uint8_t id, uint16_t data) {
+  return frame(id, modbus::EchoRequest{0, data});
+}
+
+// Up to `count` bytes from the link before `timeout`.
+Bytes read_link(client::Link& link, std::size_t count, Duration timeout = 2s) {
+  const TimePoint deadline = kClock.now() + timeout;
+  Bytes out(count);
+  std::size_t got = 0;
+  while (got < count) {
+    const std::size_t n = link.read_some(std::span(out).subspan(got), deadline);
+    if (n == 0) break;
+    got += n;
+  }
+  out.resize(got);
+  return out;
+}
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string pattern = (fs::temp_directory_path() / "lec6-simserver-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+    path_ = pattern;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+// A bus with controllers, served on a thread until the fixture ends.
+class Running {
+ public:
+  Running(std::vector<uint8_t> ids, SimServerOptions options, sim::LineConfig line = {})
+      : bus_(line) {
+    for (uint8_t id : ids) bus_.add(id, {}, kClock.now());
+    server_ = std::make_unique<SimServer>(bus_, std::move(options));
+    thread_ = std::thread([this] {
+      try {
+        server_->run();
+      } catch (const std::exception& e) {
+        error_ = e.what();
+      }
+      done_ = true;
+    });
+  }
+  ~Running() { stop(); }
+
+  void stop() {
+    if (!thread_.joinable()) return;
+    server_->stop();
+    thread_.join();
+    EXPECT_EQ(error_, "");
+  }
+  SimServer& server() { return *server_; }
+  sim::Bus& bus() { return bus_; }
+  bool done() const { return done_; }
+
+ private:
+  sim::Bus bus_;
+  std::unique_ptr<SimServer> server_;
+  std::thread thread_;
+  std::string error_;
+  std::atomic<bool> done_{false};
+};
+
+SimServerOptions pty_only() {
+  SimServerOptions o;
+  o.pty = true;
+  return o;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// ---- timing --------------------------------------------------------------------
+
+// The client measures from before its write to the complete reply, as our
+// benchmark does; on a pty that must come out at the limit (wire(query) + Ts +
+// 4 ms + Td + wire(reply)): never below it, and within 10 % above.
+TEST(SimServer, ReadStateRoundTripOnAPtyMatchesTheLimit) {
+  Running twin({1}, pty_only());
+  SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 38400});
+  const Bytes query = read_state();
+  const Duration limit = modbus::LineTiming{}.transaction_limit(query.size(), kReadStateReply);
+
+  std::vector<double> ratios;
+  for (int i = 0; i < 25; ++i) {
+    const TimePoint t0 = kClock.now();
+    link.write(query);
+    const Bytes reply = read_link(link, kReadStateReply);
+    const TimePoint t1 = kClock.now();
+    ASSERT_EQ(reply.size(), kReadStateReply);
+    ASSERT_TRUE(modbus::decode_response(reply).has_value());
+    const double ratio = to_seconds(t1 - t0) / to_seconds(limit);
+    EXPECT_GE(ratio, 1.0) << "a reply came before the controller could have sent it";
+    ratios.push_back(ratio);
+  }
+  const double m = median(ratios);
+  RecordProperty("median_ratio_to_limit", std::to_string(m));
+  std::printf("read-state round trip / limit: median %.4f, min %.4f, max %.4f\n", m,
+              *std::min_element(ratios.begin(), ratios.end()),
+              *std::max_element(ratios.begin(), ratios.end()));
+  const auto st = twin.server().stats();
+  std::printf("twin write lateness: mean %.1f us, max %.1f us over %llu replies\n",
+              to_ms(st.lateness_total) * 1000.0 / static_cast<double>(st.replies_sent),
+              to_ms(st.lateness_max) * 1000.0, static_cast<unsigned long long>(st.replies_sent));
+  EXPECT_LE(m, 1.10) << "median of " << ratios.size() << " round trips";
+}
+
+TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
+  sim::LineConfig line;
+  line.line.baud = 9600;
+  line.line.silent_interval_k = 2;
+  line.line.delay_td = milliseconds(8);
+  Running twin({1}, pty_only(), line);
+  SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 9600});
+  const Bytes query = echo(1, 0x1234);
+  const Duration limit = line.line.transaction_limit(query.size(), query.size());
+  std::vector<double> ratios;
+  for (int i = 0; i < 7; ++i) {
+    const TimePoint t0 = kClock.now();
+    link.write(query);
+    ASSERT_EQ(read_link(link, query.size()), query);
+    const double ratio = to_seconds(kClock.now() - t0) / to_seconds(limit);
+    EXPECT_GE(ratio, 1.0);
+    ratios.push_back(ratio);
+  }
+  EXPECT_LE(median(ratios), 1.10);
+}
+
+TEST(SimServer, FastTimingAnswersWellWithinTheLimit) {
+  sim::LineConfig line;
+  line.timing = sim::Timing::Fast;
+  Running twin({1}, pty_only(), line);
+  SerialLink link(twin.server().pty()->slave_path());
+  const Bytes query = read_state();
+  const Duration limit = line.line.transaction_limit(query.size(), kReadStateReply);
+  std::vector<double> ratios;
+  for (int i = 0; i < 15; ++i) {
+    const TimePoint t0 = kClock.now();
+    link.write(query);
+    ASSERT_EQ(read_link(link, kReadStateReply).size(), kReadStateReply);
+    ratios.push_back(to_seconds(kClock.now() - t0) / to_seconds(limit));
+  }
+  EXPECT_LT(median(ratios), 0.5);
+}
+
+// A query written in two pieces back to back is one frame: the virtual line
+// carries them contiguously, with no silent interval between them.
+TEST(SimServer, AQueryWrittenInPiecesIsOneFrame) {
+  Running twin({1}, pty_only());
+  SerialLink link(twin.server().pty()->slave_path());
+  const Bytes query = echo(1, 0xBEEF);
+  link.write(std::span(query).first(3));
+  link.write(std::span(query).subspan(3));
+  EXPECT_EQ(read_link(link, query.size()), query);
+}
+
+// ---- routing, IDs, broadcast ------------------------------------------------------
+
+TEST(SimServer, EachIdAnswersAndOthersAreSilent) {
+  Running twin({1, 2, 3}, pty_only());
+  SerialLink link(twin.server().pty()->slave_path());
+  for (uint8_t id : {1, 2, 3}) {
+    const Bytes q = echo(id, static_cast<uint16_t>(0x0100 + id));
+    link.write(q);
+    EXPECT_EQ(read_link(link, q.size()), q) << "ID " << int{id};
+  }
+  link.write(echo(4, 0x0404));
+  // Tx for an 8-byte reply at 38400 is under 15 ms; wait well beyond it.
+  EXPECT_TRUE(read_link(link, 1, 100ms).empty());
+}
+
+TEST(SimServer, BroadcastWriteActsWithoutAReply) {
+  Running twin({1, 2}, pty_only());
+  SerialLink link(twin.server().pty()->slave_path());
+  link.write(frame(0, modbus::WriteCoilRequest{0x30, modbus::kCoilOn}));
+  EXPECT_TRUE(read_link(link, 1, 100ms).empty());
+  for (uint8_t id : {1, 2}) {
+    const Bytes q = frame(id, modbus::ReadBitsRequest{modbus::FunctionCode::ReadCoils, 0x30, 1});
+    link.write(q);
+    const Bytes r = read_link(link, 6);
+    ASSERT_EQ(r.size(), 6u);
+    EXPECT_EQ(r[3] & 1, 1) << "Y30 of ID " << int{id};
+  }
+}
+
+TEST(SimServer, TcpClientsShareTheBusAndGetTheirOwnReplies) {
+  SimServerOptions o;
+  o.tcp = std::make_pair(std::string("127.0.0.1"), uint16_t{0});
+  o.pty = true;
+  Running twin({1}, o);
+  const uint16_t port = twin.server().tcp()->port();
+  EXPECT_THAT(twin.server().endpoints(), HasSubstr("tcp://127.0.0.1:"));
+  TcpLink a("127.0.0.1", port);
+  TcpLink b("127.0.0.1", port);
+  SerialLink p(twin.server().pty()->slave_path());
+  for (int round = 0; round < 3; ++round) {
+    const Bytes qa = echo(1, static_cast<uint16_t>(0xA000 + round));
+    const Bytes qb = echo(1, static_cast<uint16_t>(0xB000 + round));
+    const Bytes qp = echo(1, static_cast<uint16_t>(0xC000 + round));
+    a.write(qa);
+    EXPECT_EQ(read_link(a, qa.size()), qa);
+    b.write(qb);
+    EXPECT_EQ(read_link(b, qb.size()), qb);
+    p.write(qp);
+    EXPECT_EQ(read_link(p, qp.size()), qp);
+  }
+  // Nobody received anybody else's reply.
+  EXPECT_TRUE(read_link(a, 1, 30ms).empty());
+  EXPECT_TRUE(read_link(b, 1, 30ms).empty());
+  EXPECT_TRUE(read_link(p, 1, 30ms).empty());
+  EXPECT_EQ(twin.server().stats().connections, 2u);
+}
+
+TEST(SimServer, AClientThatLeavesBeforeItsReplyDoesNotDisturbOthers) {
+  SimServerOptions o;
+  o.tcp = std::make_pair(std::string("127.0.0.1"), uint16_t{0});
+  Running twin({1}, o);
+  const uint16_t port = twin.server().tcp()->port();
+  {
+    TcpLink gone("127.0.0.1", port);
+    gone.write(echo(1, 0x1111));
+  }  // closed before the reply is due
+  TcpLink stays("127.0.0.1", port);
+  // Let the first reply fall due (and be dropped) before asking.
+  EXPECT_TRUE(read_link(stays, 1, 50ms).empty());
+  const Bytes q = echo(1, 0x2222);
+  stays.write(q);
+  EXPECT_EQ(read_link(stays, q.size()), q);
+}
+
+// ---- life cycle ------------------------------------------------------------------
+
+TEST(SimServer, StopEndsTheLoopPromptlyAndRemovesTheLink) {
+  TempDir dir;
+  SimServerOptions o = pty_only();
+  o.pty_link = dir.path() / "lec0";
+  auto twin = std::make_unique<Running>(std::vector<uint8_t>{1}, o);
+  EXPECT_TRUE(fs::is_symlink(dir.path() / "lec0"));
+  EXPECT_EQ(fs::read_symlink(dir.path() / "lec0"), fs::path(twin->server().pty()->slave_path()));
+  const TimePoint t0 = kClock.now();
+  twin->stop();
+  EXPECT_TRUE(twin->done());
+  EXPECT_LT(to_ms(kClock.now() - t0), 1000.0);
+  twin.reset();
+  EXPECT_FALSE(fs::exists(fs::symlink_status(dir.path() / "lec0")));
+}
+
+TEST(SimServer, StopBeforeRunReturnsAtOnce) {
+  sim::Bus bus;
+  bus.add(1);
+  SimServer server(bus, pty_only());
+  server.stop();
+  server.run();  // returns: the stop was not lost
+  SUCCEED();
+}
+
+TEST(SimServer, NeedsSomewhereToServe) {
+  sim::Bus bus;
+  EXPECT_THROW(SimServer(bus, SimServerOptions{}), std::invalid_argument);
+}
+
+TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
+  TempDir dir;
+  const fs::path state = dir.path() / "twin.state";
+  SimServerOptions o = pty_only();
+  o.state_file = state;
+  o.save_interval = milliseconds(50);
+  auto twin = std::make_unique<Running>(std::vector<uint8_t>{1}, o);
+  SerialLink link(twin->server().pty()->slave_path());
+  std::vector<uint16_t> step(16, 0);
+  step[0] = 1;      // ABS
+  step[1] = 100;    // mm/s
+  step[3] = 15000;  // 150.00 mm
+  const Bytes q = frame(1, modbus::WriteRegistersRequest::of(0x0410, step));
+  link.write(q);
+  ASSERT_EQ(read_link(link, 8).size(), 8u);
+  // The debounced save lands without the twin stopping; wait for the file.
+  const TimePoint deadline = kClock.now() + 5s;
+  while (!fs::exists(state) && kClock.now() < deadline) std::this_thread::sleep_for(5ms);
+  ASSERT_TRUE(fs::exists(state));
+  twin->stop();
+  auto loaded = sim::load_state_file(state);
+  ASSERT_TRUE(loaded.has_value()) << loaded.error();
+  ASSERT_TRUE(loaded->has_value());
+  const auto& e = (**loaded).at(1);
+  EXPECT_EQ(e.steps[1], twin->bus().find(1)->eeprom().steps[1]);
+  EXPECT_GE(e.step_writes[1], 1u);
+  EXPECT_GE(twin->server().stats().saves, 1u);
+  EXPECT_EQ(twin->server().stats().save_failures, 0u);
+}
+
+TEST(SimServer, TraceShowsEachFrameDecoded) {
+  std::vector<std::string> lines;
+  std::mutex m;
+  SimServerOptions o = pty_only();
+  o.trace = [&](const std::string& l) {
+    std::lock_guard lock(m);
+    lines.push_back(l);
+  };
+  Running twin({1}, o);
+  SerialLink link(twin.server().pty()->slave_path());
+  const Bytes q = echo(1, 0x1234);
+  link.write(q);
+  ASSERT_EQ(read_link(link, q.size()), q);
+  link.write(echo(9, 0x1234));  // silence, still traced
+  EXPECT_TRUE(read_link(link, 1, 60ms).empty());
+  twin.stop();
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_THAT(lines[0], HasSubstr("<- 01 08 00 00 12 34"));
+  EXPECT_THAT(lines[1], HasSubstr("-> 01 08 00 00 12 34"));
+  EXPECT_THAT(lines[2], HasSubstr("<- 09 08"));
+  EXPECT_THAT(lines[0], HasSubstr(" ms "));
+}
+
+}  // namespace
+}  // namespace lec6::transport
