@@ -6,6 +6,7 @@
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/lec/step_data.hpp"
 #include "lec6/lec/units.hpp"
+#include "lec6/lec/words.hpp"
 
 namespace lec6::lec {
 namespace {
@@ -48,7 +49,7 @@ std::string registers_text(uint16_t start, const std::vector<uint16_t>& values) 
       }
       const std::string where = step ? fmt::format("step {} ", (a - kStepData) / kStepStride) : "direct ";
       if (f && f->registers == 2 && i + 1 < values.size()) {
-        const auto v = static_cast<int32_t>((static_cast<uint32_t>(values[i]) << 16) | values[i + 1]);
+        const int32_t v = join_words(values[i], values[i + 1]);
         add(fmt::format("{}{} = {}{}{}", where, f->name, format_field(f->field, v), f->unit.empty() ? "" : " ",
                         f->unit));
         ++i;
@@ -61,7 +62,7 @@ std::string registers_text(uint16_t start, const std::vector<uint16_t>& values) 
       }
     }
     if ((a == 0x9000 || a == 0x9004) && i + 1 < values.size()) {
-      const auto v = static_cast<int32_t>((static_cast<uint32_t>(values[i]) << 16) | values[i + 1]);
+      const int32_t v = join_words(values[i], values[i + 1]);
       add(fmt::format("{} = {} mm", address_name(Space::Register, a), format_mm(v)));
       ++i;
       continue;

@@ -7,6 +7,7 @@
 #include <cctype>
 
 #include "lec6/lec/units.hpp"
+#include "lec6/lec/words.hpp"
 
 namespace lec6::lec {
 namespace {
@@ -53,12 +54,6 @@ std::string normalise(std::string_view s) {
   return out;
 }
 
-uint16_t hi(int32_t v) { return static_cast<uint16_t>(static_cast<uint32_t>(v) >> 16); }
-uint16_t lo(int32_t v) { return static_cast<uint16_t>(static_cast<uint32_t>(v) & 0xFFFF); }
-int32_t join(uint16_t h, uint16_t l) {
-  return static_cast<int32_t>((static_cast<uint32_t>(h) << 16) | l);
-}
-
 std::string range_text(const StepFieldInfo& i) {
   if (i.field == StepField::MovementMode) return "abs or inc";
   if (i.is_length) return fmt::format("{} to {} mm", format_mm(i.min), format_mm(i.max));
@@ -68,10 +63,10 @@ std::string range_text(const StepFieldInfo& i) {
 }  // namespace
 
 std::array<uint16_t, StepData::kRegisters> StepData::to_registers() const noexcept {
-  return {static_cast<uint16_t>(movement_mode), speed_mm_s, hi(position_001mm), lo(position_001mm),
+  return {static_cast<uint16_t>(movement_mode), speed_mm_s, high_word(position_001mm), low_word(position_001mm),
           acceleration_mm_s2, deceleration_mm_s2, pushing_force_pct, trigger_level_pct,
-          pushing_speed_mm_s, moving_force_pct, hi(area1_001mm), lo(area1_001mm),
-          hi(area2_001mm), lo(area2_001mm), hi(in_position_001mm), lo(in_position_001mm)};
+          pushing_speed_mm_s, moving_force_pct, high_word(area1_001mm), low_word(area1_001mm),
+          high_word(area2_001mm), low_word(area2_001mm), high_word(in_position_001mm), low_word(in_position_001mm)};
 }
 
 StepData StepData::from_registers(std::span<const uint16_t> regs) noexcept {
@@ -80,16 +75,16 @@ StepData StepData::from_registers(std::span<const uint16_t> regs) noexcept {
   StepData s;
   s.movement_mode = static_cast<MovementMode>(r[0]);
   s.speed_mm_s = r[1];
-  s.position_001mm = join(r[2], r[3]);
+  s.position_001mm = join_words(r[2], r[3]);
   s.acceleration_mm_s2 = r[4];
   s.deceleration_mm_s2 = r[5];
   s.pushing_force_pct = r[6];
   s.trigger_level_pct = r[7];
   s.pushing_speed_mm_s = r[8];
   s.moving_force_pct = r[9];
-  s.area1_001mm = join(r[10], r[11]);
-  s.area2_001mm = join(r[12], r[13]);
-  s.in_position_001mm = join(r[14], r[15]);
+  s.area1_001mm = join_words(r[10], r[11]);
+  s.area2_001mm = join_words(r[12], r[13]);
+  s.in_position_001mm = join_words(r[14], r[15]);
   return s;
 }
 
@@ -110,7 +105,7 @@ const StepFieldInfo* find_step_field(std::string_view name) noexcept {
 int64_t get_field(const StepData& s, StepField f) noexcept {
   const auto regs = s.to_registers();
   const auto& i = field_info(f);
-  if (i.registers == 2) return join(regs[i.offset], regs[i.offset + 1]);
+  if (i.registers == 2) return join_words(regs[i.offset], regs[i.offset + 1]);
   return regs[i.offset];
 }
 
@@ -118,8 +113,8 @@ void set_field(StepData& s, StepField f, int64_t raw) noexcept {
   auto regs = s.to_registers();
   const auto& i = field_info(f);
   if (i.registers == 2) {
-    regs[i.offset] = hi(static_cast<int32_t>(raw));
-    regs[i.offset + 1] = lo(static_cast<int32_t>(raw));
+    regs[i.offset] = high_word(static_cast<int32_t>(raw));
+    regs[i.offset + 1] = low_word(static_cast<int32_t>(raw));
   } else {
     regs[i.offset] = static_cast<uint16_t>(raw);
   }
