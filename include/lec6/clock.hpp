@@ -14,8 +14,12 @@ using TimePoint = std::chrono::time_point<std::chrono::steady_clock, Duration>;
 inline constexpr Duration milliseconds(double ms) {
   return Duration(static_cast<int64_t>(ms * 1e6));
 }
-inline constexpr double to_ms(Duration d) { return static_cast<double>(d.count()) / 1e6; }
-inline constexpr double to_seconds(Duration d) { return static_cast<double>(d.count()) / 1e9; }
+inline constexpr double to_ms(Duration d) {
+  return static_cast<double>(d.count()) / 1e6;
+}
+inline constexpr double to_seconds(Duration d) {
+  return static_cast<double>(d.count()) / 1e9;
+}
 
 class Clock {
  public:

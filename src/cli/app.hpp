@@ -2,8 +2,8 @@
 // What every `lec` command shares: the global options, the session (the
 // opened port and client), output helpers and the exit codes.
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <atomic>
@@ -46,7 +46,7 @@ class CommandFailed : public std::runtime_error {
 };
 
 struct GlobalOptions {
-  std::string port;            // --port, else $LEC_PORT
+  std::string port;  // --port, else $LEC_PORT
   uint32_t baud = 38400;
   int id = 1;
   int timeout_margin_ms = 50;  // added to the manual's Tx
@@ -57,7 +57,7 @@ struct GlobalOptions {
   bool rs485_rts_after_send = false;
   int rs485_delay_before_ms = 0;
   int rs485_delay_after_ms = 0;
-  bool echo = false;           // 2-wire adapter echoes what it sends
+  bool echo = false;  // 2-wire adapter echoes what it sends
   unsigned silent_interval_k = 1;
   int delay_td_ms = 5;
   bool no_silence_wait = false;  // skip the Ts gap before queries (fast twins, benchmarks only)
@@ -83,7 +83,8 @@ class Session {
   // What the port is, for messages ("/dev/ttyUSB0 @ 38400").
   std::string port_description() const;
   // Wait options that honour Ctrl-C, with an optional progress printer.
-  client::WaitOptions wait_options(std::function<void(const client::Progress&)> progress = {}) const;
+  client::WaitOptions wait_options(
+      std::function<void(const client::Progress&)> progress = {}) const;
   TimePoint deadline_in(Duration d);
 
  private:
@@ -94,12 +95,13 @@ class Session {
 
 // Each group of commands registers itself on the app. The callback runs the
 // command and may throw; main() turns exceptions into messages and exit codes.
-void add_status_commands(CLI::App& app, Session& session);   // status, watch, alarms, name
-void add_motion_commands(CLI::App& app, Session& session);   // serial, servo, home, move, jog, hold, stop, reset
-void add_line_commands(CLI::App& app, Session& session);     // ping, scan, decode, raw, ports, bench
-void add_demo_command(CLI::App& app, Session& session);      // demo
-void add_step_commands(CLI::App& app, Session& session);     // step list/get/set/backup/restore/diff
-void add_sim_command(CLI::App& app);                         // sim (the twin program)
+void add_status_commands(CLI::App& app, Session& session);  // status, watch, alarms, name
+void add_motion_commands(CLI::App& app,
+                         Session& session);  // serial, servo, home, move, jog, hold, stop, reset
+void add_line_commands(CLI::App& app, Session& session);  // ping, scan, decode, raw, ports, bench
+void add_demo_command(CLI::App& app, Session& session);   // demo
+void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/backup/restore/diff
+void add_sim_command(CLI::App& app);                      // sim (the twin program)
 
 // ---- output helpers -----------------------------------------------------------
 void print_json(const nlohmann::json& j);

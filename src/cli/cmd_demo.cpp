@@ -21,7 +21,8 @@ class Demo {
   explicit Demo(Session& s) : s_(s), axis_(s.axis("sim")), client_(s.client("sim")) {}
 
   void run() {
-    if (!s_.json()) fmt::print("lec demo on {} (controller ID {})\n\n", s_.port_description(), s_.options().id);
+    if (!s_.json())
+      fmt::print("lec demo on {} (controller ID {})\n\n", s_.port_description(), s_.options().id);
     stage("1. Serial input mode (Y30 = 1)             manual §4.1.1", [&] {
       axis_.set_serial_mode(true);
       return std::string("Y30 = 1");
@@ -31,7 +32,8 @@ class Demo {
       return client_.read_flags().describe();
     });
     stage("3. Return to origin (Y1C), wait SETON      manual §4.2", [&] {
-      const auto r = axis_.home(s_.deadline_in(std::chrono::seconds(60)), s_.wait_options(progress()));
+      const auto r =
+          axis_.home(s_.deadline_in(std::chrono::seconds(60)), s_.wait_options(progress()));
       return fmt::format("{} at {} mm", r.flags.describe(), lec::format_mm(r.state.position_001mm));
     });
     stage("4. Edit step 1: position 150.00 mm          manual §5", [&] {
@@ -48,7 +50,8 @@ class Demo {
       return std::string("D0412 = 15000 (150.00 mm)");
     });
     stage("5. Run step 1 (IN0-IN5 = 1, DRIVE)          manual §4.3-4", [&] {
-      const auto r = axis_.run_step(1, s_.deadline_in(std::chrono::seconds(60)), s_.wait_options(progress()));
+      const auto r =
+          axis_.run_step(1, s_.deadline_in(std::chrono::seconds(60)), s_.wait_options(progress()));
       return fmt::format("BUSY fell, INP = {}", r.in_position ? 1 : 0);
     });
     stage("6. Read the position (D9000)               manual §6", [&] {
@@ -67,7 +70,8 @@ class Demo {
       m.area1_001mm = 0;
       m.area2_001mm = 0;
       m.pushing_force_pct = 0;
-      const auto r = axis_.move(m, s_.deadline_in(std::chrono::seconds(60)), s_.wait_options(progress()));
+      const auto r =
+          axis_.move(m, s_.deadline_in(std::chrono::seconds(60)), s_.wait_options(progress()));
       final_position_ = r.state.position_001mm;
       in_position_ = r.in_position;
       return fmt::format("{} mm, INP = {}", lec::format_mm(final_position_), r.in_position ? 1 : 0);
@@ -105,9 +109,13 @@ class Demo {
     const auto& st = client_.stats();
     if (s_.json()) {
       nlohmann::json stages = nlohmann::json::array();
-      for (const auto& x : stages_) stages.push_back({{"stage", x.name}, {"seconds", x.seconds}, {"result", x.result}});
-      print_json({{"ok", ok}, {"stages", stages}, {"position_after_step_mm", mm_json(position_after_step_)},
-                  {"final_position_mm", mm_json(final_position_)}, {"transactions", st.transactions},
+      for (const auto& x : stages_)
+        stages.push_back({{"stage", x.name}, {"seconds", x.seconds}, {"result", x.result}});
+      print_json({{"ok", ok},
+                  {"stages", stages},
+                  {"position_after_step_mm", mm_json(position_after_step_)},
+                  {"final_position_mm", mm_json(final_position_)},
+                  {"transactions", st.transactions},
                   {"retries", st.retries}});
     } else {
       double total = 0;
@@ -115,8 +123,8 @@ class Demo {
       fmt::print("\nSummary: {} — step 1 reached {} mm, direct operation reached {} mm\n",
                  ok ? "all four manual examples ran as the manual says" : "FAILED",
                  lec::format_mm(position_after_step_), lec::format_mm(final_position_));
-      fmt::print("         {} transactions in {:.2f} s, {} retries, {} timeouts\n", st.transactions, total, st.retries,
-                 st.timeouts);
+      fmt::print("         {} transactions in {:.2f} s, {} retries, {} timeouts\n", st.transactions,
+                 total, st.retries, st.timeouts);
     }
     if (!ok) throw CommandFailed(kFailure, "the demo did not end where the manual says");
   }
@@ -133,7 +141,9 @@ class Demo {
 }  // namespace
 
 void add_demo_command(CLI::App& app, Session& session) {
-  app.add_subcommand("demo", "The manual's four operation examples as one guided run (built-in twin unless --port)")
+  app.add_subcommand(
+         "demo",
+         "The manual's four operation examples as one guided run (built-in twin unless --port)")
       ->callback([&session] { Demo(session).run(); });
 }
 

@@ -31,7 +31,9 @@ void run_decode(const Session& s, const std::vector<std::string>& words, bool as
   const bool reply = as_reply || (!request_ok && reply_ok);
   const std::string text = lec::explain_bytes(bytes, reply);
   if (s.json()) {
-    print_json({{"hex", modbus::to_hex(bytes)}, {"kind", reply ? "reply" : "query"}, {"explanation", text},
+    print_json({{"hex", modbus::to_hex(bytes)},
+                {"kind", reply ? "reply" : "query"},
+                {"explanation", text},
                 {"valid", reply ? reply_ok : request_ok}});
   } else {
     fmt::print("{}\n", text);
@@ -48,7 +50,8 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
   const TimePoint start = c.clock().now();
   link.write(frame);
   const TimePoint sent = c.clock().now();
-  const TimePoint deadline = sent + c.timing().response_time(modbus::kMaxAdu) + c.options().timeout_margin;
+  const TimePoint deadline =
+      sent + c.timing().response_time(modbus::kMaxAdu) + c.options().timeout_margin;
   Bytes reply;
   std::array<uint8_t, 512> buf{};
   while (c.clock().now() < deadline) {
@@ -64,16 +67,21 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
     // Explain the reply with the query's addresses when the query decodes.
     const auto query = modbus::decode_request(frame);
     const auto answer = modbus::decode_response(reply);
-    reply_text = answer && query ? lec::explain_response(*answer, &*query) : lec::explain_bytes(reply, true);
+    reply_text =
+        answer && query ? lec::explain_response(*answer, &*query) : lec::explain_bytes(reply, true);
   }
   if (s.json()) {
-    print_json({{"sent", modbus::to_hex(frame)}, {"sent_explanation", sent_text}, {"reply", modbus::to_hex(reply)},
-                {"reply_explanation", reply_text}, {"time_ms", ms}});
+    print_json({{"sent", modbus::to_hex(frame)},
+                {"sent_explanation", sent_text},
+                {"reply", modbus::to_hex(reply)},
+                {"reply_explanation", reply_text},
+                {"time_ms", ms}});
   } else {
     fmt::print("-> {}  | {}\n<- {}  | {} ({:.2f} ms)\n", modbus::to_hex(frame), sent_text,
                reply.empty() ? "(nothing)" : modbus::to_hex(reply), reply_text, ms);
   }
-  if (reply.empty() && frame[0] != 0) throw client::TransportError(client::TransportErrorKind::Timeout, "no reply");
+  if (reply.empty() && frame[0] != 0)
+    throw client::TransportError(client::TransportErrorKind::Timeout, "no reply");
   if (reply.size() >= 2 && (reply[1] & modbus::kExceptionFlag)) {
     throw CommandFailed(kException, "the controller answered with an exception");
   }
@@ -91,15 +99,19 @@ void run_ping(Session& s, const PingArgs& a) {
   for (int seq = 0; (a.count == 0 || seq < a.count) && !g_interrupted; ++seq) {
     ++sent;
     try {
-      c.transact_raw({static_cast<uint8_t>(s.options().id), modbus::EchoRequest{0, static_cast<uint16_t>(seq)}});
+      c.transact_raw({static_cast<uint8_t>(s.options().id),
+                      modbus::EchoRequest{0, static_cast<uint16_t>(seq)}});
       rtts.push_back(to_ms(c.last_round_trip()));
-      if (!s.json()) fmt::print("echo reply from ID {}: seq={} time={:.2f} ms\n", s.options().id, seq, rtts.back());
+      if (!s.json())
+        fmt::print("echo reply from ID {}: seq={} time={:.2f} ms\n", s.options().id, seq,
+                   rtts.back());
     } catch (const client::TransportError& e) {
       if (!s.json()) fmt::print("ID {}: seq={} {}\n", s.options().id, seq, e.what());
     }
     if (seq + 1 != a.count && a.interval_s > 0) {
       const TimePoint next = c.clock().now() + milliseconds(a.interval_s * 1000);
-      while (c.clock().now() < next && !g_interrupted) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      while (c.clock().now() < next && !g_interrupted)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   }
   g_interrupted = false;
@@ -112,14 +124,18 @@ void run_ping(Session& s, const PingArgs& a) {
     for (double r : rtts) mdev += std::abs(r - avg) / static_cast<double>(rtts.size());
   }
   if (s.json()) {
-    print_json({{"sent", sent}, {"received", rtts.size()}, {"loss_pct", loss},
+    print_json({{"sent", sent},
+                {"received", rtts.size()},
+                {"loss_pct", loss},
                 {"rtt_ms", {{"min", mn}, {"avg", avg}, {"max", mx}, {"mdev", mdev}}}});
   } else {
-    fmt::print("--- ID {} echo statistics ---\n{} sent, {} received, {:.1f}% loss\n", s.options().id, sent, rtts.size(),
-               loss);
-    if (!rtts.empty()) fmt::print("rtt min/avg/max/mdev = {:.3f}/{:.3f}/{:.3f}/{:.3f} ms\n", mn, avg, mx, mdev);
+    fmt::print("--- ID {} echo statistics ---\n{} sent, {} received, {:.1f}% loss\n",
+               s.options().id, sent, rtts.size(), loss);
+    if (!rtts.empty())
+      fmt::print("rtt min/avg/max/mdev = {:.3f}/{:.3f}/{:.3f}/{:.3f} ms\n", mn, avg, mx, mdev);
   }
-  if (rtts.empty()) throw client::TransportError(client::TransportErrorKind::Timeout, "no echo replies");
+  if (rtts.empty())
+    throw client::TransportError(client::TransportErrorKind::Timeout, "no echo replies");
 }
 
 std::vector<int> parse_id_range(const std::string& text) {
@@ -157,14 +173,18 @@ std::vector<ScanResult> scan_ids(Session& s, const std::vector<int>& ids) {
       c.transact_raw({static_cast<uint8_t>(id), modbus::EchoRequest{0, 0x5AA5}});
       std::string name;
       try {
-        const auto regs = c.transact(modbus::ReadRegistersRequest{lec::kEquipmentName, lec::kEquipmentNameRegisters},
-                                     client::Retry::Safe, static_cast<uint8_t>(id));
-        name = lec::EquipmentName::from_registers(std::get<modbus::ReadRegistersResponse>(regs).values).text;
+        const auto regs = c.transact(
+            modbus::ReadRegistersRequest{lec::kEquipmentName, lec::kEquipmentNameRegisters},
+            client::Retry::Safe, static_cast<uint8_t>(id));
+        name =
+            lec::EquipmentName::from_registers(std::get<modbus::ReadRegistersResponse>(regs).values)
+                .text;
       } catch (const std::exception&) {
       }
       found.push_back({id, name, ""});
     } catch (const client::TransportError& e) {
-      if (e.kind() == client::TransportErrorKind::Crc || e.kind() == client::TransportErrorKind::Framing) {
+      if (e.kind() == client::TransportErrorKind::Crc ||
+          e.kind() == client::TransportErrorKind::Framing) {
         found.push_back({id, "", e.what()});
       }
     }
@@ -175,7 +195,8 @@ std::vector<ScanResult> scan_ids(Session& s, const std::vector<int>& ids) {
 void run_scan(Session& s, const std::string& id_text, bool all_bauds) {
   const auto ids = parse_id_range(id_text);
   auto found = scan_ids(s, ids);
-  const bool garbled = std::any_of(found.begin(), found.end(), [](const ScanResult& r) { return !r.problem.empty(); });
+  const bool garbled = std::any_of(found.begin(), found.end(),
+                                   [](const ScanResult& r) { return !r.problem.empty(); });
   std::optional<uint32_t> better_baud;
   if ((garbled || found.empty()) && all_bauds) {
     for (uint32_t baud : modbus::kBaudRates) {
@@ -193,11 +214,14 @@ void run_scan(Session& s, const std::string& id_text, bool all_bauds) {
   }
   if (s.json()) {
     nlohmann::json j = nlohmann::json::array();
-    for (const auto& r : found) j.push_back({{"id", r.id}, {"name", r.name}, {"problem", r.problem}});
-    print_json({{"found", j}, {"baud", s.options().baud},
+    for (const auto& r : found)
+      j.push_back({{"id", r.id}, {"name", r.name}, {"problem", r.problem}});
+    print_json({{"found", j},
+                {"baud", s.options().baud},
                 {"suggested_baud", better_baud ? nlohmann::json(*better_baud) : nlohmann::json()}});
   } else {
-    fmt::print("Scanned IDs {} at {} baud on {}\n", id_text, s.options().baud, s.port_description());
+    fmt::print("Scanned IDs {} at {} baud on {}\n", id_text, s.options().baud,
+               s.port_description());
     for (const auto& r : found) {
       if (r.problem.empty()) {
         fmt::print("  ID {:3}  answers  {}\n", r.id, r.name.empty() ? "(no name)" : r.name);
@@ -209,10 +233,13 @@ void run_scan(Session& s, const std::string& id_text, bool all_bauds) {
   }
   if (garbled) {
     fmt::print(stderr, "lec: replies fail CRC: check the baud rate{}\n",
-               better_baud ? fmt::format(", the controller is at {}? (try --baud {})", *better_baud, *better_baud)
-                           : all_bauds ? "" : " (`lec scan --all-bauds` tries the others)");
+               better_baud ? fmt::format(", the controller is at {}? (try --baud {})", *better_baud,
+                                         *better_baud)
+               : all_bauds ? ""
+                           : " (`lec scan --all-bauds` tries the others)");
   }
-  if (found.empty()) throw client::TransportError(client::TransportErrorKind::Timeout, "no controller answered");
+  if (found.empty())
+    throw client::TransportError(client::TransportErrorKind::Timeout, "no controller answered");
 }
 
 struct BenchArgs {
@@ -226,7 +253,8 @@ void run_bench(Session& s, const BenchArgs& a) {
   if (a.op == "read-state") {
     request = modbus::ReadRegistersRequest{lec::kStateData, lec::kStateDataRegisters};
   } else if (a.op == "read-flags") {
-    request = modbus::ReadBitsRequest{modbus::FunctionCode::ReadInputs, lec::kStatusInputs, lec::kStatusInputCount};
+    request = modbus::ReadBitsRequest{modbus::FunctionCode::ReadInputs, lec::kStatusInputs,
+                                      lec::kStatusInputCount};
   } else if (a.op == "echo") {
     request = modbus::EchoRequest{0, 0x1234};
   } else {
@@ -244,19 +272,32 @@ void run_bench(Session& s, const BenchArgs& a) {
   }
   const double total_s = to_seconds(c.clock().now() - start);
   std::sort(lat.begin(), lat.end());
-  auto pct = [&](double p) { return lat.empty() ? 0.0 : lat[std::min(lat.size() - 1, static_cast<std::size_t>(p * static_cast<double>(lat.size())))]; };
+  auto pct = [&](double p) {
+    return lat.empty()
+               ? 0.0
+               : lat[std::min(lat.size() - 1,
+                              static_cast<std::size_t>(p * static_cast<double>(lat.size())))];
+  };
   const double limit = to_ms(c.timing().transaction_limit(query_bytes, reply_bytes));
   const double tx_per_s = total_s > 0 ? static_cast<double>(lat.size()) / total_s : 0;
   const double p50 = pct(0.5), p99 = pct(0.99), mx = lat.empty() ? 0 : lat.back();
   if (s.json()) {
-    print_json({{"op", a.op}, {"n", lat.size()}, {"baud", c.timing().baud}, {"tx_per_s", tx_per_s},
-                {"latency_ms", {{"p50", p50}, {"p99", p99}, {"max", mx}}}, {"limit_ms", limit},
-                {"ratio", limit > 0 ? p50 / limit : 0}, {"retries", c.stats().retries}});
+    print_json({{"op", a.op},
+                {"n", lat.size()},
+                {"baud", c.timing().baud},
+                {"tx_per_s", tx_per_s},
+                {"latency_ms", {{"p50", p50}, {"p99", p99}, {"max", mx}}},
+                {"limit_ms", limit},
+                {"ratio", limit > 0 ? p50 / limit : 0},
+                {"retries", c.stats().retries}});
   } else {
-    fmt::print("{} x {} on {} @ {} baud\n", lat.size(), a.op, s.port_description(), c.timing().baud);
-    fmt::print("  {:.1f} transactions/s\n  latency p50 {:.3f} ms  p99 {:.3f} ms  max {:.3f} ms\n", tx_per_s, p50, p99, mx);
-    fmt::print("  limit {:.3f} ms (query wire + Ts + 4 ms + Td + reply wire)  ratio p50/limit {:.3f}\n", limit,
-               limit > 0 ? p50 / limit : 0);
+    fmt::print("{} x {} on {} @ {} baud\n", lat.size(), a.op, s.port_description(),
+               c.timing().baud);
+    fmt::print("  {:.1f} transactions/s\n  latency p50 {:.3f} ms  p99 {:.3f} ms  max {:.3f} ms\n",
+               tx_per_s, p50, p99, mx);
+    fmt::print(
+        "  limit {:.3f} ms (query wire + Ts + 4 ms + Td + reply wire)  ratio p50/limit {:.3f}\n",
+        limit, limit > 0 ? p50 / limit : 0);
   }
 }
 
@@ -265,16 +306,20 @@ void run_bench(Session& s, const BenchArgs& a) {
 void add_line_commands(CLI::App& app, Session& session) {
   auto ping_args = std::make_shared<PingArgs>();
   auto* ping = app.add_subcommand("ping", "Echo test (FC08) with round-trip times and statistics");
-  ping->add_option("-c,--count", ping_args->count, "How many echoes (0: until Ctrl-C)")->capture_default_str();
-  ping->add_option("-i,--interval", ping_args->interval_s, "Seconds between echoes")->capture_default_str()
+  ping->add_option("-c,--count", ping_args->count, "How many echoes (0: until Ctrl-C)")
+      ->capture_default_str();
+  ping->add_option("-i,--interval", ping_args->interval_s, "Seconds between echoes")
+      ->capture_default_str()
       ->check(CLI::Range(0.0, 3600.0));
   ping->callback([&session, ping_args] { run_ping(session, *ping_args); });
 
   auto ids = std::make_shared<std::string>("1-32");
   auto all_bauds = std::make_shared<bool>(false);
-  auto* scan = app.add_subcommand("scan", "Which controller IDs answer on the bus, with their names");
+  auto* scan =
+      app.add_subcommand("scan", "Which controller IDs answer on the bus, with their names");
   scan->add_option("--ids", *ids, "IDs to try, e.g. 1-32 or 1,3,5")->capture_default_str();
-  scan->add_flag("--all-bauds", *all_bauds, "When replies fail, try the other baud rates to find the controller's");
+  scan->add_flag("--all-bauds", *all_bauds,
+                 "When replies fail, try the other baud rates to find the controller's");
   scan->callback([&session, ids, all_bauds] { run_scan(session, *ids, *all_bauds); });
 
   auto words = std::make_shared<std::vector<std::string>>();
@@ -285,7 +330,8 @@ void add_line_commands(CLI::App& app, Session& session) {
   decode->callback([&session, words, as_reply] { run_decode(session, *words, *as_reply); });
 
   auto as_is = std::make_shared<bool>(false);
-  auto* raw = app.add_subcommand("raw", "Send a frame as given (CRC appended unless present) and show the reply");
+  auto* raw = app.add_subcommand(
+      "raw", "Send a frame as given (CRC appended unless present) and show the reply");
   raw->add_option("hex", *words, "The frame, e.g. 01 03 90 00 00 07")->required();
   raw->add_flag("--as-is", *as_is, "Send the bytes exactly as given (no CRC added)");
   raw->callback([&session, words, as_is] { run_raw(session, *words, *as_is); });
@@ -303,9 +349,13 @@ void add_line_commands(CLI::App& app, Session& session) {
   });
 
   auto bench_args = std::make_shared<BenchArgs>();
-  auto* bench = app.add_subcommand("bench", "Measure transactions/s and latency against the wire limit");
-  bench->add_option("--op", bench_args->op, "read-state (D9000x7), read-flags (X40x16) or echo")->capture_default_str();
-  bench->add_option("-n", bench_args->n, "Transactions")->capture_default_str()->check(CLI::Range(1, 10000000));
+  auto* bench =
+      app.add_subcommand("bench", "Measure transactions/s and latency against the wire limit");
+  bench->add_option("--op", bench_args->op, "read-state (D9000x7), read-flags (X40x16) or echo")
+      ->capture_default_str();
+  bench->add_option("-n", bench_args->n, "Transactions")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000000));
   bench->callback([&session, bench_args] { run_bench(session, *bench_args); });
 }
 

@@ -25,7 +25,8 @@ bool parse_on_off(const std::string& v, std::string_view what) {
 std::function<void(const client::Progress&)> progress_printer(const Session& s) {
   if (s.json() || !isatty(fileno(stderr))) return {};
   return [](const client::Progress& p) {
-    fmt::print(stderr, "\r{:6.2f} s {}\033[K", to_seconds(p.elapsed), progress_line(p.state, p.flags));
+    fmt::print(stderr, "\r{:6.2f} s {}\033[K", to_seconds(p.elapsed),
+               progress_line(p.state, p.flags));
   };
 }
 
@@ -52,9 +53,10 @@ void report_move(const Session& s, const client::MoveResult& r, std::string_view
                r.in_position ? "INP = 1 (in position)" : "INP = 0 (NOT in position)");
   }
   if (!r.in_position) {
-    throw CommandFailed(kFailure, r.flags.busy() ? "the operation is still running"
-                                                 : "BUSY fell without INP: the move ended outside its in-position "
-                                                   "width (a push that missed the workpiece, or a stop)");
+    throw CommandFailed(
+        kFailure, r.flags.busy() ? "the operation is still running"
+                                 : "BUSY fell without INP: the move ended outside its in-position "
+                                   "width (a push that missed the workpiece, or a stop)");
   }
 }
 
@@ -88,7 +90,8 @@ client::DirectMove direct_move(const MoveArgs& a) {
   m.pushing_speed_mm_s = u16(StepField::PushingSpeed, a.push_speed);
   if (!a.area.empty()) {
     const auto colon = a.area.find(':');
-    if (colon == std::string::npos) throw UsageError(fmt::format("--area '{}': expected A:B in mm, e.g. 100:200", a.area));
+    if (colon == std::string::npos)
+      throw UsageError(fmt::format("--area '{}': expected A:B in mm, e.g. 100:200", a.area));
     m.area1_001mm = static_cast<int32_t>(field_value(StepField::Area1, a.area.substr(0, colon)));
     m.area2_001mm = static_cast<int32_t>(field_value(StepField::Area2, a.area.substr(colon + 1)));
   }
@@ -104,12 +107,14 @@ void run_move(Session& s, const MoveArgs& a) {
   if (by_step && (a.relative || !a.speed.empty() || !a.push.empty() || !a.area.empty())) {
     throw UsageError("move --step runs the stored step as it is: edit it with `lec step set`");
   }
-  const client::DirectMove m = by_step ? client::DirectMove{} : direct_move(a);  // validate before opening
+  const client::DirectMove m =
+      by_step ? client::DirectMove{} : direct_move(a);  // validate before opening
   auto& axis = s.axis();
   const auto deadline = s.deadline_in(milliseconds(a.timeout_s * 1000));
   auto wait = s.wait_options(progress_printer(s));
   if (by_step) {
-    report_move(s, axis.run_step(static_cast<unsigned>(a.step), deadline, wait), fmt::format("Step {}", a.step));
+    report_move(s, axis.run_step(static_cast<unsigned>(a.step), deadline, wait),
+                fmt::format("Step {}", a.step));
     return;
   }
   const auto r = axis.move(m, deadline, wait, a.no_wait);
@@ -117,7 +122,8 @@ void run_move(Session& s, const MoveArgs& a) {
     if (s.json()) {
       print_json(state_json(r.state, r.flags, {}));
     } else {
-      fmt::print("Started: target {} mm ({})\n", lec::format_mm(r.state.target_001mm), r.flags.describe());
+      fmt::print("Started: target {} mm ({})\n", lec::format_mm(r.state.target_001mm),
+                 r.flags.describe());
     }
     return;
   }
@@ -130,7 +136,8 @@ bool stdin_has_input() {
 }
 
 void run_jog(Session& s, const std::string& dir, double seconds) {
-  if (dir != "+" && dir != "-") throw UsageError(fmt::format("jog: direction must be + or -, got '{}'", dir));
+  if (dir != "+" && dir != "-")
+    throw UsageError(fmt::format("jog: direction must be + or -, got '{}'", dir));
   auto& axis = s.axis();
   const bool held = seconds <= 0;
   if (held && !s.json()) fmt::print(stderr, "Jogging {}: press Enter or Ctrl-C to stop\n", dir);
@@ -169,7 +176,8 @@ void add_motion_commands(CLI::App& app, Session& session) {
   serial->callback([&session, value] {
     const bool on = parse_on_off(*value, "serial");
     session.axis().set_serial_mode(on);
-    say(session, on ? "Serial input mode (Y30 = 1)" : "Parallel input mode (Y30 = 0)", {{"serial_mode", on}});
+    say(session, on ? "Serial input mode (Y30 = 1)" : "Parallel input mode (Y30 = 0)",
+        {{"serial_mode", on}});
   });
 
   auto* servo = app.add_subcommand("servo", "Servo on/off (Y19 SVON), waiting for SVRE");
@@ -188,21 +196,26 @@ void add_motion_commands(CLI::App& app, Session& session) {
   });
 
   auto home_timeout = std::make_shared<double>(60.0);
-  auto* home = app.add_subcommand("home", "Return to origin: SETUP, wait SETON and BUSY 0, SETUP off");
-  home->add_option("--timeout-s", *home_timeout, "Deadline for the return to origin")->capture_default_str();
+  auto* home =
+      app.add_subcommand("home", "Return to origin: SETUP, wait SETON and BUSY 0, SETUP off");
+  home->add_option("--timeout-s", *home_timeout, "Deadline for the return to origin")
+      ->capture_default_str();
   home->callback([&session, home_timeout] {
     auto& axis = session.axis();
     const auto r = axis.home(session.deadline_in(milliseconds(*home_timeout * 1000)),
                              session.wait_options(progress_printer(session)));
     end_progress(session);
-    say(session, fmt::format("Homed in {:.2f} s: position {} mm, {}", to_seconds(r.elapsed),
-                             lec::format_mm(r.state.position_001mm), r.flags.describe()),
+    say(session,
+        fmt::format("Homed in {:.2f} s: position {} mm, {}", to_seconds(r.elapsed),
+                    lec::format_mm(r.state.position_001mm), r.flags.describe()),
         state_json(r.state, r.flags, {}));
   });
 
   auto a = std::make_shared<MoveArgs>();
-  auto* move = app.add_subcommand("move", "Run a stored step (--step N) or a direct operation (--to MM)");
-  move->add_option("--step", a->step, "Step number 0-63 (IN0-IN5 + DRIVE)")->check(CLI::Range(0, 63));
+  auto* move =
+      app.add_subcommand("move", "Run a stored step (--step N) or a direct operation (--to MM)");
+  move->add_option("--step", a->step, "Step number 0-63 (IN0-IN5 + DRIVE)")
+      ->check(CLI::Range(0, 63));
   move->add_option("--to", a->to, "Target position, mm (direct operation, D9102-D9111 + D9100)");
   move->add_flag("--relative", a->relative, "--to is a distance from the last target (INC)");
   move->add_option("--speed", a->speed, "Speed, mm/s (1-65535)");
@@ -220,7 +233,8 @@ void add_motion_commands(CLI::App& app, Session& session) {
 
   auto dir = std::make_shared<std::string>();
   auto jog_for = std::make_shared<double>(0);
-  auto* jog = app.add_subcommand("jog", "Jog + or - while held (Enter/Ctrl-C stops) or --for SECONDS");
+  auto* jog =
+      app.add_subcommand("jog", "Jog + or - while held (Enter/Ctrl-C stops) or --for SECONDS");
   jog->add_option("direction", *dir, "+ or -")->required();
   jog->add_option("--for", *jog_for, "Jog for this many seconds")->check(CLI::PositiveNumber);
   jog->callback([&session, dir, jog_for] { run_jog(session, *dir, *jog_for); });
@@ -230,21 +244,24 @@ void add_motion_commands(CLI::App& app, Session& session) {
   hold->callback([&session, value] {
     const bool on = parse_on_off(*value, "hold");
     session.axis().hold(on);
-    say(session, on ? "HOLD on: operation suspended" : "HOLD off: operation resumed", {{"hold", on}});
+    say(session, on ? "HOLD on: operation suspended" : "HOLD off: operation resumed",
+        {{"hold", on}});
   });
 
-  app.add_subcommand("stop", "Decelerating stop of the running operation (RESET pulse)")->callback([&session] {
-    session.axis().stop();
-    say(session, "Stopped (decelerating stop)");
-  });
+  app.add_subcommand("stop", "Decelerating stop of the running operation (RESET pulse)")
+      ->callback([&session] {
+        session.axis().stop();
+        say(session, "Stopped (decelerating stop)");
+      });
 
   app.add_subcommand("reset", "Reset alarms (RESET pulse)")->callback([&session] {
     const auto left = session.axis().reset_alarms();
     if (!left.empty()) {
       std::string codes;
       for (uint8_t c : left) codes += fmt::format(" {} ({})", c, lec::alarm_meaning(c));
-      throw client::AlarmError(left, "alarm still active after RESET:" + codes +
-                                         "; it may need the servo off (`lec servo off`) or a power cycle");
+      throw client::AlarmError(
+          left, "alarm still active after RESET:" + codes +
+                    "; it may need the servo off (`lec servo off`) or a power cycle");
     }
     say(session, "Alarms reset: none active", {{"alarms", nlohmann::json::array()}});
   });

@@ -35,7 +35,9 @@ void run_status(Session& s) {
   fmt::print("  Thrust     {:>10} %\n", state.thrust_pct);
   fmt::print("  Step       {:>10}   (OUT0-5 = {})\n", state.step_no, flags.out());
   fmt::print("  Flags      {}\n", flags.describe());
-  fmt::print("  Input mode {}\n", controls.serial_mode ? "serial (Y30 = 1)" : "parallel (Y30 = 0): run `lec serial on` to operate");
+  fmt::print("  Input mode {}\n", controls.serial_mode
+                                      ? "serial (Y30 = 1)"
+                                      : "parallel (Y30 = 0): run `lec serial on` to operate");
   if (alarms.empty()) {
     fmt::print("  Alarms     none\n");
   } else {
@@ -56,7 +58,8 @@ void run_watch(Session& s, const WatchOptions& o) {
   if (!o.record.empty()) {
     csv.open(o.record);
     if (!csv) throw CommandFailed(kFailure, fmt::format("cannot write {}", o.record));
-    csv << "time_s,position_mm,speed_mm_s,thrust_pct,target_mm,step,busy,svre,seton,inp,area,warea,estop,alarm,out\n";
+    csv << "time_s,position_mm,speed_mm_s,thrust_pct,target_mm,step,busy,svre,seton,inp,area,warea,"
+           "estop,alarm,out\n";
   }
   const TimePoint start = c.clock().now();
   const bool tty = isatty(fileno(stdout));
@@ -69,25 +72,30 @@ void run_watch(Session& s, const WatchOptions& o) {
     if (csv) {
       csv << fmt::format("{:.4f},{},{},{},{},{},{:d},{:d},{:d},{:d},{:d},{:d},{:d},{:d},{}\n", t,
                          lec::format_mm(state.position_001mm), state.speed_mm_s, state.thrust_pct,
-                         lec::format_mm(state.target_001mm), state.step_no, flags.busy(), flags.svre(), flags.seton(),
-                         flags.inp(), flags.area(), flags.warea(), flags.estop(), flags.alarm(), flags.out());
+                         lec::format_mm(state.target_001mm), state.step_no, flags.busy(),
+                         flags.svre(), flags.seton(), flags.inp(), flags.area(), flags.warea(),
+                         flags.estop(), flags.alarm(), flags.out());
     }
     if (s.json()) {
       auto j = state_json(state, flags, {});
       j["time_s"] = t;
       fmt::print("{}\n", dump_json(j));
     } else {
-      fmt::print("{}{:8.3f} s {}{}", tty ? "\r" : "", t, progress_line(state, flags), tty ? "\033[K" : "\n");
+      fmt::print("{}{:8.3f} s {}{}", tty ? "\r" : "", t, progress_line(state, flags),
+                 tty ? "\033[K" : "\n");
     }
     std::fflush(stdout);
     if ((o.count && samples >= o.count) || (o.seconds > 0 && t >= o.seconds)) break;
     if (o.interval_ms > 0) {
       const TimePoint next = c.clock().now() + milliseconds(o.interval_ms);
-      while (c.clock().now() < next && !g_interrupted) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      while (c.clock().now() < next && !g_interrupted)
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   }
   if (tty && !s.json()) fmt::print("\n");
-  if (!s.json()) fmt::print(stderr, "{} samples{}\n", samples, o.record.empty() ? "" : " recorded in " + o.record);
+  if (!s.json())
+    fmt::print(stderr, "{} samples{}\n", samples,
+               o.record.empty() ? "" : " recorded in " + o.record);
 }
 
 void run_alarms(Session& s) {
@@ -137,21 +145,30 @@ void run_name(Session& s) {
 }  // namespace
 
 void add_status_commands(CLI::App& app, Session& session) {
-  app.add_subcommand("status", "State, flags and active alarms")->callback([&] { run_status(session); });
+  app.add_subcommand("status", "State, flags and active alarms")->callback([&] {
+    run_status(session);
+  });
 
   auto watch_opts = std::make_shared<WatchOptions>();
-  auto* watch = app.add_subcommand("watch", "Live view of position, speed, thrust and flags until Ctrl-C");
-  watch->add_option("--record", watch_opts->record, "Log every sample with a timestamp to a CSV file");
-  watch->add_option("--for", watch_opts->seconds, "Stop after this many seconds")->check(CLI::PositiveNumber);
-  watch->add_option("--count", watch_opts->count, "Stop after this many samples")->check(CLI::PositiveNumber);
-  watch->add_option("--interval", watch_opts->interval_ms, "Pause between samples, ms (default: as fast as the line)")
+  auto* watch =
+      app.add_subcommand("watch", "Live view of position, speed, thrust and flags until Ctrl-C");
+  watch->add_option("--record", watch_opts->record,
+                    "Log every sample with a timestamp to a CSV file");
+  watch->add_option("--for", watch_opts->seconds, "Stop after this many seconds")
+      ->check(CLI::PositiveNumber);
+  watch->add_option("--count", watch_opts->count, "Stop after this many samples")
+      ->check(CLI::PositiveNumber);
+  watch
+      ->add_option("--interval", watch_opts->interval_ms,
+                   "Pause between samples, ms (default: as fast as the line)")
       ->check(CLI::Range(0, 60000));
   watch->callback([&session, watch_opts] { run_watch(session, *watch_opts); });
 
-  app.add_subcommand("alarms", "Active alarms and the 16-group history, with meanings")->callback([&] {
-    run_alarms(session);
+  app.add_subcommand("alarms", "Active alarms and the 16-group history, with meanings")
+      ->callback([&] { run_alarms(session); });
+  app.add_subcommand("name", "The controller's equipment name (D000E)")->callback([&] {
+    run_name(session);
   });
-  app.add_subcommand("name", "The controller's equipment name (D000E)")->callback([&] { run_name(session); });
 }
 
 }  // namespace lec6::cli

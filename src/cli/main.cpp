@@ -25,7 +25,9 @@ constexpr const char* kExitCodes = R"(Exit codes:
 
 Ports: --port /dev/ttyUSB0 | tcp://host:502 | sim (in-process twin); LEC_PORT sets a default.)";
 
-void on_signal(int) { cli::g_interrupted = true; }
+void on_signal(int) {
+  cli::g_interrupted = true;
+}
 
 void install_signal_handlers() {
   struct sigaction sa {};
@@ -41,40 +43,50 @@ int fail(int code, const std::string& message) {
 }
 
 void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
-  app.add_option("--port,-p", o.port, "Port: /dev/ttyUSB0, tcp://host:502 or sim (default: $LEC_PORT)");
+  app.add_option("--port,-p", o.port,
+                 "Port: /dev/ttyUSB0, tcp://host:502 or sim (default: $LEC_PORT)");
   app.add_option("--baud,-b", o.baud, "Line speed (9600 19200 38400 57600 115200 230400)")
       ->capture_default_str()
       ->check(CLI::IsMember({9600, 19200, 38400, 57600, 115200, 230400}));
-  app.add_option("--id", o.id, "Controller ID (1-255)")->capture_default_str()->check(CLI::Range(1, 255));
-  app.add_option("--timeout", o.timeout_margin_ms, "Margin added to the manual's response time Tx, ms")
+  app.add_option("--id", o.id, "Controller ID (1-255)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 255));
+  app.add_option("--timeout", o.timeout_margin_ms,
+                 "Margin added to the manual's response time Tx, ms")
       ->capture_default_str()
       ->check(CLI::Range(0, 60000));
   app.add_option("--retries", o.retries, "Retries of reads and absolute writes after a lost reply")
       ->capture_default_str()
       ->check(CLI::Range(0, 10));
   app.add_flag("--json", o.json, "Machine-readable JSON output");
-  app.add_flag("--trace", o.trace, "Show every frame sent and received (hex and decoded) on stderr");
+  app.add_flag("--trace", o.trace,
+               "Show every frame sent and received (hex and decoded) on stderr");
   app.add_flag("--rs485", o.rs485, "Kernel RS485 mode (TIOCSRS485): RTS on while sending");
-  app.add_flag("--rs485-rts-after-send", o.rs485_rts_after_send, "RS485: RTS level after sending is 1");
+  app.add_flag("--rs485-rts-after-send", o.rs485_rts_after_send,
+               "RS485: RTS level after sending is 1");
   app.add_option("--rs485-delay-before", o.rs485_delay_before_ms, "RS485: delay before send, ms")
       ->check(CLI::Range(0, 1000));
   app.add_option("--rs485-delay-after", o.rs485_delay_after_ms, "RS485: delay after send, ms")
       ->check(CLI::Range(0, 1000));
-  app.add_flag("--echo", o.echo, "The adapter echoes what it sends (2-wire): verify and discard the echo");
-  app.add_option("--silent-interval", o.silent_interval_k, "The controller's silent interval setting k (Ts = k x 3.5 chars)")
+  app.add_flag("--echo", o.echo,
+               "The adapter echoes what it sends (2-wire): verify and discard the echo");
+  app.add_option("--silent-interval", o.silent_interval_k,
+                 "The controller's silent interval setting k (Ts = k x 3.5 chars)")
       ->capture_default_str()
       ->check(CLI::Range(1, 100));
   app.add_option("--delay-ms", o.delay_td_ms, "The controller's minimum communication delay Td, ms")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
   app.add_flag("--no-silence-wait", o.no_silence_wait,
-               "Do not wait Ts of silence before each query (only for a --timing fast twin or TCP; never on RS485)");
+               "Do not wait Ts of silence before each query (only for a --timing fast twin or TCP; "
+               "never on RS485)");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"lec: drive SMC LEC\u25A16 electric-actuator controllers over RS485 (Modbus RTU)", "lec"};
+  CLI::App app{"lec: drive SMC LEC\u25A16 electric-actuator controllers over RS485 (Modbus RTU)",
+               "lec"};
   app.footer(kExitCodes);
   app.require_subcommand(1);
   app.fallthrough();

@@ -37,10 +37,11 @@ std::string resolve_port(const GlobalOptions& o, std::string_view default_port) 
   if (!o.port.empty()) return o.port;
   if (const char* env = std::getenv("LEC_PORT"); env && *env) return env;
   if (!default_port.empty()) return std::string(default_port);
-  throw UsageError(fmt::format(
-      "no port given: use --port /dev/ttyUSB0 (or tcp://host:502, or sim for the built-in twin), or set "
-      "LEC_PORT\n{}",
-      ports_found()));
+  throw UsageError(
+      fmt::format("no port given: use --port /dev/ttyUSB0 (or tcp://host:502, or sim for the "
+                  "built-in twin), or set "
+                  "LEC_PORT\n{}",
+                  ports_found()));
 }
 
 }  // namespace
@@ -101,16 +102,21 @@ client::Actuator& Session::axis(std::string_view default_port) {
   return *impl_->axis;
 }
 
-std::string Session::port_description() const { return impl_ ? impl_->description : std::string("(not open)"); }
+std::string Session::port_description() const {
+  return impl_ ? impl_->description : std::string("(not open)");
+}
 
-client::WaitOptions Session::wait_options(std::function<void(const client::Progress&)> progress) const {
+client::WaitOptions Session::wait_options(
+    std::function<void(const client::Progress&)> progress) const {
   client::WaitOptions w;
   w.progress = std::move(progress);
   w.cancel = [] { return g_interrupted.load(); };
   return w;
 }
 
-TimePoint Session::deadline_in(Duration d) { return client().clock().now() + d; }
+TimePoint Session::deadline_in(Duration d) {
+  return client().clock().now() + d;
+}
 
 namespace {
 // nlohmann-json prints doubles in their shortest form (150.0); millimetres must
@@ -129,8 +135,12 @@ std::string dump_json(const nlohmann::json& j, int indent) {
   return text;
 }
 
-void print_json(const nlohmann::json& j) { fmt::print("{}\n", dump_json(j, 2)); }
+void print_json(const nlohmann::json& j) {
+  fmt::print("{}\n", dump_json(j, 2));
+}
 
-nlohmann::json mm_json(int64_t v) { return std::string(kMmMark) + lec::format_mm(v); }
+nlohmann::json mm_json(int64_t v) {
+  return std::string(kMmMark) + lec::format_mm(v);
+}
 
 }  // namespace lec6::cli

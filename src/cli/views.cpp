@@ -13,7 +13,8 @@ nlohmann::json flags_json(const lec::StatusFlags& f) {
           {"estop", f.estop()}, {"alarm", f.alarm()}, {"out", f.out()}};
 }
 
-nlohmann::json state_json(const lec::StateData& s, const lec::StatusFlags& f, const std::vector<uint8_t>& alarms) {
+nlohmann::json state_json(const lec::StateData& s, const lec::StatusFlags& f,
+                          const std::vector<uint8_t>& alarms) {
   nlohmann::json j;
   j["position_mm"] = mm_json(s.position_001mm);
   j["speed_mm_s"] = s.speed_mm_s;
@@ -26,12 +27,14 @@ nlohmann::json state_json(const lec::StateData& s, const lec::StatusFlags& f, co
 }
 
 std::string progress_line(const lec::StateData& s, const lec::StatusFlags& f) {
-  return fmt::format("{:>10} mm {:>6} mm/s  thrust {:>3} %  {}", lec::format_mm(s.position_001mm), s.speed_mm_s,
-                     s.thrust_pct, f.describe());
+  return fmt::format("{:>10} mm {:>6} mm/s  thrust {:>3} %  {}", lec::format_mm(s.position_001mm),
+                     s.speed_mm_s, s.thrust_pct, f.describe());
 }
 
 nlohmann::json alarm_json(uint8_t code) {
-  return {{"code", code}, {"meaning", std::string(lec::alarm_meaning(code))}, {"resettable", lec::alarm_resettable(code)}};
+  return {{"code", code},
+          {"meaning", std::string(lec::alarm_meaning(code))},
+          {"resettable", lec::alarm_resettable(code)}};
 }
 
 }  // namespace lec6::cli

@@ -12,7 +12,8 @@
 namespace lec6::cli {
 
 nlohmann::json flags_json(const lec::StatusFlags& f);
-nlohmann::json state_json(const lec::StateData& s, const lec::StatusFlags& f, const std::vector<uint8_t>& alarms);
+nlohmann::json state_json(const lec::StateData& s, const lec::StatusFlags& f,
+                          const std::vector<uint8_t>& alarms);
 // "  150.00 mm   500 mm/s  thrust  12 %  BUSY SVRE" for a progress line.
 std::string progress_line(const lec::StateData& s, const lec::StatusFlags& f);
 nlohmann::json alarm_json(uint8_t code);

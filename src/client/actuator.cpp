@@ -11,7 +11,8 @@ using lec::Coil;
 
 std::string codes_text(const std::vector<uint8_t>& codes) {
   std::string out;
-  for (uint8_t c : codes) out += fmt::format("{}{} ({})", out.empty() ? "" : ", ", c, lec::alarm_meaning(c));
+  for (uint8_t c : codes)
+    out += fmt::format("{}{} ({})", out.empty() ? "" : ", ", c, lec::alarm_meaning(c));
   return out.empty() ? "no code in the history" : out;
 }
 
@@ -64,16 +65,20 @@ lec::StepData merge_direct(const lec::StepData& current, const DirectMove& m) {
   if (m.pushing_speed_mm_s) d.pushing_speed_mm_s = *m.pushing_speed_mm_s;
   // A move without --push is a positioning move, whatever the previous one was.
   d.pushing_force_pct = m.pushing_force_pct.value_or(0);
-  d.trigger_level_pct = m.trigger_level_pct.value_or(m.pushing_force_pct ? *m.pushing_force_pct : 0);
+  d.trigger_level_pct =
+      m.trigger_level_pct.value_or(m.pushing_force_pct ? *m.pushing_force_pct : 0);
   return d;
 }
 
-void Actuator::set_serial_mode(bool serial) { client_.write_coil(Coil::SerialMode, serial); }
+void Actuator::set_serial_mode(bool serial) {
+  client_.write_coil(Coil::SerialMode, serial);
+}
 
 void Actuator::require_serial_mode(const lec::ControlFlags& controls) {
   if (!controls.serial_mode) {
     throw InvalidRequest(
-        "the controller is in parallel input mode (Y30 = 0): operation commands are refused; run `lec serial on`");
+        "the controller is in parallel input mode (Y30 = 0): operation commands are refused; run "
+        "`lec serial on`");
   }
 }
 
@@ -84,8 +89,9 @@ std::vector<uint8_t> Actuator::active_alarms(const lec::StatusFlags& flags) {
 
 void Actuator::raise_alarm(const lec::StatusFlags& flags, std::string_view during) {
   auto codes = active_alarms(flags);
-  throw AlarmError(codes, fmt::format("the controller raised an alarm during {}: {}; clear it with `lec reset`",
-                                      during, codes_text(codes)));
+  throw AlarmError(
+      codes, fmt::format("the controller raised an alarm during {}: {}; clear it with `lec reset`",
+                         during, codes_text(codes)));
 }
 
 void Actuator::check_cancel(const WaitOptions& wait) {
@@ -115,7 +121,8 @@ void Actuator::servo_on(TimePoint deadline, const WaitOptions& wait) {
     if (wait.progress) wait.progress({lec::StateData{}, flags, client_.clock().now() - start});
     if (flags.svre()) return;
     if (flags.alarm()) raise_alarm(flags, "servo on");
-    if (flags.estop()) throw AlarmError({}, "servo cannot turn on: emergency stop (ESTOP) is active");
+    if (flags.estop())
+      throw AlarmError({}, "servo cannot turn on: emergency stop (ESTOP) is active");
     check_cancel(wait);
     check_deadline(deadline, "servo on (waiting for SVRE)");
   }
@@ -134,7 +141,8 @@ void Actuator::servo_off(TimePoint deadline, const WaitOptions& wait) {
 MoveResult Actuator::home(TimePoint deadline, const WaitOptions& wait) {
   require_serial_mode(client_.read_controls());
   const auto before = client_.read_flags();
-  if (!before.svre()) throw InvalidRequest("return to origin needs the servo on (SVRE = 0): run `lec servo on`");
+  if (!before.svre())
+    throw InvalidRequest("return to origin needs the servo on (SVRE = 0): run `lec servo on`");
   if (before.alarm()) raise_alarm(before, "return to origin (alarm already active)");
   CoilReset clear_setup(client_, Coil::SETUP);
   client_.write_coil(Coil::SETUP, true);
@@ -152,7 +160,8 @@ MoveResult Actuator::home(TimePoint deadline, const WaitOptions& wait) {
   }
 }
 
-MoveResult Actuator::wait_until_idle(std::optional<int32_t> target, TimePoint deadline, const WaitOptions& wait) {
+MoveResult Actuator::wait_until_idle(std::optional<int32_t> target, TimePoint deadline,
+                                     const WaitOptions& wait) {
   const TimePoint start = client_.clock().now();
   bool seen_busy = false;
   for (;;) {
@@ -178,11 +187,12 @@ MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptio
   require_serial_mode(controls);
   const auto data = client_.read_step(step);
   if (data.is_blank()) {
-    throw InvalidRequest(fmt::format("step {} is blank (not registered): set it first with `lec step set {} ...`",
-                                     step, step));
+    throw InvalidRequest(fmt::format(
+        "step {} is blank (not registered): set it first with `lec step set {} ...`", step, step));
   }
   std::optional<int32_t> target;
-  if (data.movement_mode == lec::MovementMode::Absolute && !data.is_pushing()) target = data.position_001mm;
+  if (data.movement_mode == lec::MovementMode::Absolute && !data.is_pushing())
+    target = data.position_001mm;
   // DRIVE starts on a rising edge: make sure it is low first.
   if (controls.test(Coil::DRIVE)) client_.write_coil(Coil::DRIVE, false);
   client_.select_step(step);
@@ -193,7 +203,8 @@ MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptio
   return wait_until_idle(target, deadline, wait);
 }
 
-MoveResult Actuator::move(const DirectMove& m, TimePoint deadline, const WaitOptions& wait, bool no_wait) {
+MoveResult Actuator::move(const DirectMove& m, TimePoint deadline, const WaitOptions& wait,
+                          bool no_wait) {
   const auto current = client_.read_direct();
   const lec::StepData want = merge_direct(current, m);
   const auto issues = lec::validation_messages(want, std::nullopt);
@@ -206,7 +217,8 @@ MoveResult Actuator::move(const DirectMove& m, TimePoint deadline, const WaitOpt
   for (unsigned i = 0; i < lec::StepData::kRegisters; ++i) {
     if (have_regs[i] != want_regs[i]) first = std::min(first, i), last = i;
   }
-  if (first < lec::StepData::kRegisters) client_.write_direct_registers(want, first, last - first + 1);
+  if (first < lec::StepData::kRegisters)
+    client_.write_direct_registers(want, first, last - first + 1);
 
   const bool relative = want.movement_mode == lec::MovementMode::Incremental;
   std::optional<int32_t> target;
@@ -219,7 +231,8 @@ MoveResult Actuator::move(const DirectMove& m, TimePoint deadline, const WaitOpt
     try {
       client_.write_direct_start(Retry::Never);
     } catch (const TransportError& e) {
-      if (e.kind() == TransportErrorKind::Port || e.kind() == TransportErrorKind::EchoMismatch) throw;
+      if (e.kind() == TransportErrorKind::Port || e.kind() == TransportErrorKind::EchoMismatch)
+        throw;
       const auto after = client_.read_state();
       if (after.target_001mm != expected) client_.write_direct_start(Retry::Never);
     }
@@ -258,9 +271,13 @@ MoveResult Actuator::jog(bool plus, TimePoint until, TimePoint deadline, const W
   }
 }
 
-void Actuator::hold(bool on) { client_.write_coil(Coil::HOLD, on); }
+void Actuator::hold(bool on) {
+  client_.write_coil(Coil::HOLD, on);
+}
 
-void Actuator::stop() { pulse(Coil::RESET); }
+void Actuator::stop() {
+  pulse(Coil::RESET);
+}
 
 std::vector<uint8_t> Actuator::reset_alarms() {
   pulse(Coil::RESET);

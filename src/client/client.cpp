@@ -19,13 +19,15 @@ std::string join(const std::vector<std::string>& lines) {
 }
 
 TransportErrorKind kind_of(LinkErrorKind k) {
-  return k == LinkErrorKind::EchoMismatch ? TransportErrorKind::EchoMismatch : TransportErrorKind::Port;
+  return k == LinkErrorKind::EchoMismatch ? TransportErrorKind::EchoMismatch
+                                          : TransportErrorKind::Port;
 }
 
 template <typename T>
 const T& expect_reply(const Response& r, std::string_view what) {
   if (const T* t = std::get_if<T>(&r)) return *t;
-  throw TransportError(TransportErrorKind::Framing, fmt::format("unexpected reply type to {}", what));
+  throw TransportError(TransportErrorKind::Framing,
+                       fmt::format("unexpected reply type to {}", what));
 }
 
 void check_step_number(unsigned step) {
@@ -49,11 +51,12 @@ Client::Client(Link& link, ClientOptions options) : link_(link), options_(std::m
   timing_.margin = options_.timeout_margin;
 }
 
-void Client::trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes, const RequestFrame& request,
-                   const ResponseFrame* response) {
+void Client::trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
+                   const RequestFrame& request, const ResponseFrame* response) {
   if (!options_.trace) return;
-  std::string text = outgoing ? lec::explain_request(request)
-                              : (response ? lec::explain_response(*response, &request) : std::string("?"));
+  std::string text =
+      outgoing ? lec::explain_request(request)
+               : (response ? lec::explain_response(*response, &request) : std::string("?"));
   options_.trace(TraceEvent{outgoing, at, bytes, std::move(text)});
 }
 
@@ -101,9 +104,15 @@ ResponseFrame Client::run_once(const RequestFrame& frame) {
     stats_.bytes_discarded += tx.discarded();
     if (tx.step() == Transaction::Step::Failed) {
       switch (tx.error_kind()) {
-        case TransportErrorKind::Timeout: ++stats_.timeouts; break;
-        case TransportErrorKind::Crc: ++stats_.crc_errors; break;
-        default: ++stats_.framing_errors; break;
+        case TransportErrorKind::Timeout:
+          ++stats_.timeouts;
+          break;
+        case TransportErrorKind::Crc:
+          ++stats_.crc_errors;
+          break;
+        default:
+          ++stats_.framing_errors;
+          break;
       }
       throw TransportError(tx.error_kind(), tx.error());
     }
@@ -133,12 +142,14 @@ Response Client::transact(const Request& request, Retry retry, std::optional<uin
       ResponseFrame reply = run_once(frame);
       if (const auto* ex = std::get_if<ExceptionResponse>(&reply.pdu)) {
         ++stats_.exceptions;
-        throw ControllerException(ex->code, fmt::format("controller ID {} refused \"{}\": {}", frame.id,
-                                                        lec::explain_request(frame), lec::explain_exception(ex->code)));
+        throw ControllerException(
+            ex->code, fmt::format("controller ID {} refused \"{}\": {}", frame.id,
+                                  lec::explain_request(frame), lec::explain_exception(ex->code)));
       }
       return std::move(reply.pdu);
     } catch (const TransportError& e) {
-      const bool line_fault = e.kind() == TransportErrorKind::Timeout || e.kind() == TransportErrorKind::Crc ||
+      const bool line_fault = e.kind() == TransportErrorKind::Timeout ||
+                              e.kind() == TransportErrorKind::Crc ||
                               e.kind() == TransportErrorKind::Framing;
       if (!line_fault || attempt >= attempts) throw;
       ++stats_.retries;
@@ -146,7 +157,9 @@ Response Client::transact(const Request& request, Retry retry, std::optional<uin
   }
 }
 
-ResponseFrame Client::transact_raw(const RequestFrame& frame) { return run_once(frame); }
+ResponseFrame Client::transact_raw(const RequestFrame& frame) {
+  return run_once(frame);
+}
 
 void Client::broadcast(const Request& request) {
   if (!is_write(request)) {
@@ -167,7 +180,8 @@ lec::StateData Client::read_state() {
 }
 
 lec::StatusFlags Client::read_flags() {
-  const auto reply = transact(ReadBitsRequest{FunctionCode::ReadInputs, lec::kStatusInputs, lec::kStatusInputCount});
+  const auto reply = transact(
+      ReadBitsRequest{FunctionCode::ReadInputs, lec::kStatusInputs, lec::kStatusInputCount});
   return lec::StatusFlags::from_packed(expect_reply<ReadBitsResponse>(reply, "read flags").packed);
 }
 
@@ -185,15 +199,18 @@ lec::ControlFlags Client::read_controls() {
 
 lec::StepData Client::read_step(unsigned step) {
   check_step_number(step);
-  return lec::StepData::from_registers(read_registers(lec::step_address(step), lec::StepData::kRegisters));
+  return lec::StepData::from_registers(
+      read_registers(lec::step_address(step), lec::StepData::kRegisters));
 }
 
 std::array<lec::StepData, lec::kStepCount> Client::read_all_steps() {
   std::array<lec::StepData, lec::kStepCount> steps{};
-  constexpr unsigned kPerRead = kMaxReadRegisters / lec::StepData::kRegisters;  // 7 steps, 112 registers
+  constexpr unsigned kPerRead =
+      kMaxReadRegisters / lec::StepData::kRegisters;  // 7 steps, 112 registers
   for (unsigned first = 0; first < lec::kStepCount; first += kPerRead) {
     const unsigned n = std::min<unsigned>(kPerRead, lec::kStepCount - first);
-    const auto regs = read_registers(lec::step_address(first), static_cast<uint16_t>(n * lec::StepData::kRegisters));
+    const auto regs = read_registers(lec::step_address(first),
+                                     static_cast<uint16_t>(n * lec::StepData::kRegisters));
     for (unsigned i = 0; i < n; ++i) {
       steps[first + i] = lec::StepData::from_registers(
           std::span(regs).subspan(i * lec::StepData::kRegisters, lec::StepData::kRegisters));
@@ -207,11 +224,13 @@ lec::StepData Client::read_direct() {
 }
 
 lec::AlarmHistory Client::read_alarms() {
-  return lec::AlarmHistory::from_registers(read_registers(lec::kAlarmHistory, lec::kAlarmHistoryRegisters));
+  return lec::AlarmHistory::from_registers(
+      read_registers(lec::kAlarmHistory, lec::kAlarmHistoryRegisters));
 }
 
 lec::EquipmentName Client::read_name() {
-  return lec::EquipmentName::from_registers(read_registers(lec::kEquipmentName, lec::kEquipmentNameRegisters));
+  return lec::EquipmentName::from_registers(
+      read_registers(lec::kEquipmentName, lec::kEquipmentNameRegisters));
 }
 
 uint16_t Client::echo(uint16_t data) {
@@ -249,25 +268,31 @@ void Client::write_step(unsigned step, const lec::StepData& data) {
   write_registers(lec::step_address(step), regs);
 }
 
-void Client::write_step_registers(unsigned step, const lec::StepData& data, unsigned first, unsigned count) {
+void Client::write_step_registers(unsigned step, const lec::StepData& data, unsigned first,
+                                  unsigned count) {
   check_step_number(step);
   check_record(data, step);
   if (first + count > lec::StepData::kRegisters || count == 0) {
     throw InvalidRequest(fmt::format("registers {}+{} are outside a step record", first, count));
   }
   const auto regs = data.to_registers();
-  write_registers(static_cast<uint16_t>(lec::step_address(step) + first), std::span(regs).subspan(first, count));
+  write_registers(static_cast<uint16_t>(lec::step_address(step) + first),
+                  std::span(regs).subspan(first, count));
 }
 
-void Client::write_direct(const lec::StepData& data) { write_direct_registers(data, 0, lec::StepData::kRegisters); }
+void Client::write_direct(const lec::StepData& data) {
+  write_direct_registers(data, 0, lec::StepData::kRegisters);
+}
 
 void Client::write_direct_registers(const lec::StepData& data, unsigned first, unsigned count) {
   check_record(data, std::nullopt);
   if (first + count > lec::StepData::kRegisters || count == 0) {
-    throw InvalidRequest(fmt::format("registers {}+{} are outside the direct-operation record", first, count));
+    throw InvalidRequest(
+        fmt::format("registers {}+{} are outside the direct-operation record", first, count));
   }
   const auto regs = data.to_registers();
-  write_registers(static_cast<uint16_t>(lec::kDirectData + first), std::span(regs).subspan(first, count));
+  write_registers(static_cast<uint16_t>(lec::kDirectData + first),
+                  std::span(regs).subspan(first, count));
 }
 
 void Client::write_direct_start(Retry retry) {

@@ -6,11 +6,16 @@ namespace lec6::client {
 
 std::string_view transport_error_name(TransportErrorKind k) noexcept {
   switch (k) {
-    case TransportErrorKind::Port: return "port";
-    case TransportErrorKind::Timeout: return "timeout";
-    case TransportErrorKind::Crc: return "CRC";
-    case TransportErrorKind::Framing: return "framing";
-    case TransportErrorKind::EchoMismatch: return "echo mismatch";
+    case TransportErrorKind::Port:
+      return "port";
+    case TransportErrorKind::Timeout:
+      return "timeout";
+    case TransportErrorKind::Crc:
+      return "CRC";
+    case TransportErrorKind::Framing:
+      return "framing";
+    case TransportErrorKind::EchoMismatch:
+      return "echo mismatch";
   }
   return "transport";
 }
@@ -37,13 +42,15 @@ void Transaction::sent(TimePoint t) {
 }
 
 void Transaction::received(std::span<const uint8_t> bytes, TimePoint t) {
-  if (step_ != Step::Receive || broadcast()) return;  // a broadcast has no reply; ignore stray bytes
+  if (step_ != Step::Receive || broadcast())
+    return;  // a broadcast has no reply; ignore stray bytes
   if (framer_.feed(bytes) != modbus::ClientFramer::Status::Complete) return;
   auto decoded = modbus::decode_response(framer_.frame());
   if (!decoded) {
     // The framer verified ID, function, length and CRC, so this is a reply the
     // controller could not have sent (e.g. exception code 07).
-    fail(TransportErrorKind::Framing, fmt::format("malformed reply: {}", decoded.error().message), t);
+    fail(TransportErrorKind::Framing, fmt::format("malformed reply: {}", decoded.error().message),
+         t);
     return;
   }
   response_ = std::move(*decoded);
@@ -61,22 +68,25 @@ void Transaction::timed_out(TimePoint t) {
   const double waited = to_ms(t - sent_at_);
   if (framer_.crc_failures() > 0) {
     fail(TransportErrorKind::Crc,
-         fmt::format("reply failed the CRC check ({} bad candidate(s), {} bytes dropped) — noise on the "
-                     "line, or a baud rate that does not match the controller's",
-                     framer_.crc_failures(), framer_.discarded()),
+         fmt::format(
+             "reply failed the CRC check ({} bad candidate(s), {} bytes dropped) — noise on the "
+             "line, or a baud rate that does not match the controller's",
+             framer_.crc_failures(), framer_.discarded()),
          t);
   } else if (framer_.discarded() > 0 || framer_.buffered() > 0) {
     fail(TransportErrorKind::Framing,
-         fmt::format("no valid reply from ID {} in {:.1f} ms: {} stray byte(s) ({}), {} byte(s) of an "
-                     "incomplete reply",
-                     request_.id, waited, framer_.discarded(), modbus::discard_name(framer_.last_discard()),
-                     framer_.buffered()),
+         fmt::format(
+             "no valid reply from ID {} in {:.1f} ms: {} stray byte(s) ({}), {} byte(s) of an "
+             "incomplete reply",
+             request_.id, waited, framer_.discarded(), modbus::discard_name(framer_.last_discard()),
+             framer_.buffered()),
          t);
   } else {
     fail(TransportErrorKind::Timeout,
-         fmt::format("no reply from ID {} within {:.1f} ms (Tx + margin) — check the ID, baud rate, wiring "
-                     "and that the controller is powered",
-                     request_.id, waited),
+         fmt::format(
+             "no reply from ID {} within {:.1f} ms (Tx + margin) — check the ID, baud rate, wiring "
+             "and that the controller is powered",
+             request_.id, waited),
          t);
   }
 }

@@ -7,7 +7,8 @@ namespace lec6::lec {
 std::string_view alarm_meaning(uint8_t code) noexcept {
   switch (code) {
     case alarm::kInvalidData:
-      return "invalid step or operation data: a value is outside its range (check the step with `lec step get`)";
+      return "invalid step or operation data: a value is outside its range (check the step with "
+             "`lec step get`)";
     case alarm::kStepNotRegistered:
       return "step data not registered: the selected step is blank";
     case alarm::kStepBeyondStroke:
@@ -27,7 +28,9 @@ std::string_view alarm_meaning(uint8_t code) noexcept {
   }
 }
 
-bool alarm_resettable(uint8_t code) noexcept { return code >= 48 && code <= 99; }
+bool alarm_resettable(uint8_t code) noexcept {
+  return code >= 48 && code <= 99;
+}
 
 bool AlarmGroup::empty() const noexcept {
   return std::all_of(codes.begin(), codes.end(), [](uint8_t c) { return c == 0; });
@@ -50,7 +53,8 @@ std::array<uint16_t, AlarmHistory::kRegisters> AlarmHistory::to_registers() cons
   std::array<uint16_t, kRegisters> regs{};
   for (std::size_t g = 0; g < kGroups; ++g) {
     for (std::size_t i = 0; i < 8; i += 2) {
-      regs[g * 4 + i / 2] = static_cast<uint16_t>((groups[g].codes[i] << 8) | groups[g].codes[i + 1]);
+      regs[g * 4 + i / 2] =
+          static_cast<uint16_t>((groups[g].codes[i] << 8) | groups[g].codes[i + 1]);
     }
   }
   return regs;

@@ -13,7 +13,9 @@ namespace {
 
 using namespace modbus;
 
-std::string id_text(uint8_t id) { return id == kBroadcastId ? "broadcast" : fmt::format("ID {}", id); }
+std::string id_text(uint8_t id) {
+  return id == kBroadcastId ? "broadcast" : fmt::format("ID {}", id);
+}
 
 std::string bit_range(Space s, uint16_t start, uint16_t count) {
   const char letter = s == Space::Coil ? 'Y' : 'X';
@@ -47,11 +49,12 @@ std::string registers_text(uint16_t start, const std::vector<uint16_t>& values) 
       for (const auto& fi : step_fields()) {
         if (fi.offset == off) f = &fi;
       }
-      const std::string where = step ? fmt::format("step {} ", (a - kStepData) / kStepStride) : "direct ";
+      const std::string where =
+          step ? fmt::format("step {} ", (a - kStepData) / kStepStride) : "direct ";
       if (f && f->registers == 2 && i + 1 < values.size()) {
         const int32_t v = join_words(values[i], values[i + 1]);
-        add(fmt::format("{}{} = {}{}{}", where, f->name, format_field(f->field, v), f->unit.empty() ? "" : " ",
-                        f->unit));
+        add(fmt::format("{}{} = {}{}{}", where, f->name, format_field(f->field, v),
+                        f->unit.empty() ? "" : " ", f->unit));
         ++i;
         continue;
       }
@@ -68,7 +71,8 @@ std::string registers_text(uint16_t start, const std::vector<uint16_t>& values) 
       continue;
     }
     if (a == kDirectStart) {
-      add(values[i] ? fmt::format("D9100 = {:04X}h: start direct operation", values[i]) : "D9100 = 0");
+      add(values[i] ? fmt::format("D9100 = {:04X}h: start direct operation", values[i])
+                    : "D9100 = 0");
       continue;
     }
     if (a == kStatusWord) {
@@ -82,12 +86,11 @@ std::string registers_text(uint16_t start, const std::vector<uint16_t>& values) 
 
 std::string reg_range(uint16_t start, uint16_t count) {
   if (count == 1) return address_name(Space::Register, start);
-  return fmt::format("D{:04X}–D{:04X} ({})", start, start + count - 1,
-                     [&] {
-                       const std::string n = address_name(Space::Register, start);
-                       const auto sp = n.find(' ');
-                       return sp == std::string::npos ? std::string("undefined") : n.substr(sp + 1);
-                     }());
+  return fmt::format("D{:04X}–D{:04X} ({})", start, start + count - 1, [&] {
+    const std::string n = address_name(Space::Register, start);
+    const auto sp = n.find(' ');
+    return sp == std::string::npos ? std::string("undefined") : n.substr(sp + 1);
+  }());
 }
 
 }  // namespace
@@ -119,7 +122,8 @@ std::string explain_request(const RequestFrame& frame) {
                          bits_text(Space::Coil, q.start, q.count, q.packed), extra);
     }
     std::string operator()(const WriteRegistersRequest& q) const {
-      return fmt::format("{} write {}: {}", who, reg_range(q.start, q.count), registers_text(q.start, q.values()));
+      return fmt::format("{} write {}: {}", who, reg_range(q.start, q.count),
+                         registers_text(q.start, q.values()));
     }
   };
   return std::visit(Visitor{who}, frame.pdu);
@@ -135,9 +139,11 @@ std::string explain_response(const ResponseFrame& frame, const RequestFrame* req
       uint16_t start = s == Space::Input ? kStatusInputs : address(Coil::IN0);
       auto count = static_cast<uint16_t>(a.packed.size() * 8);
       if (request) {
-        if (const auto* q = std::get_if<ReadBitsRequest>(&request->pdu)) start = q->start, count = q->count;
+        if (const auto* q = std::get_if<ReadBitsRequest>(&request->pdu))
+          start = q->start, count = q->count;
       }
-      return fmt::format("{} {}: {}", who, bit_range(s, start, count), bits_text(s, start, count, a.packed));
+      return fmt::format("{} {}: {}", who, bit_range(s, start, count),
+                         bits_text(s, start, count, a.packed));
     }
     std::string operator()(const ReadRegistersResponse& a) const {
       if (request) {
@@ -150,7 +156,8 @@ std::string explain_response(const ResponseFrame& frame, const RequestFrame* req
       return fmt::format("{} {} register(s): {}", who, a.values.size(), words);
     }
     std::string operator()(const WriteCoilResponse& a) const {
-      return fmt::format("{} ok: {} = {}", who, address_name(Space::Coil, a.coil), a.value == kCoilOn ? "ON" : "OFF");
+      return fmt::format("{} ok: {} = {}", who, address_name(Space::Coil, a.coil),
+                         a.value == kCoilOn ? "ON" : "OFF");
     }
     std::string operator()(const EchoResponse& a) const {
       return fmt::format("{} echo reply data {:04X}h", who, a.data);
@@ -162,8 +169,8 @@ std::string explain_response(const ResponseFrame& frame, const RequestFrame* req
       return fmt::format("{} ok: wrote {} register(s) at D{:04X}", who, a.count, a.start);
     }
     std::string operator()(const ExceptionResponse& a) const {
-      return fmt::format("{} exception {:02X} ({}) to function {:02X}h", who, static_cast<int>(a.code),
-                         exception_name(a.code), a.raw_function);
+      return fmt::format("{} exception {:02X} ({}) to function {:02X}h", who,
+                         static_cast<int>(a.code), exception_name(a.code), a.raw_function);
     }
   };
   return std::visit(Visitor{who, request}, frame.pdu);

@@ -4,27 +4,42 @@ namespace lec6::lec {
 
 std::string_view coil_name(uint16_t coil) noexcept {
   switch (coil) {
-    case 0x10: return "IN0";
-    case 0x11: return "IN1";
-    case 0x12: return "IN2";
-    case 0x13: return "IN3";
-    case 0x14: return "IN4";
-    case 0x15: return "IN5";
-    case 0x18: return "HOLD";
-    case 0x19: return "SVON";
-    case 0x1A: return "DRIVE";
-    case 0x1B: return "RESET";
-    case 0x1C: return "SETUP";
-    case 0x1D: return "JOG-";
-    case 0x1E: return "JOG+";
-    case 0x30: return "input invalid flag (serial mode)";
-    default: return {};
+    case 0x10:
+      return "IN0";
+    case 0x11:
+      return "IN1";
+    case 0x12:
+      return "IN2";
+    case 0x13:
+      return "IN3";
+    case 0x14:
+      return "IN4";
+    case 0x15:
+      return "IN5";
+    case 0x18:
+      return "HOLD";
+    case 0x19:
+      return "SVON";
+    case 0x1A:
+      return "DRIVE";
+    case 0x1B:
+      return "RESET";
+    case 0x1C:
+      return "SETUP";
+    case 0x1D:
+      return "JOG-";
+    case 0x1E:
+      return "JOG+";
+    case 0x30:
+      return "input invalid flag (serial mode)";
+    default:
+      return {};
   }
 }
 
 std::string_view status_flag_name(unsigned bit) noexcept {
-  static constexpr std::string_view kNames[16] = {"OUT0", "OUT1", "OUT2", "OUT3", "OUT4", "OUT5",
-                                                  "—",    "—",    "BUSY", "SVRE", "SETON", "INP",
+  static constexpr std::string_view kNames[16] = {"OUT0", "OUT1",  "OUT2",  "OUT3", "OUT4",  "OUT5",
+                                                  "—",    "—",     "BUSY",  "SVRE", "SETON", "INP",
                                                   "AREA", "WAREA", "ESTOP", "ALARM"};
   return bit < 16 ? kNames[bit] : std::string_view{};
 }

@@ -24,18 +24,24 @@ constexpr std::array<Area, 7> kAreas{{
 
 std::string_view space_letter(Space s) {
   switch (s) {
-    case Space::Coil: return "Y";
-    case Space::Input: return "X";
-    case Space::Register: return "D";
+    case Space::Coil:
+      return "Y";
+    case Space::Input:
+      return "X";
+    case Space::Register:
+      return "D";
   }
   return "?";
 }
 
 std::string addr(Space s, uint16_t a) {
-  return s == Space::Register ? fmt::format("D{:04X}", a) : fmt::format("{}{:02X}", space_letter(s), a);
+  return s == Space::Register ? fmt::format("D{:04X}", a)
+                              : fmt::format("{}{:02X}", space_letter(s), a);
 }
 
-Refusal refuse(ExceptionCode code, std::string reason) { return Refusal{code, std::move(reason)}; }
+Refusal refuse(ExceptionCode code, std::string reason) {
+  return Refusal{code, std::move(reason)};
+}
 
 struct Access {
   Space space;
@@ -48,7 +54,8 @@ std::optional<Refusal> check_range(const Access& a) {
   const Area* area = find_area(a.space, a.start);
   if (!area) {
     return refuse(ExceptionCode::IllegalAddress,
-                  fmt::format("start address {} is outside every area of the memory map", addr(a.space, a.start)));
+                  fmt::format("start address {} is outside every area of the memory map",
+                              addr(a.space, a.start)));
   }
   const uint32_t last = static_cast<uint32_t>(a.start) + a.count - 1;
   if (last > area->last) {
@@ -68,7 +75,8 @@ std::optional<Refusal> check_write(const Access& a, bool serial_mode) {
       case WriteRule::SerialModeOnly:
         if (!serial_mode) {
           return refuse(ExceptionCode::IllegalAddress,
-                        fmt::format("{} cannot be written in parallel input mode (Y30 = 0)", addr(a.space, address)));
+                        fmt::format("{} cannot be written in parallel input mode (Y30 = 0)",
+                                    addr(a.space, address)));
         }
         break;
       case WriteRule::Refused:
@@ -95,7 +103,9 @@ std::optional<Refusal> check_access(const Access& a, bool serial_mode) {
 
 }  // namespace
 
-std::span<const Area> areas() noexcept { return kAreas; }
+std::span<const Area> areas() noexcept {
+  return kAreas;
+}
 
 const Area* find_area(Space space, uint16_t address) noexcept {
   for (const Area& a : kAreas) {
@@ -138,31 +148,35 @@ std::optional<Refusal> check_request(const modbus::Request& request, bool serial
     std::optional<Refusal> operator()(const WriteCoilRequest& q) const {
       if (auto r = check_access({Space::Coil, q.coil, 1, true}, serial_mode)) return r;
       if (q.value != kCoilOn && q.value != kCoilOff) {
-        return refuse(ExceptionCode::IllegalAccessRange,
-                      fmt::format("coil value {:04X}h is neither FF00h (ON) nor 0000h (OFF)", q.value));
+        return refuse(
+            ExceptionCode::IllegalAccessRange,
+            fmt::format("coil value {:04X}h is neither FF00h (ON) nor 0000h (OFF)", q.value));
       }
       return std::nullopt;
     }
     std::optional<Refusal> operator()(const EchoRequest& q) const {
       if (q.test_code != 0) {
-        return refuse(ExceptionCode::IllegalAddress,
-                      fmt::format("echo test code {:04X}h: the controller only knows 0000h", q.test_code));
+        return refuse(
+            ExceptionCode::IllegalAddress,
+            fmt::format("echo test code {:04X}h: the controller only knows 0000h", q.test_code));
       }
       return std::nullopt;
     }
     std::optional<Refusal> operator()(const WriteCoilsRequest& q) const {
       if (auto r = check_count(q.count, kMaxWriteCoils, "write")) return r;
       if (q.packed.size() != (q.count + 7u) / 8u) {
-        return refuse(ExceptionCode::IllegalAccessRange,
-                      fmt::format("byte count {} does not match {} coils", q.packed.size(), q.count));
+        return refuse(
+            ExceptionCode::IllegalAccessRange,
+            fmt::format("byte count {} does not match {} coils", q.packed.size(), q.count));
       }
       return check_access({Space::Coil, q.start, q.count, true}, serial_mode);
     }
     std::optional<Refusal> operator()(const WriteRegistersRequest& q) const {
       if (auto r = check_count(q.count, kMaxWriteRegisters, "write")) return r;
       if (q.data.size() != 2u * q.count) {
-        return refuse(ExceptionCode::IllegalAccessRange,
-                      fmt::format("byte count {} does not match {} registers", q.data.size(), q.count));
+        return refuse(
+            ExceptionCode::IllegalAccessRange,
+            fmt::format("byte count {} does not match {} registers", q.data.size(), q.count));
       }
       return check_access({Space::Register, q.start, q.count, true}, serial_mode);
     }
@@ -173,13 +187,16 @@ std::optional<Refusal> check_request(const modbus::Request& request, bool serial
 std::string explain_exception(modbus::ExceptionCode code) {
   switch (code) {
     case modbus::ExceptionCode::IllegalFunction:
-      return "01: illegal function — the controller does not have this function code (it has 01, 02, "
+      return "01: illegal function — the controller does not have this function code (it has 01, "
+             "02, "
              "03, 05, 08, 0F, 10; a single register is written with 10, not 06)";
     case modbus::ExceptionCode::IllegalAddress:
-      return "02: address refused — the address is outside the memory map or read-only, or the write "
+      return "02: address refused — the address is outside the memory map or read-only, or the "
+             "write "
              "is refused in parallel input mode (run `lec serial on` to set Y30)";
     case modbus::ExceptionCode::IllegalAccessRange:
-      return "03: access range refused — the count is 0 or too large, the access runs past the end of "
+      return "03: access range refused — the count is 0 or too large, the access runs past the end "
+             "of "
              "its area, or a coil value is not FF00h/0000h";
   }
   return "unknown exception code";
@@ -187,7 +204,8 @@ std::string explain_exception(modbus::ExceptionCode code) {
 
 std::string address_name(Space space, uint16_t address) {
   if (space == Space::Input && address >= 0x40 && address <= 0x4F) {
-    return fmt::format("X{:02X} {}", address, status_flag_name(static_cast<unsigned>(address - 0x40)));
+    return fmt::format("X{:02X} {}", address,
+                       status_flag_name(static_cast<unsigned>(address - 0x40)));
   }
   if (space == Space::Coil) {
     const std::string_view n = coil_name(address);
@@ -201,22 +219,35 @@ std::string address_name(Space space, uint16_t address) {
   }
   if (address >= kStepData && address <= 0x07FF) {
     const unsigned step = (address - kStepData) / kStepStride;
-    return fmt::format("{} step {} {}", d, step, step_register_name((address - kStepData) % kStepStride));
+    return fmt::format("{} step {} {}", d, step,
+                       step_register_name((address - kStepData) % kStepStride));
   }
   if (address >= kDirectData && address <= 0x9111) {
     return fmt::format("{} direct operation {}", d, step_register_name(address - kDirectData));
   }
   switch (address) {
-    case 0x9000: case 0x9001: return d + " current position";
-    case 0x9002: return d + " current speed";
-    case 0x9003: return d + " current thrust";
-    case 0x9004: case 0x9005: return d + " target position";
-    case 0x9006: return d + " driving step No.";
-    case kStatusWord: return d + " X40–X4F flags";
-    case kControlWordY10: return d + " Y10–Y1F flags";
-    case kControlWordY30: return d + " Y30–Y3F flags";
-    case kDirectStart: return d + " direct operation start";
-    default: return d;
+    case 0x9000:
+    case 0x9001:
+      return d + " current position";
+    case 0x9002:
+      return d + " current speed";
+    case 0x9003:
+      return d + " current thrust";
+    case 0x9004:
+    case 0x9005:
+      return d + " target position";
+    case 0x9006:
+      return d + " driving step No.";
+    case kStatusWord:
+      return d + " X40–X4F flags";
+    case kControlWordY10:
+      return d + " Y10–Y1F flags";
+    case kControlWordY30:
+      return d + " Y30–Y3F flags";
+    case kDirectStart:
+      return d + " direct operation start";
+    default:
+      return d;
   }
 }
 

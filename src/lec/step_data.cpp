@@ -50,7 +50,8 @@ constexpr std::array<Alias, 8> kAliases{{
 std::string normalise(std::string_view s) {
   std::string out;
   out.reserve(s.size());
-  for (char c : s) out.push_back(c == '-' ? '_' : static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+  for (char c : s)
+    out.push_back(c == '-' ? '_' : static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
   return out;
 }
 
@@ -63,10 +64,22 @@ std::string range_text(const StepFieldInfo& i) {
 }  // namespace
 
 std::array<uint16_t, StepData::kRegisters> StepData::to_registers() const noexcept {
-  return {static_cast<uint16_t>(movement_mode), speed_mm_s, high_word(position_001mm), low_word(position_001mm),
-          acceleration_mm_s2, deceleration_mm_s2, pushing_force_pct, trigger_level_pct,
-          pushing_speed_mm_s, moving_force_pct, high_word(area1_001mm), low_word(area1_001mm),
-          high_word(area2_001mm), low_word(area2_001mm), high_word(in_position_001mm), low_word(in_position_001mm)};
+  return {static_cast<uint16_t>(movement_mode),
+          speed_mm_s,
+          high_word(position_001mm),
+          low_word(position_001mm),
+          acceleration_mm_s2,
+          deceleration_mm_s2,
+          pushing_force_pct,
+          trigger_level_pct,
+          pushing_speed_mm_s,
+          moving_force_pct,
+          high_word(area1_001mm),
+          low_word(area1_001mm),
+          high_word(area2_001mm),
+          low_word(area2_001mm),
+          high_word(in_position_001mm),
+          low_word(in_position_001mm)};
 }
 
 StepData StepData::from_registers(std::span<const uint16_t> regs) noexcept {
@@ -88,13 +101,18 @@ StepData StepData::from_registers(std::span<const uint16_t> regs) noexcept {
   return s;
 }
 
-std::span<const StepFieldInfo> step_fields() noexcept { return kFields; }
-const StepFieldInfo& field_info(StepField f) noexcept { return kFields[static_cast<std::size_t>(f)]; }
+std::span<const StepFieldInfo> step_fields() noexcept {
+  return kFields;
+}
+const StepFieldInfo& field_info(StepField f) noexcept {
+  return kFields[static_cast<std::size_t>(f)];
+}
 
 const StepFieldInfo* find_step_field(std::string_view name) noexcept {
   const std::string n = normalise(name);
   for (const auto& i : kFields) {
-    if (n == normalise(i.name) || n == normalise(i.long_name) || n == normalise(i.csv_column)) return &i;
+    if (n == normalise(i.name) || n == normalise(i.long_name) || n == normalise(i.csv_column))
+      return &i;
   }
   for (const auto& a : kAliases) {
     if (n == a.name) return &field_info(a.field);
@@ -124,10 +142,14 @@ void set_field(StepData& s, StepField f, int64_t raw) noexcept {
 std::string format_field(StepField f, int64_t raw) {
   if (f == StepField::MovementMode) {
     switch (raw) {
-      case 0: return "blank";
-      case 1: return "abs";
-      case 2: return "inc";
-      default: return fmt::format("{}?", raw);
+      case 0:
+        return "blank";
+      case 1:
+        return "abs";
+      case 2:
+        return "inc";
+      default:
+        return fmt::format("{}?", raw);
     }
   }
   if (field_info(f).is_length) return format_mm(raw);
@@ -161,16 +183,18 @@ std::vector<ValidationIssue> validate(const StepData& s) {
                                              i.unit.empty() ? "" : " ", i.unit, range_text(i))});
     }
   }
-  if (s.pushing_force_pct > 0 && s.pushing_force_pct <= 100 && s.trigger_level_pct > s.pushing_force_pct) {
-    issues.push_back({StepField::TriggerLevel,
-                      fmt::format("trigger level {} % exceeds pushing force {} %", s.trigger_level_pct,
-                                  s.pushing_force_pct)});
+  if (s.pushing_force_pct > 0 && s.pushing_force_pct <= 100 &&
+      s.trigger_level_pct > s.pushing_force_pct) {
+    issues.push_back(
+        {StepField::TriggerLevel, fmt::format("trigger level {} % exceeds pushing force {} %",
+                                              s.trigger_level_pct, s.pushing_force_pct)});
   }
   return issues;
 }
 
 std::vector<std::string> validation_messages(const StepData& s, std::optional<unsigned> step) {
-  const std::string prefix = step ? fmt::format("step {}: ", *step) : std::string("direct operation: ");
+  const std::string prefix =
+      step ? fmt::format("step {}: ", *step) : std::string("direct operation: ");
   std::vector<std::string> out;
   for (const auto& issue : validate(s)) out.push_back(prefix + issue.message);
   return out;
@@ -178,7 +202,8 @@ std::vector<std::string> validation_messages(const StepData& s, std::optional<un
 
 std::string step_register_name(unsigned offset) {
   for (const auto& i : kFields) {
-    if (offset == i.offset) return i.registers == 2 ? fmt::format("{} (high word)", i.name) : std::string(i.name);
+    if (offset == i.offset)
+      return i.registers == 2 ? fmt::format("{} (high word)", i.name) : std::string(i.name);
     if (i.registers == 2 && offset == i.offset + 1u) return fmt::format("{} (low word)", i.name);
   }
   return fmt::format("offset {:X}", offset);

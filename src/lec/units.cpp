@@ -44,18 +44,21 @@ Expected<int64_t, std::string> parse_mm(std::string_view text) {
   }
   const auto dot = t.find_first_of(".,");  // spreadsheets in some locales write 150,00
   const std::string_view whole = t.substr(0, dot);
-  const std::string_view frac = dot == std::string_view::npos ? std::string_view{} : t.substr(dot + 1);
+  const std::string_view frac =
+      dot == std::string_view::npos ? std::string_view{} : t.substr(dot + 1);
   auto all_digits = [](std::string_view s) {
     for (char c : s) {
       if (!std::isdigit(static_cast<unsigned char>(c))) return false;
     }
     return true;
   };
-  if ((whole.empty() && frac.empty()) || !all_digits(whole) || !all_digits(frac) || whole.size() > 10) {
+  if ((whole.empty() && frac.empty()) || !all_digits(whole) || !all_digits(frac) ||
+      whole.size() > 10) {
     return unexpected(fmt::format("'{}' is not a length in mm (e.g. 150.00)", text));
   }
   if (frac.size() > 2) {
-    return unexpected(fmt::format("'{}' has more than two decimals: lengths are in 0.01 mm steps", text));
+    return unexpected(
+        fmt::format("'{}' has more than two decimals: lengths are in 0.01 mm steps", text));
   }
   int64_t mm = 0;
   if (!whole.empty()) std::from_chars(whole.data(), whole.data() + whole.size(), mm);

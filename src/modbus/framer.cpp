@@ -39,7 +39,8 @@ void ClientFramer::drop_front(Discard why) {
 }
 
 bool ClientFramer::is_read() const noexcept {
-  return expect_.function == FunctionCode::ReadCoils || expect_.function == FunctionCode::ReadInputs ||
+  return expect_.function == FunctionCode::ReadCoils ||
+         expect_.function == FunctionCode::ReadInputs ||
          expect_.function == FunctionCode::ReadRegisters;
 }
 
@@ -58,7 +59,8 @@ ClientFramer::Status ClientFramer::scan() {
     }
     // Reads: the byte count must be the one the request implies, so a garbage
     // byte count cannot make us wait for a frame that will never come.
-    if (!exception && is_read() && buffer_.size() >= 3 && buffer_[2] + 5u != expect_.normal_length) {
+    if (!exception && is_read() && buffer_.size() >= 3 &&
+        buffer_[2] + 5u != expect_.normal_length) {
       drop_front(Discard::WrongLength);
       continue;
     }
@@ -85,11 +87,16 @@ std::size_t ClientFramer::bytes_wanted() const noexcept {
 
 std::string_view discard_name(ClientFramer::Discard d) noexcept {
   switch (d) {
-    case ClientFramer::Discard::None: return "none";
-    case ClientFramer::Discard::WrongId: return "bytes from another ID or noise";
-    case ClientFramer::Discard::WrongFunction: return "unexpected function code";
-    case ClientFramer::Discard::WrongLength: return "byte count does not match the request";
-    case ClientFramer::Discard::BadCrc: return "CRC mismatch";
+    case ClientFramer::Discard::None:
+      return "none";
+    case ClientFramer::Discard::WrongId:
+      return "bytes from another ID or noise";
+    case ClientFramer::Discard::WrongFunction:
+      return "unexpected function code";
+    case ClientFramer::Discard::WrongLength:
+      return "byte count does not match the request";
+    case ClientFramer::Discard::BadCrc:
+      return "CRC mismatch";
   }
   return "?";
 }

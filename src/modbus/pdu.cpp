@@ -36,8 +36,9 @@ Unexpected<Error> fail(ErrorKind kind, std::string message) {
 
 Expected<void, Error> check_count(std::string_view what, uint16_t count, uint16_t max) {
   if (count < 1 || count > max) {
-    return fail(ErrorKind::CountOutOfRange,
-                fmt::format("{} of {}: the controller accepts 1 to {} (digest §2)", what, count, max));
+    return fail(
+        ErrorKind::CountOutOfRange,
+        fmt::format("{} of {}: the controller accepts 1 to {} (digest §2)", what, count, max));
   }
   return {};
 }
@@ -45,16 +46,18 @@ Expected<void, Error> check_count(std::string_view what, uint16_t count, uint16_
 Expected<void, Error> check_request(const Request& r) {
   struct Visitor {
     Expected<void, Error> operator()(const ReadBitsRequest& q) const {
-      return check_count(q.function == FunctionCode::ReadCoils ? "read of Y coils" : "read of X inputs",
-                         q.count, kMaxReadBits);
+      return check_count(
+          q.function == FunctionCode::ReadCoils ? "read of Y coils" : "read of X inputs", q.count,
+          kMaxReadBits);
     }
     Expected<void, Error> operator()(const ReadRegistersRequest& q) const {
       return check_count("read of D registers", q.count, kMaxReadRegisters);
     }
     Expected<void, Error> operator()(const WriteCoilRequest& q) const {
       if (q.value != kCoilOn && q.value != kCoilOff) {
-        return fail(ErrorKind::BadValue,
-                    fmt::format("coil value {:04X}h: FC05 takes FF00h (ON) or 0000h (OFF)", q.value));
+        return fail(
+            ErrorKind::BadValue,
+            fmt::format("coil value {:04X}h: FC05 takes FF00h (ON) or 0000h (OFF)", q.value));
       }
       return {};
     }
@@ -71,8 +74,9 @@ Expected<void, Error> check_request(const Request& r) {
     Expected<void, Error> operator()(const WriteRegistersRequest& q) const {
       if (auto c = check_count("write of D registers", q.count, kMaxWriteRegisters); !c) return c;
       if (q.data.size() != 2u * q.count) {
-        return fail(ErrorKind::BadByteCount, fmt::format("{} registers need {} data bytes, {} given",
-                                                         q.count, 2 * q.count, q.data.size()));
+        return fail(ErrorKind::BadByteCount,
+                    fmt::format("{} registers need {} data bytes, {} given", q.count, 2 * q.count,
+                                q.data.size()));
       }
       return {};
     }
@@ -85,7 +89,9 @@ void encode_request_pdu(const Request& r, Bytes& out) {
   struct Visitor {
     Bytes& out;
     void operator()(const ReadBitsRequest& q) const { put16(out, q.start), put16(out, q.count); }
-    void operator()(const ReadRegistersRequest& q) const { put16(out, q.start), put16(out, q.count); }
+    void operator()(const ReadRegistersRequest& q) const {
+      put16(out, q.start), put16(out, q.count);
+    }
     void operator()(const WriteCoilRequest& q) const { put16(out, q.coil), put16(out, q.value); }
     void operator()(const EchoRequest& q) const { put16(out, q.test_code), put16(out, q.data); }
     void operator()(const WriteCoilsRequest& q) const {
@@ -139,8 +145,9 @@ void encode_response_pdu(const Response& r, Bytes& out) {
 // Checks the ADU's envelope: minimum size and CRC. Returns the PDU span.
 Expected<std::span<const uint8_t>, Error> open_adu(std::span<const uint8_t> adu, std::size_t min) {
   if (adu.size() < min) {
-    return fail(ErrorKind::ShortFrame,
-                fmt::format("frame of {} bytes is too short (at least {} needed)", adu.size(), min));
+    return fail(
+        ErrorKind::ShortFrame,
+        fmt::format("frame of {} bytes is too short (at least {} needed)", adu.size(), min));
   }
   if (adu.size() > kMaxAdu) {
     return fail(ErrorKind::LongFrame,
@@ -163,7 +170,8 @@ Unexpected<Error> wrong_length(std::string_view what, std::size_t got, std::size
 Expected<Request, Error> decode_request_pdu(std::span<const uint8_t> pdu) {
   const uint8_t fc = pdu[0];
   if (!is_known_function(fc)) {
-    return fail(ErrorKind::UnknownFunction, fmt::format("function code {:02X}h is not one the controller has", fc));
+    return fail(ErrorKind::UnknownFunction,
+                fmt::format("function code {:02X}h is not one the controller has", fc));
   }
   const auto code = static_cast<FunctionCode>(fc);
   const bool multi = code == FunctionCode::WriteCoils || code == FunctionCode::WriteRegisters;
@@ -172,8 +180,9 @@ Expected<Request, Error> decode_request_pdu(std::span<const uint8_t> pdu) {
     if (pdu.size() < 6) return wrong_length(function_name(code), pdu.size(), 6);
     const std::size_t byte_count = pdu[5];
     if (pdu.size() != 6 + byte_count) {
-      return fail(ErrorKind::BadByteCount, fmt::format("byte count {} disagrees with the {} data bytes present",
-                                                       byte_count, pdu.size() - 6));
+      return fail(ErrorKind::BadByteCount,
+                  fmt::format("byte count {} disagrees with the {} data bytes present", byte_count,
+                              pdu.size() - 6));
     }
   }
   const uint16_t a = get16(pdu, 1);
@@ -202,12 +211,15 @@ Expected<Response, Error> decode_response_pdu(std::span<const uint8_t> pdu) {
   if (fc & kExceptionFlag) {
     if (pdu.size() != 2) return wrong_length("exception", pdu.size(), 2);
     if (pdu[1] < 1 || pdu[1] > 3) {
-      return fail(ErrorKind::BadValue, fmt::format("exception code {:02X}h is not one the controller sends", pdu[1]));
+      return fail(ErrorKind::BadValue,
+                  fmt::format("exception code {:02X}h is not one the controller sends", pdu[1]));
     }
-    return Response{ExceptionResponse{static_cast<FunctionCode>(base), base, static_cast<ExceptionCode>(pdu[1])}};
+    return Response{ExceptionResponse{static_cast<FunctionCode>(base), base,
+                                      static_cast<ExceptionCode>(pdu[1])}};
   }
   if (!is_known_function(fc)) {
-    return fail(ErrorKind::UnknownFunction, fmt::format("function code {:02X}h is not one the controller has", fc));
+    return fail(ErrorKind::UnknownFunction,
+                fmt::format("function code {:02X}h is not one the controller has", fc));
   }
   const auto code = static_cast<FunctionCode>(fc);
   switch (code) {
@@ -218,12 +230,14 @@ Expected<Response, Error> decode_response_pdu(std::span<const uint8_t> pdu) {
       const std::size_t n = pdu[1];
       if (pdu.size() != 2 + n) {
         return fail(ErrorKind::BadByteCount,
-                    fmt::format("byte count {} disagrees with the {} data bytes present", n, pdu.size() - 2));
+                    fmt::format("byte count {} disagrees with the {} data bytes present", n,
+                                pdu.size() - 2));
       }
       if (code != FunctionCode::ReadRegisters) {
         return Response{ReadBitsResponse{code, Bytes(pdu.begin() + 2, pdu.end())}};
       }
-      if (n % 2) return fail(ErrorKind::BadByteCount, fmt::format("odd byte count {} for registers", n));
+      if (n % 2)
+        return fail(ErrorKind::BadByteCount, fmt::format("odd byte count {} for registers", n));
       ReadRegistersResponse r;
       r.values.reserve(n / 2);
       for (std::size_t i = 0; i < n; i += 2) r.values.push_back(get16(pdu, 2 + i));
@@ -249,7 +263,13 @@ Expected<Response, Error> decode_response_pdu(std::span<const uint8_t> pdu) {
 
 bool is_known_function(uint8_t fc) noexcept {
   switch (fc) {
-    case 0x01: case 0x02: case 0x03: case 0x05: case 0x08: case 0x0F: case 0x10:
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x05:
+    case 0x08:
+    case 0x0F:
+    case 0x10:
       return true;
     default:
       return false;
@@ -258,35 +278,52 @@ bool is_known_function(uint8_t fc) noexcept {
 
 std::string_view function_name(FunctionCode fc) noexcept {
   switch (fc) {
-    case FunctionCode::ReadCoils: return "read Y coils (01)";
-    case FunctionCode::ReadInputs: return "read X inputs (02)";
-    case FunctionCode::ReadRegisters: return "read D registers (03)";
-    case FunctionCode::WriteCoil: return "write Y coil (05)";
-    case FunctionCode::Echo: return "echo back (08)";
-    case FunctionCode::WriteCoils: return "write Y coils (0F)";
-    case FunctionCode::WriteRegisters: return "write D registers (10)";
+    case FunctionCode::ReadCoils:
+      return "read Y coils (01)";
+    case FunctionCode::ReadInputs:
+      return "read X inputs (02)";
+    case FunctionCode::ReadRegisters:
+      return "read D registers (03)";
+    case FunctionCode::WriteCoil:
+      return "write Y coil (05)";
+    case FunctionCode::Echo:
+      return "echo back (08)";
+    case FunctionCode::WriteCoils:
+      return "write Y coils (0F)";
+    case FunctionCode::WriteRegisters:
+      return "write D registers (10)";
   }
   return "unknown function";
 }
 
 std::string_view exception_name(ExceptionCode code) noexcept {
   switch (code) {
-    case ExceptionCode::IllegalFunction: return "illegal function";
-    case ExceptionCode::IllegalAddress: return "outside address range";
-    case ExceptionCode::IllegalAccessRange: return "outside access point range";
+    case ExceptionCode::IllegalFunction:
+      return "illegal function";
+    case ExceptionCode::IllegalAddress:
+      return "outside address range";
+    case ExceptionCode::IllegalAccessRange:
+      return "outside access point range";
   }
   return "unknown exception";
 }
 
 std::string_view error_kind_name(ErrorKind k) noexcept {
   switch (k) {
-    case ErrorKind::ShortFrame: return "short frame";
-    case ErrorKind::LongFrame: return "long frame";
-    case ErrorKind::BadCrc: return "bad CRC";
-    case ErrorKind::UnknownFunction: return "unknown function";
-    case ErrorKind::BadByteCount: return "bad byte count";
-    case ErrorKind::CountOutOfRange: return "count out of range";
-    case ErrorKind::BadValue: return "bad value";
+    case ErrorKind::ShortFrame:
+      return "short frame";
+    case ErrorKind::LongFrame:
+      return "long frame";
+    case ErrorKind::BadCrc:
+      return "bad CRC";
+    case ErrorKind::UnknownFunction:
+      return "unknown function";
+    case ErrorKind::BadByteCount:
+      return "bad byte count";
+    case ErrorKind::CountOutOfRange:
+      return "count out of range";
+    case ErrorKind::BadValue:
+      return "bad value";
   }
   return "error";
 }
@@ -294,8 +331,12 @@ std::string_view error_kind_name(ErrorKind k) noexcept {
 WriteCoilsRequest WriteCoilsRequest::of(uint16_t start, std::span<const bool> bits) {
   return {start, static_cast<uint16_t>(bits.size()), pack_bits(bits)};
 }
-bool WriteCoilsRequest::bit(std::size_t i) const noexcept { return packed_bit(packed, i); }
-bool ReadBitsResponse::bit(std::size_t i) const noexcept { return packed_bit(packed, i); }
+bool WriteCoilsRequest::bit(std::size_t i) const noexcept {
+  return packed_bit(packed, i);
+}
+bool ReadBitsResponse::bit(std::size_t i) const noexcept {
+  return packed_bit(packed, i);
+}
 
 WriteRegistersRequest WriteRegistersRequest::of(uint16_t start, std::span<const uint16_t> values) {
   WriteRegistersRequest r{start, static_cast<uint16_t>(values.size()), {}};
@@ -314,11 +355,15 @@ std::vector<uint16_t> WriteRegistersRequest::values() const {
 FunctionCode function_of(const Request& r) noexcept {
   struct Visitor {
     FunctionCode operator()(const ReadBitsRequest& q) const { return q.function; }
-    FunctionCode operator()(const ReadRegistersRequest&) const { return FunctionCode::ReadRegisters; }
+    FunctionCode operator()(const ReadRegistersRequest&) const {
+      return FunctionCode::ReadRegisters;
+    }
     FunctionCode operator()(const WriteCoilRequest&) const { return FunctionCode::WriteCoil; }
     FunctionCode operator()(const EchoRequest&) const { return FunctionCode::Echo; }
     FunctionCode operator()(const WriteCoilsRequest&) const { return FunctionCode::WriteCoils; }
-    FunctionCode operator()(const WriteRegistersRequest&) const { return FunctionCode::WriteRegisters; }
+    FunctionCode operator()(const WriteRegistersRequest&) const {
+      return FunctionCode::WriteRegisters;
+    }
   };
   return std::visit(Visitor{}, r);
 }
@@ -397,18 +442,21 @@ Expected<Bytes, std::string> from_hex(std::string_view text) {
   int pending = -1;
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
-    if (c == '0' && i + 1 < text.size() && (text[i + 1] == 'x' || text[i + 1] == 'X') && pending < 0) {
+    if (c == '0' && i + 1 < text.size() && (text[i + 1] == 'x' || text[i + 1] == 'X') &&
+        pending < 0) {
       ++i;  // "0x" prefix
       continue;
     }
     if (std::isspace(static_cast<unsigned char>(c)) || c == ',' || c == ':' || c == '-') {
-      if (pending >= 0) return unexpected(fmt::format("'{}' has a lone hex digit before position {}", text, i));
+      if (pending >= 0)
+        return unexpected(fmt::format("'{}' has a lone hex digit before position {}", text, i));
       continue;
     }
     if (!std::isxdigit(static_cast<unsigned char>(c))) {
       return unexpected(fmt::format("'{}' is not hex: unexpected '{}' at position {}", text, c, i));
     }
-    const int v = std::isdigit(static_cast<unsigned char>(c)) ? c - '0' : (std::tolower(c) - 'a' + 10);
+    const int v =
+        std::isdigit(static_cast<unsigned char>(c)) ? c - '0' : (std::tolower(c) - 'a' + 10);
     if (pending < 0) {
       pending = v;
     } else {

@@ -162,7 +162,8 @@ void Bus::schedule(uint8_t id, modbus::Bytes bytes, TimePoint start) {
   // Half duplex: one reply at a time on the line. Fast timing models no line
   // at all (digest §1: no artificial delay), so a reply takes no wire time.
   start = std::max(start, line_free_);
-  const Duration wire = line_.timing == Timing::Fast ? Duration{0} : line_.line.wire_time(bytes.size());
+  const Duration wire =
+      line_.timing == Timing::Fast ? Duration{0} : line_.line.wire_time(bytes.size());
   Reply r{id, start, start + wire, std::move(bytes)};
   line_free_ = r.end;
   auto pos = std::upper_bound(pending_.begin(), pending_.end(), r.start,

@@ -8,8 +8,8 @@
 namespace lec6::client {
 namespace {
 
-using testing::SimFixture;
 using ::testing::HasSubstr;
+using testing::SimFixture;
 
 TEST(Actuator, OperationsNeedSerialModeAndSayHowToGetIt) {
   SimFixture f;
@@ -103,7 +103,8 @@ TEST(Actuator, ProgressReportsMotion) {
 TEST(Actuator, JogMovesWhileHeldAndStops) {
   SimFixture f;
   f.prepare();
-  auto r = f.axis->jog(true, f.axis->deadline_in(std::chrono::seconds(1)), f.axis->deadline_in(std::chrono::seconds(5)));
+  auto r = f.axis->jog(true, f.axis->deadline_in(std::chrono::seconds(1)),
+                       f.axis->deadline_in(std::chrono::seconds(5)));
   EXPECT_FALSE(r.flags.busy());
   EXPECT_GT(r.state.position_001mm, 3000);  // ~50 mm/s for 1 s
   EXPECT_LT(r.state.position_001mm, 6000);

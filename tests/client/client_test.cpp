@@ -10,8 +10,8 @@ namespace lec6::client {
 namespace {
 
 using lec::Coil;
-using testing::SimFixture;
 using ::testing::HasSubstr;
+using testing::SimFixture;
 
 lec::StepData step_150mm() {
   return {lec::MovementMode::Absolute, 500, 15000, 5000, 5000, 0, 0, 20, 100, 0, 0, 100};
@@ -51,7 +51,8 @@ TEST(Client, ReadStateTakesExactlyTheWireLimitInRealTiming) {
     f.client->read_state();
     const modbus::LineTiming t{baud};
     // query 8 bytes, reply 5 + 14 bytes: the digest §1 limit, to the nanosecond.
-    EXPECT_NEAR(to_ms(f.client->last_round_trip()), to_ms(t.transaction_limit(8, 19)), 0.001) << baud;
+    EXPECT_NEAR(to_ms(f.client->last_round_trip()), to_ms(t.transaction_limit(8, 19)), 0.001)
+        << baud;
   }
 }
 
@@ -157,7 +158,8 @@ TEST(Client, LostReplyToAnIncStartDoesNotMoveTwice) {
   // Drop exactly the reply to the D9100 start; the controller still starts.
   f.on_trace = [&](const TraceEvent& e) {
     if (!e.outgoing) return;
-    const bool start = e.bytes.size() > 3 && e.bytes[1] == 0x10 && e.bytes[2] == 0x91 && e.bytes[3] == 0x00;
+    const bool start =
+        e.bytes.size() > 3 && e.bytes[1] == 0x10 && e.bytes[2] == 0x91 && e.bytes[3] == 0x00;
     sim::FaultConfig faults;
     faults.drop = start ? 1.0 : 0.0;
     f.bus.set_faults(faults);
@@ -168,7 +170,8 @@ TEST(Client, LostReplyToAnIncStartDoesNotMoveTwice) {
   auto r = f.axis->move(plus50, f.axis->deadline_in(std::chrono::seconds(10)));
   EXPECT_EQ(r.state.position_001mm, 15000);  // 100 + 50, not 100 + 2 × 50
   int starts = 0;
-  for (const auto& q : f.sent) starts += q.size() > 3 && q[1] == 0x10 && q[2] == 0x91 && q[3] == 0x00;
+  for (const auto& q : f.sent)
+    starts += q.size() > 3 && q[1] == 0x10 && q[2] == 0x91 && q[3] == 0x00;
   EXPECT_EQ(starts, 2);  // the two moves' starts: the lost one was not resent
 }
 
@@ -201,8 +204,8 @@ TEST(Client, BroadcastReachesEveryControllerWithoutReply) {
   const modbus::LineTiming t;
   EXPECT_GE(f.clock.now() - start, t.response_time(8));  // waited Tx
   for (uint8_t id : {1, 2, 3}) {
-    const auto reply =
-        f.client->transact(modbus::ReadBitsRequest{modbus::FunctionCode::ReadCoils, 0x30, 1}, Retry::Safe, id);
+    const auto reply = f.client->transact(
+        modbus::ReadBitsRequest{modbus::FunctionCode::ReadCoils, 0x30, 1}, Retry::Safe, id);
     EXPECT_TRUE(std::get<modbus::ReadBitsResponse>(reply).bit(0)) << "ID " << int(id);
   }
   EXPECT_THROW(f.client->broadcast(modbus::ReadRegistersRequest{0x9000, 1}), InvalidRequest);

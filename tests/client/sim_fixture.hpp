@@ -14,7 +14,8 @@
 namespace lec6::testing {
 
 struct SimFixture {
-  explicit SimFixture(sim::LineConfig line = {}, std::vector<uint8_t> ids = {1}, sim::ActuatorConfig config = {})
+  explicit SimFixture(sim::LineConfig line = {}, std::vector<uint8_t> ids = {1},
+                      sim::ActuatorConfig config = {})
       : bus(line) {
     for (uint8_t id : ids) bus.add(id, config, clock.now());
     link = std::make_unique<transport::SimLink>(bus, clock);

@@ -13,7 +13,9 @@ using modbus::from_hex;
 const modbus::RequestFrame kReadPosition{1, modbus::ReadRegistersRequest{0x9000, 2}};
 const modbus::Bytes kReply = *from_hex("01 03 04 00 00 3A 98 E9 39");
 
-TransactionTiming timing() { return TransactionTiming{modbus::LineTiming{}, milliseconds(50)}; }
+TransactionTiming timing() {
+  return TransactionTiming{modbus::LineTiming{}, milliseconds(50)};
+}
 
 TEST(Transaction, SendsTheEncodedQueryThenWaitsUntilTxPlusMargin) {
   Transaction tx(kReadPosition, timing());
@@ -69,13 +71,15 @@ TEST(Transaction, ExceptionReplyCompletesAtFiveBytes) {
   tx.sent(TimePoint{});
   tx.received(*from_hex("01 85 02 C3 51"), TimePoint{} + milliseconds(11));
   ASSERT_EQ(tx.step(), Transaction::Step::Done);
-  EXPECT_EQ(std::get<modbus::ExceptionResponse>(tx.response().pdu).code, modbus::ExceptionCode::IllegalAddress);
+  EXPECT_EQ(std::get<modbus::ExceptionResponse>(tx.response().pdu).code,
+            modbus::ExceptionCode::IllegalAddress);
 }
 
 TEST(Transaction, BroadcastWaitsTxAndIgnoresStrayBytes) {
   Transaction tx({0, modbus::WriteCoilRequest{0x30, modbus::kCoilOn}}, timing());
   tx.sent(TimePoint{});
-  EXPECT_NEAR(to_ms(tx.deadline() - TimePoint{}), to_ms(modbus::LineTiming{}.response_time(8)), 0.001);  // Tx
+  EXPECT_NEAR(to_ms(tx.deadline() - TimePoint{}), to_ms(modbus::LineTiming{}.response_time(8)),
+              0.001);  // Tx
   tx.received(*from_hex("00 05 00 30 FF 00"), TimePoint{} + milliseconds(1));
   EXPECT_EQ(tx.step(), Transaction::Step::Receive);
   tx.timed_out(tx.deadline());

@@ -29,7 +29,7 @@ enum { SVRE = 9, SETON = 10, INP = 11, BUSY = 8 };
 
 static int passed, failed;
 
-static void check(int ok, const char *fmt, ...) {
+static void check(int ok, const char* fmt, ...) {
   va_list ap;
   va_start(ap, fmt);
   fputs(ok ? "ok   " : "FAIL ", stdout);
@@ -49,24 +49,39 @@ static double now_s(void) {
   return (double)t.tv_sec + (double)t.tv_nsec / 1e9;
 }
 
-static int step_address(int n) { return 0x0400 + 0x10 * n; }
+static int step_address(int n) {
+  return 0x0400 + 0x10 * n;
+}
 
 /* A positioning record as the manual's example 4 (ABS, 500 mm/s, accel and
  * decel 5000, pushing speed 20, moving force 100, in position 1.00 mm). */
 static void record(uint16_t regs[16], int32_t position_001mm) {
-  const uint16_t r[16] = {1,    500,  (uint16_t)((uint32_t)position_001mm >> 16),
+  const uint16_t r[16] = {1,
+                          500,
+                          (uint16_t)((uint32_t)position_001mm >> 16),
                           (uint16_t)(position_001mm & 0xFFFF),
-                          5000, 5000, 0, 0, 20, 100, 0, 0, 0, 0, 0, 100};
+                          5000,
+                          5000,
+                          0,
+                          0,
+                          20,
+                          100,
+                          0,
+                          0,
+                          0,
+                          0,
+                          0,
+                          100};
   memcpy(regs, r, sizeof r);
 }
 
 /* X40-X4F as 16 bits; -1 on error. */
-static int read_flags(modbus_t *ctx, uint8_t bits[16]) {
+static int read_flags(modbus_t* ctx, uint8_t bits[16]) {
   return modbus_read_input_bits(ctx, 0x40, 16, bits) == 16 ? 0 : -1;
 }
 
 /* Waits until bits[a] == va and bits[b] == vb (b < 0: only a). */
-static int wait_flags(modbus_t *ctx, int a, int va, int b, int vb, uint8_t bits[16]) {
+static int wait_flags(modbus_t* ctx, int a, int va, int b, int vb, uint8_t bits[16]) {
   const double deadline = now_s() + 10.0;
   while (now_s() < deadline) {
     if (read_flags(ctx, bits) != 0) return -1;
@@ -75,7 +90,7 @@ static int wait_flags(modbus_t *ctx, int a, int va, int b, int vb, uint8_t bits[
   return -1;
 }
 
-static int32_t read_position(modbus_t *ctx, int *ok) {
+static int32_t read_position(modbus_t* ctx, int* ok) {
   uint16_t r[2] = {0, 0};
   *ok = modbus_read_registers(ctx, 0x9000, 2, r) == 2;
   return (int32_t)(((uint32_t)r[0] << 16) | r[1]);
@@ -89,7 +104,7 @@ static int only(const uint8_t bits[16], int a, int b, int c) {
   return 1;
 }
 
-static void examples(modbus_t *ctx) {
+static void examples(modbus_t* ctx) {
   uint8_t bits[16];
   uint16_t regs[16], back[16];
   int ok;
@@ -132,13 +147,13 @@ static void examples(modbus_t *ctx) {
   check(ok && pos == 30000, "D9000 x2 = 30000 (300.00 mm), got %d", pos);
 }
 
-static void expect_errno(int rc, int want, const char *what) {
+static void expect_errno(int rc, int want, const char* what) {
   const int err = errno;
   check(rc == -1 && err == want, "%s -> %s (rc %d, %s)", what, modbus_strerror(want), rc,
         rc == -1 ? modbus_strerror(err) : "no error");
 }
 
-static void exceptions(modbus_t *ctx) {
+static void exceptions(modbus_t* ctx) {
   uint16_t regs[8];
   uint8_t bits[16];
   const uint16_t zero[2] = {0, 0};
@@ -153,7 +168,7 @@ static void exceptions(modbus_t *ctx) {
 }
 
 /* FC08 echo: sent raw, its reply read from the descriptor (see the top). */
-static void echo(modbus_t *ctx) {
+static void echo(modbus_t* ctx) {
   const uint8_t req[] = {1, 0x08, 0x00, 0x00, 0xA5, 0x5A};
   const int sent = modbus_send_raw_request(ctx, req, (int)sizeof req);
   check(sent == (int)sizeof req + 2, "FC08 sent raw (%d bytes)", sent);
@@ -172,12 +187,12 @@ static void echo(modbus_t *ctx) {
   check(n == 8 && memcmp(got, req, sizeof req) == 0, "FC08 echo comes back (%zu bytes)", n);
 }
 
-int main(int argc, char **argv) {
+int main(int argc, char** argv) {
   if (argc != 2) {
     fprintf(stderr, "usage: %s PORT\n", argv[0]);
     return 2;
   }
-  modbus_t *ctx = modbus_new_rtu(argv[1], 38400, 'N', 8, 1);
+  modbus_t* ctx = modbus_new_rtu(argv[1], 38400, 'N', 8, 1);
   if (!ctx) {
     fprintf(stderr, "modbus_new_rtu: %s\n", modbus_strerror(errno));
     return 1;

@@ -28,7 +28,7 @@ modbus::WriteCoilsRequest coils(uint16_t start, uint16_t n) {
 
 TEST(MemoryMap, ReadsInsideAreasAreAllowedEvenAcrossUndefinedAddresses) {
   EXPECT_FALSE(code(modbus::ReadBitsRequest{FunctionCode::ReadCoils, 0x10, 33}));  // Y10×33 (field)
-  EXPECT_FALSE(code(modbus::ReadRegistersRequest{0x9100, 18}));                    // D9100×18 (field)
+  EXPECT_FALSE(code(modbus::ReadRegistersRequest{0x9100, 18}));  // D9100×18 (field)
   EXPECT_FALSE(code(modbus::ReadRegistersRequest{0x9000, 7}));
   EXPECT_FALSE(code(modbus::ReadBitsRequest{FunctionCode::ReadInputs, 0x40, 16}));
   EXPECT_FALSE(code(modbus::ReadRegistersRequest{0x0380, 64}));
@@ -38,15 +38,18 @@ TEST(MemoryMap, ReadsInsideAreasAreAllowedEvenAcrossUndefinedAddresses) {
 TEST(MemoryMap, EveryExceptionRowOfDigestSection3) {
   // 02: start outside every area.
   EXPECT_EQ(code(modbus::ReadRegistersRequest{0x5000, 1}), ExceptionCode::IllegalAddress);
-  EXPECT_EQ(code(modbus::ReadBitsRequest{FunctionCode::ReadInputs, 0x30, 1}), ExceptionCode::IllegalAddress);
+  EXPECT_EQ(code(modbus::ReadBitsRequest{FunctionCode::ReadInputs, 0x30, 1}),
+            ExceptionCode::IllegalAddress);
   // 03: last address beyond the start's area.
   EXPECT_EQ(code(modbus::ReadRegistersRequest{0x9000, 0x101}), ExceptionCode::IllegalAccessRange);
-  EXPECT_EQ(code(modbus::ReadBitsRequest{FunctionCode::ReadInputs, 0x40, 17}), ExceptionCode::IllegalAccessRange);
+  EXPECT_EQ(code(modbus::ReadBitsRequest{FunctionCode::ReadInputs, 0x40, 17}),
+            ExceptionCode::IllegalAccessRange);
   EXPECT_EQ(code(modbus::ReadRegistersRequest{0x0015, 2}), ExceptionCode::IllegalAccessRange);
   // 03: count 0 and counts beyond the limits.
   EXPECT_EQ(code(modbus::ReadRegistersRequest{0x9000, 0}), ExceptionCode::IllegalAccessRange);
   EXPECT_EQ(code(modbus::ReadRegistersRequest{0x0400, 126}), ExceptionCode::IllegalAccessRange);
-  EXPECT_EQ(code(modbus::ReadBitsRequest{FunctionCode::ReadCoils, 0, 2001}), ExceptionCode::IllegalAccessRange);
+  EXPECT_EQ(code(modbus::ReadBitsRequest{FunctionCode::ReadCoils, 0, 2001}),
+            ExceptionCode::IllegalAccessRange);
   EXPECT_EQ(code(coils(0x00, 257)), ExceptionCode::IllegalAccessRange);
   // 02: writes to read-only or undefined addresses.
   EXPECT_EQ(code(regs(0x9000, 2)), ExceptionCode::IllegalAddress);
@@ -75,7 +78,8 @@ TEST(MemoryMap, ParallelModeRefusesOperationWrites) {
   EXPECT_EQ(code(regs(kControlWordY10, 1), parallel), ExceptionCode::IllegalAddress);
   EXPECT_EQ(code(regs(kDirectStart, 1), parallel), ExceptionCode::IllegalAddress);
   // Y30, step data and direct-operation data are writable in either mode.
-  EXPECT_FALSE(code(modbus::WriteCoilRequest{address(Coil::SerialMode), modbus::kCoilOn}, parallel));
+  EXPECT_FALSE(
+      code(modbus::WriteCoilRequest{address(Coil::SerialMode), modbus::kCoilOn}, parallel));
   EXPECT_FALSE(code(regs(0x0400, 16), parallel));
   EXPECT_FALSE(code(regs(kDirectData, 16), parallel));
   EXPECT_FALSE(code(regs(kControlWordY30, 1), parallel));
@@ -98,7 +102,8 @@ TEST(MemoryMap, AddressNamesUseTheManualsTerms) {
   EXPECT_EQ(address_name(Space::Register, 0x9000), "D9000 current position");
   EXPECT_EQ(address_name(Space::Register, 0x0412), "D0412 step 1 position (high word)");
   EXPECT_EQ(address_name(Space::Register, 0x9108), "D9108 direct operation push");
-  EXPECT_NE(explain_exception(ExceptionCode::IllegalAddress).find("lec serial on"), std::string::npos);
+  EXPECT_NE(explain_exception(ExceptionCode::IllegalAddress).find("lec serial on"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -134,8 +134,9 @@ TEST(Units, MillimetresRoundTripToHundredths) {
 TEST(StateData, RoundTripsAndDecodesPosition) {
   std::mt19937 rng(5);
   for (int n = 0; n < 1000; ++n) {
-    StateData s{static_cast<int32_t>(rng()), static_cast<uint16_t>(rng()), static_cast<uint16_t>(rng()),
-                static_cast<int32_t>(rng()), static_cast<uint16_t>(rng())};
+    StateData s{static_cast<int32_t>(rng()), static_cast<uint16_t>(rng()),
+                static_cast<uint16_t>(rng()), static_cast<int32_t>(rng()),
+                static_cast<uint16_t>(rng())};
     const auto r = s.to_registers();
     ASSERT_EQ(StateData::from_registers(r), s);
   }

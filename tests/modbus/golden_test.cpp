@@ -70,11 +70,13 @@ const std::map<std::string, RequestFrame>& queries() {
       {"01 05 00 1A 00 00 EC 0D", coil(1, Coil::DRIVE, false)},
       {"01 10 04 12 00 02 04 00 00 3A 98 52 B0", step1_position_150mm()},
       {"01 03 90 00 00 02 E9 0B", {1, ReadRegistersRequest{lec::kStateData, 2}}},
-      {"01 10 91 02 00 10 20 00 01 01 F4 00 00 75 30 13 88 13 88 00 00 00 00 00 14 00 64 00 00 00 00 "
+      {"01 10 91 02 00 10 20 00 01 01 F4 00 00 75 30 13 88 13 88 00 00 00 00 00 14 00 64 00 00 00 "
+       "00 "
        "00 00 00 00 00 00 00 64 72 48",
        direct_operation_300mm()},
       {"01 10 91 00 00 01 02 01 00 27 09",
-       {1, WriteRegistersRequest::of(lec::kDirectStart, std::vector<uint16_t>{lec::kDirectStartValue})}},
+       {1, WriteRegistersRequest::of(lec::kDirectStart,
+                                     std::vector<uint16_t>{lec::kDirectStartValue})}},
       {"20 08 00 00 5A A5 1C 61", {0x20, EchoRequest{0x0000, 0x5AA5}}},
   };
   return m;
@@ -96,9 +98,11 @@ TEST(GoldenFrames, EveryRowOfTheFileIsCovered) {
   for (const auto& g : frames) {
     const std::string hex = to_hex(g.bytes);
     if (g.query) {
-      EXPECT_TRUE(queries().count(hex)) << "no typed meaning for query " << g.section << ": " << hex;
+      EXPECT_TRUE(queries().count(hex))
+          << "no typed meaning for query " << g.section << ": " << hex;
     } else {
-      EXPECT_TRUE(responses().count(hex)) << "no typed meaning for response " << g.section << ": " << hex;
+      EXPECT_TRUE(responses().count(hex))
+          << "no typed meaning for response " << g.section << ": " << hex;
     }
   }
 }

@@ -34,8 +34,9 @@ TEST(Encode, RefusesCountsTheControllerRefuses) {
 }
 
 TEST(Encode, ResponsesOfEveryFunction) {
-  EXPECT_EQ(to_hex(encode_response({3, WriteMultipleResponse{FunctionCode::WriteCoils, 0x10, 0x10}})),
-            to_hex(with_crc({3, 0x0F, 0x00, 0x10, 0x00, 0x10})));
+  EXPECT_EQ(
+      to_hex(encode_response({3, WriteMultipleResponse{FunctionCode::WriteCoils, 0x10, 0x10}})),
+      to_hex(with_crc({3, 0x0F, 0x00, 0x10, 0x00, 0x10})));
   EXPECT_EQ(to_hex(encode_response({3, ExceptionResponse{FunctionCode::ReadCoils, 0x01,
                                                          ExceptionCode::IllegalFunction}})),
             to_hex(with_crc({3, 0x81, 0x01})));
@@ -135,7 +136,8 @@ TEST(Decode, RandomBytesWithValidCrcNeverCrash) {
   for (int n = 0; n < 20000; ++n) {
     Bytes body(2 + rng() % 40);
     for (auto& b : body) b = static_cast<uint8_t>(rng());
-    if (rng() % 2) body[1] = static_cast<uint8_t>(std::array<int, 8>{1, 2, 3, 5, 8, 15, 16, 0x83}[rng() % 8]);
+    if (rng() % 2)
+      body[1] = static_cast<uint8_t>(std::array<int, 8>{1, 2, 3, 5, 8, 15, 16, 0x83}[rng() % 8]);
     const Bytes adu = with_crc(body);
     auto q = decode_request(adu);
     auto r = decode_response(adu);

@@ -79,7 +79,8 @@ class Actuator {
   MoveResult run_step(unsigned step, TimePoint deadline, const WaitOptions& wait = {});
   // Writes only the direct-data registers that change, starts, and waits.
   // With `no_wait` it returns right after the start (result holds the state then).
-  MoveResult move(const DirectMove& move, TimePoint deadline, const WaitOptions& wait = {}, bool no_wait = false);
+  MoveResult move(const DirectMove& move, TimePoint deadline, const WaitOptions& wait = {},
+                  bool no_wait = false);
   // JOG± ← 1 until `until` or cancel(), then ← 0; waits for the axis to stop.
   MoveResult jog(bool plus, TimePoint until, TimePoint deadline, const WaitOptions& wait = {});
   void hold(bool on);
@@ -91,7 +92,8 @@ class Actuator {
   std::vector<uint8_t> active_alarms(const lec::StatusFlags& flags);
 
   // Waits for BUSY to fall after a start whose expected target is `target`.
-  MoveResult wait_until_idle(std::optional<int32_t> target, TimePoint deadline, const WaitOptions& wait);
+  MoveResult wait_until_idle(std::optional<int32_t> target, TimePoint deadline,
+                             const WaitOptions& wait);
 
  private:
   void require_serial_mode(const lec::ControlFlags& controls);

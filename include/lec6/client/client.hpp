@@ -42,18 +42,18 @@ enum class Retry {
 };
 
 struct TraceEvent {
-  bool outgoing;               // true: sent, false: received
+  bool outgoing;  // true: sent, false: received
   TimePoint at;
   std::span<const uint8_t> bytes;
-  std::string explanation;     // in LEC terms
+  std::string explanation;  // in LEC terms
 };
 
 struct ClientOptions {
   uint8_t id = 1;
-  unsigned silent_interval_k = 1;       // the controller's "Silent INT"
-  Duration delay_td = milliseconds(5);  // the controller's "Min Resp delay"
+  unsigned silent_interval_k = 1;              // the controller's "Silent INT"
+  Duration delay_td = milliseconds(5);         // the controller's "Min Resp delay"
   Duration timeout_margin = milliseconds(50);  // added to Tx
-  int retries = 2;                       // for Retry::Safe requests
+  int retries = 2;                             // for Retry::Safe requests
   // Wait for Ts of line silence before each query (manual §8.2: a controller
   // delimits frames by it). Keep it on for any real RS485 line. Off only for
   // peers that frame by length (a `--timing fast` twin, software benchmarks),
@@ -106,7 +106,8 @@ class Client {
   // Writes a whole step (validated first: a step is never left invalid).
   void write_step(unsigned step, const lec::StepData& data);
   // Writes registers [first, first + count) of a step record from `data`.
-  void write_step_registers(unsigned step, const lec::StepData& data, unsigned first, unsigned count);
+  void write_step_registers(unsigned step, const lec::StepData& data, unsigned first,
+                            unsigned count);
   void write_direct(const lec::StepData& data);  // D9102–D9111, validated
   void write_direct_registers(const lec::StepData& data, unsigned first, unsigned count);
   // D9100 ← 0x0100. Never resent blindly when `relative` (INC): see start_direct().
@@ -126,8 +127,8 @@ class Client {
  private:
   modbus::ResponseFrame run_once(const modbus::RequestFrame& frame);
   void wait_for_silence();
-  void trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes, const modbus::RequestFrame& request,
-             const modbus::ResponseFrame* response);
+  void trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
+             const modbus::RequestFrame& request, const modbus::ResponseFrame* response);
 
   Link& link_;
   ClientOptions options_;

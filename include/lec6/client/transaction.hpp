@@ -9,8 +9,8 @@
 #include <span>
 #include <string>
 
-#include "lec6/clock.hpp"
 #include "lec6/client/errors.hpp"
+#include "lec6/clock.hpp"
 #include "lec6/modbus/framer.hpp"
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/modbus/timing.hpp"

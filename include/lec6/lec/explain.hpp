@@ -12,7 +12,8 @@ namespace lec6::lec {
 std::string explain_request(const modbus::RequestFrame& frame);
 
 // `request` (when known) gives the addresses the reply's values belong to.
-std::string explain_response(const modbus::ResponseFrame& frame, const modbus::RequestFrame* request = nullptr);
+std::string explain_response(const modbus::ResponseFrame& frame,
+                             const modbus::RequestFrame* request = nullptr);
 
 // Decodes raw bytes as a request or a reply (whichever fits; a reply when
 // `as_reply`), and explains it; the error text when it does not decode.

@@ -12,7 +12,12 @@ namespace lec6::lec {
 
 // Y coils, by their manual names and addresses.
 enum class Coil : uint16_t {
-  IN0 = 0x10, IN1 = 0x11, IN2 = 0x12, IN3 = 0x13, IN4 = 0x14, IN5 = 0x15,
+  IN0 = 0x10,
+  IN1 = 0x11,
+  IN2 = 0x12,
+  IN3 = 0x13,
+  IN4 = 0x14,
+  IN5 = 0x15,
   HOLD = 0x18,
   SVON = 0x19,
   DRIVE = 0x1A,
@@ -23,15 +28,29 @@ enum class Coil : uint16_t {
   SerialMode = 0x30,  // the manual's "input invalid flag": 1 = serial input mode
 };
 
-constexpr uint16_t address(Coil c) noexcept { return static_cast<uint16_t>(c); }
+constexpr uint16_t address(Coil c) noexcept {
+  return static_cast<uint16_t>(c);
+}
 // "SVON", "IN3", "input invalid flag (serial mode)"; empty for unnamed coils.
 std::string_view coil_name(uint16_t coil) noexcept;
 
 // X40–X4F. ESTOP and ALARM are positive logic (1 = stop active / alarm present).
 struct StatusFlags {
   enum Bit : uint8_t {
-    Out0 = 0, Out1, Out2, Out3, Out4, Out5,
-    Busy = 8, Svre, Seton, Inp, Area, Warea, Estop, Alarm,
+    Out0 = 0,
+    Out1,
+    Out2,
+    Out3,
+    Out4,
+    Out5,
+    Busy = 8,
+    Svre,
+    Seton,
+    Inp,
+    Area,
+    Warea,
+    Estop,
+    Alarm,
   };
 
   uint16_t bits = 0;  // bit 0 = X40
@@ -68,7 +87,7 @@ std::string_view status_flag_name(unsigned bit) noexcept;
 
 // Y10–Y1F and Y30 as the master sees them.
 struct ControlFlags {
-  uint16_t y10_1f = 0;  // bit 0 = Y10
+  uint16_t y10_1f = 0;       // bit 0 = Y10
   bool serial_mode = false;  // Y30
 
   constexpr bool test(Coil c) const noexcept {
@@ -81,7 +100,8 @@ struct ControlFlags {
       return;
     }
     const unsigned bit = address(c) - 0x10U;
-    y10_1f = on ? static_cast<uint16_t>(y10_1f | (1U << bit)) : static_cast<uint16_t>(y10_1f & ~(1U << bit));
+    y10_1f = on ? static_cast<uint16_t>(y10_1f | (1U << bit))
+                : static_cast<uint16_t>(y10_1f & ~(1U << bit));
   }
   // IN0–IN5: the selected step number.
   constexpr uint8_t selected_step() const noexcept { return static_cast<uint8_t>(y10_1f & 0x3F); }

@@ -28,9 +28,9 @@ const Area* find_area(Space space, uint16_t address) noexcept;
 
 // Who may write an address.
 enum class WriteRule : uint8_t {
-  Refused,          // read-only or undefined → exception 02
-  Always,           // in either input mode (Y30, D90C2, step data, direct-operation data)
-  SerialModeOnly,   // only with Y30 = 1 (Y10–Y1F, D90C1, D9100) (digest §3, assumed)
+  Refused,         // read-only or undefined → exception 02
+  Always,          // in either input mode (Y30, D90C2, step data, direct-operation data)
+  SerialModeOnly,  // only with Y30 = 1 (Y10–Y1F, D90C1, D9100) (digest §3, assumed)
 };
 WriteRule write_rule(Space space, uint16_t address) noexcept;
 
@@ -44,7 +44,7 @@ inline constexpr uint16_t kStepCount = 64;
 inline constexpr uint16_t kStepStride = 0x10;
 inline constexpr uint16_t kStateData = 0x9000;
 inline constexpr uint16_t kStateDataRegisters = 7;
-inline constexpr uint16_t kStatusWord = 0x9084;     // X40–X4F as one word
+inline constexpr uint16_t kStatusWord = 0x9084;      // X40–X4F as one word
 inline constexpr uint16_t kControlWordY10 = 0x90C1;  // Y10–Y1F as one word
 inline constexpr uint16_t kControlWordY30 = 0x90C2;  // Y30–Y3F as one word
 inline constexpr uint16_t kDirectStart = 0x9100;

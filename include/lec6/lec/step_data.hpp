@@ -25,16 +25,16 @@ struct StepData {
 
   MovementMode movement_mode = MovementMode::Blank;
   uint16_t speed_mm_s = 0;
-  int32_t position_001mm = 0;        // target, or pushing start
+  int32_t position_001mm = 0;  // target, or pushing start
   uint16_t acceleration_mm_s2 = 0;
   uint16_t deceleration_mm_s2 = 0;
-  uint16_t pushing_force_pct = 0;    // 0 = positioning
+  uint16_t pushing_force_pct = 0;  // 0 = positioning
   uint16_t trigger_level_pct = 0;
   uint16_t pushing_speed_mm_s = 0;
-  uint16_t moving_force_pct = 0;     // max thrust while positioning
+  uint16_t moving_force_pct = 0;  // max thrust while positioning
   int32_t area1_001mm = 0;
   int32_t area2_001mm = 0;
-  int32_t in_position_001mm = 0;     // positioning: width; pushing: pushing distance
+  int32_t in_position_001mm = 0;  // positioning: width; pushing: pushing distance
 
   // 32-bit values travel high word first, two's complement (digest §4).
   std::array<uint16_t, kRegisters> to_registers() const noexcept;
@@ -48,8 +48,18 @@ struct StepData {
 
 // The fields, in register order, with what people need to read and type them.
 enum class StepField : uint8_t {
-  MovementMode, Speed, Position, Acceleration, Deceleration, PushingForce,
-  TriggerLevel, PushingSpeed, MovingForce, Area1, Area2, InPosition,
+  MovementMode,
+  Speed,
+  Position,
+  Acceleration,
+  Deceleration,
+  PushingForce,
+  TriggerLevel,
+  PushingSpeed,
+  MovingForce,
+  Area1,
+  Area2,
+  InPosition,
 };
 inline constexpr std::size_t kStepFieldCount = 12;
 

@@ -6,8 +6,12 @@
 
 namespace lec6::lec {
 
-constexpr uint16_t high_word(int32_t v) noexcept { return static_cast<uint16_t>(static_cast<uint32_t>(v) >> 16); }
-constexpr uint16_t low_word(int32_t v) noexcept { return static_cast<uint16_t>(static_cast<uint32_t>(v) & 0xFFFF); }
+constexpr uint16_t high_word(int32_t v) noexcept {
+  return static_cast<uint16_t>(static_cast<uint32_t>(v) >> 16);
+}
+constexpr uint16_t low_word(int32_t v) noexcept {
+  return static_cast<uint16_t>(static_cast<uint32_t>(v) & 0xFFFF);
+}
 constexpr int32_t join_words(uint16_t high, uint16_t low) noexcept {
   return static_cast<int32_t>((static_cast<uint32_t>(high) << 16) | low);
 }

@@ -15,7 +15,8 @@ constexpr std::array<uint16_t, 256> make_crc_table() {
   for (unsigned byte = 0; byte < 256; ++byte) {
     uint16_t crc = static_cast<uint16_t>(byte);
     for (int bit = 0; bit < 8; ++bit) {
-      crc = (crc & 1U) ? static_cast<uint16_t>((crc >> 1) ^ 0xA001U) : static_cast<uint16_t>(crc >> 1);
+      crc = (crc & 1U) ? static_cast<uint16_t>((crc >> 1) ^ 0xA001U)
+                       : static_cast<uint16_t>(crc >> 1);
     }
     table[byte] = crc;
   }

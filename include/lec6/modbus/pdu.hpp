@@ -142,7 +142,7 @@ struct WriteMultipleResponse {  // FC0F/10: start and count of the request
 
 struct ExceptionResponse {
   FunctionCode function = FunctionCode::ReadRegisters;  // the request's code, without 0x80
-  uint8_t raw_function = 0;                              // as requested (may be unknown)
+  uint8_t raw_function = 0;                             // as requested (may be unknown)
   ExceptionCode code = ExceptionCode::IllegalFunction;
   bool operator==(const ExceptionResponse&) const = default;
 };
@@ -166,13 +166,13 @@ struct ResponseFrame {
 
 // What is wrong with a frame or a request, in words a user can act on.
 enum class ErrorKind {
-  ShortFrame,        // fewer bytes than the frame's shape needs
-  LongFrame,         // more bytes than the frame's shape allows
-  BadCrc,            // CRC does not match
-  UnknownFunction,   // a function code the controller does not have
-  BadByteCount,      // byte count disagrees with the count or the frame length
-  CountOutOfRange,   // encode only: a count the controller refuses
-  BadValue,          // encode only: e.g. FC05 value other than FF00/0000
+  ShortFrame,       // fewer bytes than the frame's shape needs
+  LongFrame,        // more bytes than the frame's shape allows
+  BadCrc,           // CRC does not match
+  UnknownFunction,  // a function code the controller does not have
+  BadByteCount,     // byte count disagrees with the count or the frame length
+  CountOutOfRange,  // encode only: a count the controller refuses
+  BadValue,         // encode only: e.g. FC05 value other than FF00/0000
 };
 
 struct Error {

@@ -16,8 +16,8 @@ bool is_supported_baud(uint32_t baud) noexcept;
 
 struct LineTiming {
   uint32_t baud = kDefaultBaud;
-  unsigned silent_interval_k = 1;        // controller parameter "Silent INT" (multiples of 3.5 chars)
-  Duration delay_td = milliseconds(5);   // controller parameter "Min Resp delay"
+  unsigned silent_interval_k = 1;  // controller parameter "Silent INT" (multiples of 3.5 chars)
+  Duration delay_td = milliseconds(5);  // controller parameter "Min Resp delay"
 
   // The controller's internal processing time T0 (manual §8.4: 4 ms). The
   // manual's ×1.5 safety factor is the master's margin, applied in response_time().
@@ -30,11 +30,13 @@ struct LineTiming {
   }
   // Ts = k × 3.5 characters.
   Duration silent_interval() const noexcept {
-    return Duration(static_cast<int64_t>(silent_interval_k) * 35 * kBitsPerChar * 100'000'000LL / baud);
+    return Duration(static_cast<int64_t>(silent_interval_k) * 35 * kBitsPerChar * 100'000'000LL /
+                    baud);
   }
   // Tx of manual §8.4: end of query → end of reply, with T0 = 4 ms × 1.5.
   Duration response_time(std::size_t reply_bytes) const noexcept {
-    return silent_interval() + Duration(static_cast<int64_t>(kProcessing.count() * kProcessingSafetyFactor)) +
+    return silent_interval() +
+           Duration(static_cast<int64_t>(kProcessing.count() * kProcessingSafetyFactor)) +
            delay_td + wire_time(reply_bytes);
   }
   // When the twin's reply ends after the end of a query: Ts + 4 ms + Td + wire.
