@@ -2,9 +2,13 @@
 JOBS ?= $(shell nproc)
 BUILD ?= build
 ASAN_BUILD ?= build-asan
+FUZZ_BUILD ?= build-fuzz
+FUZZ_SECONDS ?= 600
+FUZZ_SMOKE_SECONDS ?= 15
+SOAK_TRANSACTIONS ?= 10000
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo
 
-.PHONY: all deps build demo test test-fast test-asan bench fuzz soak format clean
+.PHONY: all deps build demo test test-fast test-asan test-fuzz fuzz-build bench fuzz soak format clean
 
 all: build
 
@@ -31,7 +35,24 @@ test-asan: deps $(ASAN_BUILD)/CMakeCache.txt
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS)
 
-test: test-fast test-asan
+# libFuzzer harnesses (clang, ASan + UBSan), one at a time: fuzz/run.sh.
+$(FUZZ_BUILD)/CMakeCache.txt: | deps
+	CC=clang CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLEC6_FUZZ=ON -DLEC6_BENCH=OFF
+
+fuzz-build: deps $(FUZZ_BUILD)/CMakeCache.txt
+	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target fuzzers
+
+fuzz: fuzz-build
+	fuzz/run.sh $(FUZZ_BUILD) $(FUZZ_SECONDS)
+
+test-fuzz: fuzz-build
+	fuzz/run.sh $(FUZZ_BUILD) $(FUZZ_SMOKE_SECONDS)
+
+test: test-fast test-asan test-fuzz
+
+# The fault soak: client against the twin on a noisy line, summary tables.
+soak: build
+	LEC6_SOAK_TRANSACTIONS=$(SOAK_TRANSACTIONS) $(BUILD)/tests/test_client --gtest_filter='Soak.*'
 
 bench: build
 	bench/compare
@@ -40,4 +61,4 @@ format:
 	clang-format -i $$(git ls-files '*.cpp' '*.hpp' '*.h' '*.c')
 
 clean:
-	rm -rf $(BUILD) $(ASAN_BUILD)
+	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)

@@ -78,6 +78,8 @@ class Session {
   // LEC_PORT is given (only `lec demo` has one: "sim").
   client::Client& client(std::string_view default_port = {});
   client::Actuator& axis(std::string_view default_port = {});
+  // Releases the port (the next client() opens it again).
+  void close() noexcept;
   const GlobalOptions& options() const noexcept { return options_; }
   bool json() const noexcept { return options_.json; }
   // What the port is, for messages ("/dev/ttyUSB0 @ 38400").

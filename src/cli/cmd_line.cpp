@@ -195,10 +195,14 @@ std::vector<ScanResult> scan_ids(Session& s, const std::vector<int>& ids) {
 void run_scan(Session& s, const std::string& id_text, bool all_bauds) {
   const auto ids = parse_id_range(id_text);
   auto found = scan_ids(s, ids);
+  const std::string port = s.port_description();
   const bool garbled = std::any_of(found.begin(), found.end(),
                                    [](const ScanResult& r) { return !r.problem.empty(); });
+  const bool answered = std::any_of(found.begin(), found.end(),
+                                    [](const ScanResult& r) { return r.problem.empty(); });
   std::optional<uint32_t> better_baud;
-  if ((garbled || found.empty()) && all_bauds) {
+  if (!answered && all_bauds) {
+    s.close();  // each other baud rate opens the port again
     for (uint32_t baud : modbus::kBaudRates) {
       if (baud == s.options().baud) continue;
       GlobalOptions o = s.options();
@@ -214,14 +218,14 @@ void run_scan(Session& s, const std::string& id_text, bool all_bauds) {
   }
   if (s.json()) {
     nlohmann::json j = nlohmann::json::array();
-    for (const auto& r : found)
+    for (const auto& r : found) {
       j.push_back({{"id", r.id}, {"name", r.name}, {"problem", r.problem}});
+    }
     print_json({{"found", j},
                 {"baud", s.options().baud},
                 {"suggested_baud", better_baud ? nlohmann::json(*better_baud) : nlohmann::json()}});
   } else {
-    fmt::print("Scanned IDs {} at {} baud on {}\n", id_text, s.options().baud,
-               s.port_description());
+    fmt::print("Scanned IDs {} at {} baud on {}\n", id_text, s.options().baud, port);
     for (const auto& r : found) {
       if (r.problem.empty()) {
         fmt::print("  ID {:3}  answers  {}\n", r.id, r.name.empty() ? "(no name)" : r.name);
@@ -231,15 +235,18 @@ void run_scan(Session& s, const std::string& id_text, bool all_bauds) {
     }
     if (found.empty()) fmt::print("  no controller answered\n");
   }
+  const std::string hint = better_baud ? fmt::format(", the controller is at {}? (try --baud {})",
+                                                     *better_baud, *better_baud)
+                           : all_bauds ? std::string(": no other baud rate answered either")
+                                       : std::string(" (`lec scan --all-bauds` tries the others)");
   if (garbled) {
-    fmt::print(stderr, "lec: replies fail CRC: check the baud rate{}\n",
-               better_baud ? fmt::format(", the controller is at {}? (try --baud {})", *better_baud,
-                                         *better_baud)
-               : all_bauds ? ""
-                           : " (`lec scan --all-bauds` tries the others)");
+    fmt::print(stderr, "lec: replies fail CRC: check the baud rate{}\n", hint);
+  } else if (!answered && better_baud) {
+    fmt::print(stderr, "lec: no answer at {} baud{}\n", s.options().baud, hint);
   }
-  if (found.empty())
+  if (!answered) {
     throw client::TransportError(client::TransportErrorKind::Timeout, "no controller answered");
+  }
 }
 
 struct BenchArgs {

@@ -157,7 +157,7 @@ void add_status_commands(CLI::App& app, Session& session) {
   watch->add_option("--for", watch_opts->seconds, "Stop after this many seconds")
       ->check(CLI::PositiveNumber);
   watch->add_option("--count", watch_opts->count, "Stop after this many samples")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 1000000000));
   watch
       ->add_option("--interval", watch_opts->interval_ms,
                    "Pause between samples, ms (default: as fast as the line)")

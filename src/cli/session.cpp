@@ -102,6 +102,10 @@ client::Actuator& Session::axis(std::string_view default_port) {
   return *impl_->axis;
 }
 
+void Session::close() noexcept {
+  impl_.reset();
+}
+
 std::string Session::port_description() const {
   return impl_ ? impl_->description : std::string("(not open)");
 }

@@ -62,16 +62,18 @@ void Client::trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
 
 // The manual's frame delimiter works both ways: the controller must see Ts of
 // silence before our query, so anything still arriving (a late reply, noise)
-// is drained until the line has been quiet for Ts.
+// is drained until the line has been quiet for Ts. After a failed transaction
+// the line must stay quiet for a whole reply window: a reply later than our
+// timeout would otherwise land in the next transaction, and Modbus RTU has no
+// transaction ID to tell it from a fresh reply of the same shape.
 void Client::wait_for_silence() {
-  if (!options_.wait_for_silence) {
-    link_.discard_input();
-    return;
-  }
-  const Duration ts = timing_.line.silent_interval();
+  const Duration quiet =
+      std::max(options_.wait_for_silence ? timing_.line.silent_interval() : Duration{},
+               guard_after_failure_);
+  guard_after_failure_ = Duration{};
   std::array<uint8_t, 256> sink{};
   for (;;) {
-    const TimePoint quiet_at = line_busy_until_ + ts;
+    const TimePoint quiet_at = line_busy_until_ + quiet;
     if (link_.clock().now() >= quiet_at) break;
     if (link_.read_some(sink, quiet_at) > 0) {
       stats_.bytes_discarded += 1;
@@ -103,6 +105,7 @@ ResponseFrame Client::run_once(const RequestFrame& frame) {
     ++stats_.transactions;
     stats_.bytes_discarded += tx.discarded();
     if (tx.step() == Transaction::Step::Failed) {
+      guard_after_failure_ = tx.deadline() - tx.sent_at();
       switch (tx.error_kind()) {
         case TransportErrorKind::Timeout:
           ++stats_.timeouts;
@@ -124,6 +127,7 @@ ResponseFrame Client::run_once(const RequestFrame& frame) {
     return reply;
   } catch (const LinkError& e) {
     line_busy_until_ = link_.clock().now();
+    guard_after_failure_ = timing_.line.response_time(kMaxAdu) + timing_.margin;
     throw TransportError(kind_of(e.kind()), e.what());
   }
 }

@@ -77,7 +77,8 @@ void Transaction::timed_out(TimePoint t) {
     fail(TransportErrorKind::Framing,
          fmt::format(
              "no valid reply from ID {} in {:.1f} ms: {} stray byte(s) ({}), {} byte(s) of an "
-             "incomplete reply",
+             "incomplete reply — noise on the line, two devices answering, or a baud rate that "
+             "does not match the controller's",
              request_.id, waited, framer_.discarded(), modbus::discard_name(framer_.last_discard()),
              framer_.buffered()),
          t);

@@ -134,6 +134,7 @@ class Client {
   ClientOptions options_;
   TransactionTiming timing_;
   TimePoint line_busy_until_{};
+  Duration guard_after_failure_{};  // silence required before the next query after a failure
   LinkStats stats_;
   Duration last_round_trip_{};
 };
