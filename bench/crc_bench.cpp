@@ -36,7 +36,7 @@ std::vector<uint8_t> random_bytes(std::size_t n) {
 struct Slice8 {
   std::array<std::array<uint16_t, 256>, 8> t{};
   constexpr Slice8() {
-    for (unsigned b = 0; b < 256; ++b) t[0][b] = lec6::modbus::detail::kCrcTable[b];
+    for (unsigned b = 0; b < 256; ++b) t[0][b] = lec6::modbus::detail::kCrcTables[0][b];
     for (unsigned b = 0; b < 256; ++b) {
       for (std::size_t k = 1; k < 8; ++k) {
         const uint16_t prev = t[k - 1][b];
