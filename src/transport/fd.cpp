@@ -50,6 +50,25 @@ short poll_until(int fd, short events, TimePoint deadline, const Clock& clock) {
   }
 }
 
+std::size_t write_all(int fd, std::span<const uint8_t> bytes, TimePoint deadline,
+                      const Clock& clock,
+                      const std::function<ssize_t(const uint8_t*, std::size_t)>& put) {
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = put(bytes.data() + done, bytes.size() - done);
+    if (n > 0) {
+      done += static_cast<std::size_t>(n);
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && errno != EAGAIN) throw std::system_error(errno, std::generic_category(), "write");
+    const short revents = poll_until(fd, POLLOUT, deadline, clock);
+    if (revents == 0) return done;
+    if (revents & POLLNVAL) throw std::system_error(EBADF, std::generic_category(), "write");
+  }
+  return done;
+}
+
 bool set_nonblocking(int fd, bool on) {
   int flags = ::fcntl(fd, F_GETFL);
   if (flags < 0) return false;

@@ -239,25 +239,15 @@ void SerialLink::write(std::span<const uint8_t> bytes) {
   const TimePoint deadline =
       clock_.now() + 2 * wire_time(bytes.size(), options_.baud) + std::chrono::seconds(1);
   std::size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n > 0) {
-      done += static_cast<std::size_t>(n);
-      continue;
-    }
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0 && errno != EAGAIN) fail("write", errno);
-    short revents = 0;
-    try {
-      revents = poll_until(fd, POLLOUT, deadline, clock_);
-    } catch (const std::system_error& e) {
-      fail("poll", e.code().value());
-    }
-    if (revents == 0) {
-      throw LinkError(LinkErrorKind::Io, fmt::format("{}: write timed out ({} of {} bytes sent)",
-                                                     path_, done, bytes.size()));
-    }
-    if (revents & POLLNVAL) fail("write", EBADF);
+  try {
+    done = write_all(fd, bytes, deadline, clock_,
+                     [fd](const uint8_t* p, std::size_t n) { return ::write(fd, p, n); });
+  } catch (const std::system_error& e) {
+    fail("write", e.code().value());
+  }
+  if (done < bytes.size()) {
+    throw LinkError(LinkErrorKind::Io, fmt::format("{}: write timed out ({} of {} bytes sent)",
+                                                   path_, done, bytes.size()));
   }
   while (::tcdrain(fd) != 0) {
     if (errno != EINTR) fail("tcdrain", errno);

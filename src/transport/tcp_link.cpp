@@ -112,24 +112,16 @@ void TcpLink::write(std::span<const uint8_t> bytes) {
   // Frames are small; only a peer that stopped reading can make us wait.
   const TimePoint deadline = clock_.now() + std::chrono::seconds(5);
   std::size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::send(fd, bytes.data() + done, bytes.size() - done, MSG_NOSIGNAL);
-    if (n > 0) {
-      done += static_cast<std::size_t>(n);
-      continue;
-    }
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0 && errno != EAGAIN) fail("write", errno);
-    short revents = 0;
-    try {
-      revents = poll_until(fd, POLLOUT, deadline, clock_);
-    } catch (const std::system_error& e) {
-      fail("poll", e.code().value());
-    }
-    if (revents == 0) {
-      throw LinkError(LinkErrorKind::Io, fmt::format("{}: write timed out ({} of {} bytes sent)",
-                                                     url(), done, bytes.size()));
-    }
+  try {
+    done = write_all(fd, bytes, deadline, clock_, [fd](const uint8_t* p, std::size_t n) {
+      return ::send(fd, p, n, MSG_NOSIGNAL);
+    });
+  } catch (const std::system_error& e) {
+    fail("write", e.code().value());
+  }
+  if (done < bytes.size()) {
+    throw LinkError(LinkErrorKind::Io, fmt::format("{}: write timed out ({} of {} bytes sent)",
+                                                   url(), done, bytes.size()));
   }
 }
 

@@ -5,7 +5,11 @@
 
 #include <poll.h>
 
+#include <functional>
+#include <span>
 #include <string>
+
+#include <sys/types.h>
 #include <utility>
 
 #include "lec6/clock.hpp"
@@ -49,5 +53,14 @@ short poll_until(int fd, short events, TimePoint deadline, const Clock& clock);
 
 // Sets or clears O_NONBLOCK; returns false (errno set) on failure.
 bool set_nonblocking(int fd, bool on = true);
+
+// Writes every byte to a non-blocking descriptor, waiting for POLLOUT up to
+// `deadline`. `put(data, size)` makes one attempt (write(2) or send(2)) and
+// returns its result. Returns how many bytes went out: fewer than asked means
+// the deadline passed. Errors other than EINTR/EAGAIN throw std::system_error
+// with the errno, for the caller to word.
+std::size_t write_all(int fd, std::span<const uint8_t> bytes, TimePoint deadline,
+                      const Clock& clock,
+                      const std::function<ssize_t(const uint8_t*, std::size_t)>& put);
 
 }  // namespace lec6::transport
