@@ -298,8 +298,7 @@ void run_bench(Session& s, const BenchArgs& a) {
                 {"ratio", limit > 0 ? p50 / limit : 0},
                 {"retries", c.stats().retries}});
   } else {
-    fmt::print("{} x {} on {} @ {} baud\n", lat.size(), a.op, s.port_description(),
-               c.timing().baud);
+    fmt::print("{} x {} on {}\n", lat.size(), a.op, s.port_description());
     fmt::print("  {:.1f} transactions/s\n  latency p50 {:.3f} ms  p99 {:.3f} ms  max {:.3f} ms\n",
                tx_per_s, p50, p99, mx);
     fmt::print(

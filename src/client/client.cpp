@@ -122,8 +122,7 @@ ResponseFrame Client::run_once(const RequestFrame& frame) {
     if (tx.broadcast()) return ResponseFrame{kBroadcastId, WriteMultipleResponse{}};
     last_round_trip_ = tx.finished_at() - start;
     const auto& reply = tx.response();
-    const auto encoded = encode_response(reply);
-    trace(false, tx.finished_at(), encoded, frame, &reply);
+    if (options_.trace) trace(false, tx.finished_at(), encode_response(reply), frame, &reply);
     return reply;
   } catch (const LinkError& e) {
     line_busy_until_ = link_.clock().now();
