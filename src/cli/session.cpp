@@ -7,8 +7,8 @@
 #include "lec6/transport/modbus_tcp_master.hpp"
 #include "lec6/transport/port_spec.hpp"
 #include "lec6/transport/serial_link.hpp"
-#include "lec6/transport/sim_link.hpp"
 #include "lec6/transport/tcp_link.hpp"
+#include "lec6/twin/sim_link.hpp"
 
 namespace lec6::cli {
 
@@ -93,7 +93,7 @@ client::Client& Session::client(std::string_view default_port) {
       line.line.delay_td = milliseconds(options_.delay_td_ms);
       impl->twin = std::make_unique<sim::Bus>(line);
       impl->twin->add(static_cast<uint8_t>(options_.id), sim::ActuatorConfig{}, impl->clock.now());
-      impl->link = std::make_unique<transport::SimLink>(*impl->twin, impl->clock);
+      impl->link = std::make_unique<twin::SimLink>(*impl->twin, impl->clock);
       break;
     }
   }

@@ -23,10 +23,11 @@
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/sim/state_file.hpp"
 #include "lec6/transport/serial_link.hpp"
-#include "lec6/transport/sim_server.hpp"
 #include "lec6/transport/tcp_link.hpp"
+#include "lec6/twin/sim_server.hpp"
 
-namespace lec6::transport {
+namespace lec6::twin {
+using namespace transport;
 namespace {
 
 namespace fs = std::filesystem;
@@ -373,4 +374,4 @@ TEST(SimServer, TraceShowsEachFrameDecoded) {
 }
 
 }  // namespace
-}  // namespace lec6::transport
+}  // namespace lec6::twin
