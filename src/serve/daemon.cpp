@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include "lec6/serve/http_api.hpp"
+#include "lec6/serve/http_server.hpp"
 #include "lec6/serve/modbus_tcp_server.hpp"
+#include "lec6/serve/operations.hpp"
 #include "lec6/serve/wire.hpp"
 
 namespace lec6::serve {
@@ -24,15 +27,20 @@ GatewayPolicy policy_of(const LineConfig& line) {
 Daemon::Daemon(ServeConfig config, Log log)
     : config_(std::move(config)),
       log_(std::move(log)),
+      stats_timer_(io_),
       signals_(io_),
       work_(asio::make_work_guard(io_)) {
+  ops_ = std::make_unique<Operations>(log_);
   start_lines();
   start_listeners();
 }
 
 Daemon::~Daemon() {
+  if (http_) http_->stop();
   for (auto& s : modbus_) s->stop();
+  if (ops_) ops_->shutdown();
   for (auto& [name, line] : lines_) line->stop();
+  if (ops_) ops_->shutdown();
 }
 
 void Daemon::start_lines() {
@@ -65,11 +73,30 @@ void Daemon::start_listeners() {
           io_, *lc.rtu_tcp, ModbusTcpServer::Framing::Rtu, line, policy_of(lc), log_));
     }
   }
+  if (config_.http) {
+    api_ = std::make_unique<HttpApi>(*this, *ops_, *config_.http, log_);
+    HttpServerOptions o;
+    o.log = [this](std::string text) { log_(LogLevel::Warning, text); };
+    http_ = std::make_unique<HttpServer>(
+        io_, config_.http->listener,
+        [this](HttpRequest req, Responder res) { api_->handle(std::move(req), std::move(res)); }, o);
+    tick_stats();
+  }
+}
+
+void Daemon::tick_stats() {
+  stats_timer_.expires_after(std::chrono::seconds(1));
+  stats_timer_.async_wait([this](const asio::error_code& ec) {
+    if (ec || stopping_) return;
+    api_->publish_stats();
+    tick_stats();
+  });
 }
 
 std::vector<std::string> Daemon::endpoints() const {
   std::vector<std::string> out;
   for (const auto& s : modbus_) out.push_back(s->url());
+  if (http_) out.push_back("http://" + http_->address());
   return out;
 }
 
@@ -92,8 +119,12 @@ void Daemon::begin_stop() {
   stopping_ = true;
   log_(LogLevel::Info, "stopping: finishing the transactions on the wire");
   signals_.cancel();
+  stats_timer_.cancel();
   for (auto& s : modbus_) s->shutdown();
+  ops_->shutdown();  // hold-to-run jogs are released while the lines still run
   for (auto& [name, line] : lines_) line->stop();
+  ops_->shutdown();  // operations end on "shutting down"; their HTTP answers go out
+  if (http_) http_->stop();
   work_.reset();
   // Connections close as their last answers are written; then run() returns.
 }

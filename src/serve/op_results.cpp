@@ -118,10 +118,9 @@ OpResult table_result(const lec::StepTable& table) {
 OpResult step_write(client::Client& c, unsigned step,
                     const std::map<lec::StepField, int64_t>& fields) {
   const lec::StepData have = c.read_step(step);
-  lec::StepData want = have;
-  if (have.is_blank() && !fields.contains(lec::StepField::MovementMode)) {
-    want.movement_mode = lec::MovementMode::Absolute;  // a new step is ABS unless told
-  }
+  // A blank step starts from the gentle defaults of a direct move (ABS,
+  // 100 mm/s, 1000 mm/s², docs/api.md), so setting a position is enough.
+  lec::StepData want = have.is_blank() ? client::default_direct_data() : have;
   for (const auto& [f, raw] : fields) lec::set_field(want, f, raw);
   const auto issues = lec::validate(want);
   if (!issues.empty()) {
@@ -132,10 +131,14 @@ OpResult step_write(client::Client& c, unsigned step,
   const auto plan = client::plan_step(step, have, want);
   const auto report = client::apply_restore(c, plan);
   if (!report.ok() && report.exception) std::rethrow_exception(report.exception);
+  const bool written = report.count(client::StepOutcome::Written) > 0;
   nlohmann::json body{{"ok", report.ok()},
                       {"op", "step-write"},
-                      {"message", report.summary()},
-                      {"written", report.count(client::StepOutcome::Written) > 0}};
+                      {"message", report.ok() ? fmt::format("step {} {}", step,
+                                                            written ? "written and read back"
+                                                                    : "unchanged: nothing written")
+                                              : report.summary()},
+                      {"written", written}};
   nlohmann::json s = step_json(want);
   s["step"] = step;
   body["step"] = s;

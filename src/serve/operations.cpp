@@ -133,6 +133,38 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
   }).detach();
 }
 
+void Operations::run_task(const AxisRef& axis, std::string name, std::string source,
+                          std::function<OpResult(client::Client&)> task,
+                          std::function<void(OpResult)> done) {
+  {
+    std::lock_guard lock(mutex_);
+    if (shutting_down_) return done(refusal(503, "lec serve is shutting down"));
+  }
+  {
+    std::lock_guard lock(active_mutex_);
+    ++active_;
+  }
+  if (name != "step-read" && name != "step-plan") {
+    log_(LogLevel::Info, fmt::format("{} on {} by {}", name, axis.name, source));
+  }
+  std::thread([this, axis, task = std::move(task), done = std::move(done)] {
+    OpResult result;
+    try {
+      LineMaster master(*axis.line, Priority::Command, Priority::Command);
+      client::ClientOptions co;
+      co.id = axis.id;
+      co.retries = axis.line_config->retries;
+      client::Client c(master, co);
+      result = task(c);
+    } catch (...) {
+      result = result_of(std::current_exception(), false);
+    }
+    done(result);
+    std::lock_guard lock(active_mutex_);
+    if (--active_ == 0) idle_.notify_all();
+  }).detach();
+}
+
 void Operations::finished(const std::string& axis, const std::shared_ptr<Running>& run,
                           const OpResult& result) {
   {

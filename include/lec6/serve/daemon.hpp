@@ -28,6 +28,9 @@
 namespace lec6::serve {
 
 class ModbusTcpServer;
+class HttpServer;
+class HttpApi;
+class Operations;
 
 // An axis of the daemon, by name.
 struct AxisRef {
@@ -59,11 +62,15 @@ class Daemon {
   const AxisRef* axis(std::string_view name) const;
   Line* line(std::string_view name) const;
   asio::io_context& io() noexcept { return io_; }
+  Operations& operations() noexcept { return *ops_; }
+  // The HTTP API, when an HTTP listener is configured.
+  HttpApi* http_api() noexcept { return api_.get(); }
 
  private:
   void start_lines();
   void start_listeners();
   void begin_stop();
+  void tick_stats();
 
   ServeConfig config_;
   Log log_;
@@ -71,6 +78,10 @@ class Daemon {
   std::map<std::string, std::unique_ptr<Line>, std::less<>> lines_;
   std::vector<AxisRef> axes_;
   std::vector<std::unique_ptr<ModbusTcpServer>> modbus_;
+  std::unique_ptr<Operations> ops_;
+  std::unique_ptr<HttpApi> api_;
+  std::unique_ptr<HttpServer> http_;
+  asio::steady_timer stats_timer_;
   asio::signal_set signals_;
   // Keeps run() going until stop, whatever listens.
   asio::executor_work_guard<asio::io_context::executor_type> work_;

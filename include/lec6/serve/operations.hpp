@@ -38,6 +38,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lec6/client/client.hpp"
 #include "lec6/serve/commands.hpp"
 #include "lec6/serve/daemon.hpp"
 #include "lec6/serve/log.hpp"
@@ -69,6 +70,11 @@ class Operations {
   // at once for a refusal), with the result.
   void run(const AxisRef& axis, Command cmd, std::string source,
            std::function<void(OpResult)> done);
+  // Runs any other client work on `axis` (step plans and restores) on an
+  // operation thread, at client priority; not a motion, so never refused as busy.
+  void run_task(const AxisRef& axis, std::string name, std::string source,
+                std::function<OpResult(client::Client&)> task,
+                std::function<void(OpResult)> done);
   // Ties a running jog to a stream: when `closed()` turns true (checked as
   // the jog polls), the jog is released.
   void tie_jog(const std::string& axis, std::function<bool()> closed);
