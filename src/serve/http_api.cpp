@@ -148,6 +148,19 @@ void HttpApi::handle(HttpRequest request, Responder responder) {
     return void(responder.respond(error_response(
         404, "the dashboard is not installed here: build it with `make web`; the API is at /api")));
   }
+  if (parts.size() == 2 && parts[1] == "info") {
+    if (!get) return void(responder.respond(method_not_allowed("GET")));
+    // What a page needs to know before it offers any control.
+    const bool loopback = config_.listener.listen.loopback();
+    json lines = json::array();
+    for (const auto& c : daemon_.config().lines) lines.push_back(c.name);
+    return void(responder.respond(json_response(
+        200, {{"read_only", config_.listener.read_only},
+              {"token_required", !config_.listener.read_only && !config_.token.empty()},
+              {"listener_loopback", loopback},
+              {"lines", lines},
+              {"axes", daemon_.axes().size()}})));
+  }
   if (parts.size() == 2 && parts[1] == "events") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));
     return open_events(responder);
