@@ -1,11 +1,12 @@
 // Writes the seed corpora: make_seeds TSV STEPS_DIR OUT_DIR creates
 // OUT_DIR/<harness>/<seed> for every harness of harness.hpp, and the http
-// harness's from seeds_http.hpp.
+// harness's from seeds_http.hpp, the mbap harness's from harness_mbap.hpp.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include "seeds.hpp"
+#include "harness_mbap.hpp"
 #include "seeds_http.hpp"
 
 int main(int argc, char** argv) {
@@ -32,6 +33,13 @@ int main(int argc, char** argv) {
   for (const auto& [name, text] : lec6::fuzz::http_seeds()) {
     std::ofstream out(http / ("seed-" + name), std::ios::binary);
     out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  }
+  const std::filesystem::path mbap = std::filesystem::path(argv[3]) / "mbap";
+  std::filesystem::create_directories(mbap);
+  for (const auto& [name, bytes] : lec6::fuzz::mbap_seeds(tsv)) {
+    std::ofstream out(mbap / ("seed-" + name), std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
   }
   return 0;
 }

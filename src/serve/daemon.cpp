@@ -79,7 +79,8 @@ void Daemon::start_listeners() {
     o.log = [this](std::string text) { log_(LogLevel::Warning, text); };
     http_ = std::make_unique<HttpServer>(
         io_, config_.http->listener,
-        [this](HttpRequest req, Responder res) { api_->handle(std::move(req), std::move(res)); }, o);
+        [this](HttpRequest req, Responder res) { api_->handle(std::move(req), std::move(res)); },
+        o);
     tick_stats();
   }
 }

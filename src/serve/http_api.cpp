@@ -221,8 +221,8 @@ void HttpApi::command(const AxisRef& axis, std::string_view op, HttpRequest& req
   if (args->is_object() && args->contains("stream")) {
     const json& id = (*args)["stream"];
     std::lock_guard lock(streams_mutex_);
-    const auto it = id.is_number_unsigned() ? streams_by_id_.find(id.get<uint64_t>())
-                                            : streams_by_id_.end();
+    const auto it =
+        id.is_number_unsigned() ? streams_by_id_.find(id.get<uint64_t>()) : streams_by_id_.end();
     if (it == streams_by_id_.end()) {
       return void(responder.respond(error_response(
           400, "stream: no open event stream has this id (GET /api/events gives one)", "stream")));

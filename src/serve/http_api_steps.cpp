@@ -45,8 +45,7 @@ json plan_json(const client::RestorePlan& plan) {
                         {"controller", lec::format_field(f, lec::get_field(change.have, f))},
                         {"file", lec::format_field(f, lec::get_field(change.want, f))}});
     }
-    steps.push_back(
-        {{"step", change.step}, {"blanks", change.blanks()}, {"fields", fields}});
+    steps.push_back({{"step", change.step}, {"blanks", change.blanks()}, {"fields", fields}});
   }
   return {{"ok", true},
           {"to_write", plan.to_write()},
@@ -82,28 +81,30 @@ void HttpApi::steps(const AxisRef& axis, std::vector<std::string_view> rest, Htt
   if (rest.empty() && get) {
     const bool csv = request.query.count("format") && request.query.at("format") == "csv";
     const std::string name = axis.name;
-    return ops_.run_task(axis, "step-read", source(request),
-                         [](client::Client& c) { return table_result(client::backup_steps(c)); },
-                         [res, csv, name](OpResult r) {
-                           if (r.status != 200 || !csv) return void(res.respond(json_response(r.status, r.body)));
-                           auto t = lec::parse_json(r.body["table"].dump());
-                           auto out = text_response(200, lec::to_csv(*t), "text/csv; charset=utf-8");
-                           out.headers.set("Content-Disposition",
-                                           fmt::format("attachment; filename=\"{}-steps.csv\"", name));
-                           res.respond(out);
-                         });
+    return ops_.run_task(
+        axis, "step-read", source(request),
+        [](client::Client& c) { return table_result(client::backup_steps(c)); },
+        [res, csv, name](OpResult r) {
+          if (r.status != 200 || !csv) return void(res.respond(json_response(r.status, r.body)));
+          auto t = lec::parse_json(r.body["table"].dump());
+          auto out = text_response(200, lec::to_csv(*t), "text/csv; charset=utf-8");
+          out.headers.set("Content-Disposition",
+                          fmt::format("attachment; filename=\"{}-steps.csv\"", name));
+          res.respond(out);
+        });
   }
   if (rest.size() == 1 && rest[0] == "plan" && request.method == "POST") {
     auto table = lec::parse_table(request.body, format_of(request));
     if (!table) {
       auto r = error_response(400, table.error().empty() ? "empty file" : table.error().front());
-      return void(res.respond(json_response(400, {{"ok", false},
-                                                  {"error", table.error().front()},
-                                                  {"errors", table.error()}})));
+      return void(res.respond(json_response(
+          400, {{"ok", false}, {"error", table.error().front()}, {"errors", table.error()}})));
     }
     return ops_.run_task(
         axis, "step-plan", source(request),
-        [t = *table](client::Client& c) { return OpResult{200, plan_json(client::plan_restore(c, t))}; },
+        [t = *table](client::Client& c) {
+          return OpResult{200, plan_json(client::plan_restore(c, t))};
+        },
         [res](OpResult r) { res.respond(json_response(r.status, r.body)); });
   }
   if (rest.empty() && request.method == "POST") {
@@ -138,9 +139,11 @@ void HttpApi::steps(const AxisRef& axis, std::vector<std::string_view> rest, Htt
       try {
         args = request.body.empty() ? json::object() : json::parse(request.body);
       } catch (const json::exception& e) {
-        return void(res.respond(error_response(400, fmt::format("the body is not valid JSON: {}", e.what()))));
+        return void(res.respond(
+            error_response(400, fmt::format("the body is not valid JSON: {}", e.what()))));
       }
-      if (!args.is_object()) return void(res.respond(error_response(400, "expected a JSON object of fields")));
+      if (!args.is_object())
+        return void(res.respond(error_response(400, "expected a JSON object of fields")));
       args["step"] = *n;
       auto parsed = parse_command("step-write", args);
       if (!parsed) {
@@ -161,23 +164,28 @@ void HttpApi::steps(const AxisRef& axis, std::vector<std::string_view> rest, Htt
 void HttpApi::twin(std::string_view line_name, HttpRequest& request, Responder& responder) {
   Line* line = daemon_.line(line_name);
   if (!line) {
-    return void(responder.respond(error_response(404, fmt::format("no line called '{}'", line_name))));
+    return void(
+        responder.respond(error_response(404, fmt::format("no line called '{}'", line_name))));
   }
   json changes = json::object();
   if (request.method == "POST") {
     try {
       changes = request.body.empty() ? json::object() : json::parse(request.body);
     } catch (const json::exception& e) {
-      return void(responder.respond(error_response(400, fmt::format("the body is not valid JSON: {}", e.what()))));
+      return void(responder.respond(
+          error_response(400, fmt::format("the body is not valid JSON: {}", e.what()))));
     }
     for (const auto& [key, value] : changes.items()) {
       const bool rate = key == "drop_rate" || key == "corrupt_rate" || key == "garbage_rate";
       if (!rate) {
         return void(responder.respond(error_response(
-            400, fmt::format("'{}' is not a twin setting (drop_rate, corrupt_rate, garbage_rate)", key), key)));
+            400,
+            fmt::format("'{}' is not a twin setting (drop_rate, corrupt_rate, garbage_rate)", key),
+            key)));
       }
       if (!value.is_number() || value.get<double>() < 0 || value.get<double>() > 1) {
-        return void(responder.respond(error_response(400, fmt::format("{}: a probability from 0 to 1", key), key)));
+        return void(responder.respond(
+            error_response(400, fmt::format("{}: a probability from 0 to 1", key), key)));
       }
     }
   } else if (request.method != "GET") {
@@ -188,7 +196,9 @@ void HttpApi::twin(std::string_view line_name, HttpRequest& request, Responder& 
   auto res = responder;
   // The twin belongs to the line's thread: read and change it there.
   line->post_twin([res, changes](sim::Bus* bus) {
-    if (!bus) return void(res.respond(error_response(404, "this line is not the built-in twin (port: sim)")));
+    if (!bus)
+      return void(
+          res.respond(error_response(404, "this line is not the built-in twin (port: sim)")));
     auto f = bus->faults();
     if (changes.contains("drop_rate")) f.drop = changes["drop_rate"];
     if (changes.contains("corrupt_rate")) f.corrupt = changes["corrupt_rate"];

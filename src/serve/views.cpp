@@ -46,7 +46,12 @@ void health_into(nlohmann::json& j, const AxisRef& axis) {
   const auto h = axis.line->health(axis.id);
   const auto stats = axis.line->stats();
   j["online"] = !h.offline && !axis.line->is_down();
-  if (h.offline) j["offline_reason"] = h.last_error;
+  if (h.offline) {
+    j["offline_reason"] = fmt::format(
+        "not answering: backed off after {} failed exchanges (last: {}); probed again "
+        "every {:.1f} s",
+        h.consecutive_failures, h.last_error, axis.line_config->probe_interval_ms / 1000.0);
+  }
   const auto d = stats.devices.find(axis.id);
   double error_rate = 0;
   std::optional<double> age_ms;

@@ -73,8 +73,7 @@ class Operations {
   // Runs any other client work on `axis` (step plans and restores) on an
   // operation thread, at client priority; not a motion, so never refused as busy.
   void run_task(const AxisRef& axis, std::string name, std::string source,
-                std::function<OpResult(client::Client&)> task,
-                std::function<void(OpResult)> done);
+                std::function<OpResult(client::Client&)> task, std::function<void(OpResult)> done);
   // Ties a running jog to a stream: when `closed()` turns true (checked as
   // the jog polls), the jog is released.
   void tie_jog(const std::string& axis, std::function<bool()> closed);
