@@ -81,7 +81,7 @@ void check_port(const Reader& r, const YAML::Node& n, const std::string& path,
 LineConfig read_line(const Reader& r, const YAML::Node& n, const std::string& path) {
   r.keys(n, path,
          {"name", "port", "baud", "silent_interval", "delay_ms", "timeout_margin_ms", "retries",
-          "echo", "rs485", "sim", "axes", "cache_max_age_ms", "offline_after", "probe_interval_ms",
+          "echo", "silence_wait", "rs485", "sim", "axes", "cache_max_age_ms", "offline_after", "probe_interval_ms",
           "allow_broadcast", "modbus_tcp", "rtu_tcp"});
   LineConfig l;
   if (!n["port"])
@@ -105,6 +105,7 @@ LineConfig read_line(const Reader& r, const YAML::Node& n, const std::string& pa
   l.timeout_margin_ms = r.number(n["timeout_margin_ms"], path + ".timeout_margin_ms", 50, 0, 60000);
   l.retries = static_cast<int>(r.integer(n["retries"], path + ".retries", 2, 0, 10, "0 to 10"));
   l.echo = r.get<bool>(n["echo"], path + ".echo", false);
+  l.silence_wait = r.get<bool>(n["silence_wait"], path + ".silence_wait", true);
   if (const auto rs = n["rs485"]) {
     r.keys(rs, path + ".rs485", {"enabled", "rts_after_send", "delay_before_ms", "delay_after_ms"});
     l.rs485.enabled = r.get<bool>(rs["enabled"], path + ".rs485.enabled", true);

@@ -14,9 +14,12 @@ std::size_t query_bytes(const modbus::RequestFrame& f) {
   return bytes ? bytes->size() : 8;
 }
 
+// The fastest a master that keeps the manual's rules can do this exchange:
+// the digest §1 limit, plus the silent interval it must leave before its
+// next query (so 1.0 is reachable by a compliant master, and only by one).
 Duration limit_of(const modbus::LineTiming& t, const modbus::RequestFrame& f) {
   const std::size_t reply = f.id == modbus::kBroadcastId ? 0 : expected_response_length(f.pdu);
-  return t.transaction_limit(query_bytes(f), reply);
+  return t.transaction_limit(query_bytes(f), reply) + t.silent_interval();
 }
 
 ExchangeResult result_of(TransportErrorKind k) {

@@ -15,7 +15,7 @@ client::RtuOptions rtu_options(const LineConfig& line, bool fast_twin) {
   o.delay_td = milliseconds(line.delay_ms);
   o.timeout_margin = milliseconds(line.timeout_margin_ms);
   // A fast twin frames by length: the Ts gap would only measure itself.
-  o.wait_for_silence = !fast_twin;
+  o.wait_for_silence = line.silence_wait && !fast_twin;
   return o;
 }
 

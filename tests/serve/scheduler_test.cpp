@@ -290,7 +290,8 @@ TEST(Scheduler, UtilisationIsTheShareOfTheLineLimitUsed) {
   SchedulerConfig c;
   c.timing.baud = 38400;
   Harness h(c);
-  const Duration limit = c.timing.transaction_limit(8, 19);
+  // The limit of a compliant master: the exchange, then Ts of silence.
+  const Duration limit = c.timing.transaction_limit(8, 19) + c.timing.silent_interval();
   for (int i = 0; i < 100; ++i) {
     h.s.submit(h.job(Priority::Command, 1), h.clock.now());
     auto d = h.s.next(h.clock.now());

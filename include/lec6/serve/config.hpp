@@ -70,6 +70,9 @@ struct LineConfig {
   double timeout_margin_ms = 50;
   int retries = 2;  // reads from clients, after a lost reply
   bool echo = false;
+  // Wait Ts of silence before each query (manual §8.2). Only a twin in fast
+  // timing (or a benchmark of software costs) may do without: never on RS485.
+  bool silence_wait = true;
   Rs485Config rs485;
   SimLineConfig sim;
   std::vector<AxisConfig> axes;

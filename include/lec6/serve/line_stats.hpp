@@ -4,8 +4,9 @@
 // latency per priority, errors per controller.
 //
 // Utilisation is Σ (the limit of each transaction: query wire + Ts + 4 ms +
-// Td + reply wire, digest §1) / elapsed time, over a sliding window: 1.0
-// means transactions back to back at the fastest the line allows.
+// Td + reply wire, digest §1, plus the Ts of silence a master must leave
+// before its next query) / elapsed time, over a sliding window: 1.0 means
+// transactions back to back at the fastest the manual's rules allow.
 //
 // Thread safety: none; the scheduler that owns it is driven by one thread.
 

@@ -1,0 +1,210 @@
+#!/usr/bin/python3
+"""lec serve benchmarks (BENCHMARKS.md, "lec serve"):
+
+  1. latency the daemon adds over direct access: `lec bench --op echo` (FC08, never
+     cached) straight on a fast pty twin, then through `lec serve` on the same twin
+     (tcp://), p50 and p99; goal: <= 0.5 ms added at p50;
+  2. line utilisation under mixed load (real timing): telemetry of 4 axes, clients
+     reading uncached data, a move loop over HTTP; goal >= 0.95 of the line's limit;
+  3. fifty Modbus TCP clients polling D9000x7: answers/s, and the line's transactions/s
+     with and without them (the cache keeps the line at the telemetry rate).
+
+Usage: bench/serve_bench.py BUILD_DIR [--json OUT]
+"""
+import json
+import os
+import re
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.request
+
+BUILD = sys.argv[1] if len(sys.argv) > 1 else "build"
+LEC = os.path.join(BUILD, "lec")
+
+
+def start(args, ready_pattern, timeout=10):
+    p = subprocess.Popen([LEC] + args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    deadline = time.monotonic() + timeout
+    line = p.stdout.readline()
+    if not re.search(ready_pattern, line) or time.monotonic() > deadline:
+        p.kill()
+        raise RuntimeError(f"{args[0]} did not start: {line!r}")
+    threading.Thread(target=p.stdout.read, daemon=True).start()
+    return p, line
+
+
+def stop(p):
+    p.terminate()
+    try:
+        p.wait(10)
+    except subprocess.TimeoutExpired:
+        p.kill()
+
+
+def lec_bench(port, op, n, extra=()):
+    out = subprocess.run([LEC, "--port", port, *extra, "--json", "bench", "--op", op, "-n", str(n)],
+                         capture_output=True, text=True, check=True).stdout
+    return json.loads(out)
+
+
+def serve_config(path, pty, telemetry_hz, cache_ms, timing_note="", silence_wait=True):
+    with open(path, "w") as f:
+        f.write(f"""# {timing_note}
+lines:
+  - name: bench
+    port: {pty}
+    silence_wait: {"true" if silence_wait else "false"}
+    cache_max_age_ms: {cache_ms}
+    axes: [{{id: 1, telemetry_hz: {telemetry_hz}}}, {{id: 2, telemetry_hz: {telemetry_hz}}},
+           {{id: 3, telemetry_hz: {telemetry_hz}}}, {{id: 4, telemetry_hz: {telemetry_hz}}}]
+    modbus_tcp: {{listen: "127.0.0.1:0"}}
+http: {{listen: "127.0.0.1:0"}}
+""")
+
+
+def endpoints(ready):
+    mb = int(re.search(r"tcp://127\.0\.0\.1:(\d+)", ready).group(1))
+    http = re.search(r"http://([0-9.:]+)", ready).group(1)
+    return mb, "http://" + http
+
+
+def metric(http, name):
+    text = urllib.request.urlopen(http + "/metrics").read().decode()
+    for line in text.splitlines():
+        if line.startswith(name + "{"):
+            return float(line.rsplit(" ", 1)[1])
+    raise KeyError(name)
+
+
+def post(http, path, body):
+    req = urllib.request.Request(http + path, data=json.dumps(body).encode(), method="POST")
+    try:
+        return json.load(urllib.request.urlopen(req, timeout=120))
+    except urllib.error.HTTPError as e:
+        return json.load(e)
+
+
+def poll_clients(port, clients, seconds, request):
+    counts = [0] * clients
+
+    def run(i):
+        s = socket.create_connection(("127.0.0.1", port))
+        s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        unit = 1 + i % 4
+        end = time.monotonic() + seconds
+        tid = 0
+        while time.monotonic() < end:
+            tid = (tid + 1) & 0xFFFF
+            s.sendall(struct.pack(">HHHB", tid, 0, len(request) + 1, unit) + request)
+            head = b""
+            while len(head) < 7:
+                head += s.recv(7 - len(head))
+            n = struct.unpack(">H", head[4:6])[0] - 1
+            body = b""
+            while len(body) < n:
+                body += s.recv(n - len(body))
+            counts[i] += body[0] < 0x80
+        s.close()
+
+    ts = [threading.Thread(target=run, args=(i,)) for i in range(clients)]
+    for t in ts:
+        t.start()
+    for t in ts:
+        t.join()
+    return counts
+
+
+def added_latency(tmp):
+    twin, _ = start(["sim", "--pty", f"{tmp}/fast", "--ids", "1-4", "--timing", "fast"], "ready")
+    try:
+        # A fast twin frames by length: neither side waits Ts, so the difference is
+        # the daemon's own cost (TCP, the scheduler, the line thread's wake-up).
+        direct = lec_bench(f"{tmp}/fast", "echo", 2000, ["--no-silence-wait"])
+        cfg = f"{tmp}/fast.yaml"
+        serve_config(cfg, f"{tmp}/fast", 0, 0, "no telemetry, no cache: every request on the line",
+                     silence_wait=False)
+        serve, ready = start(["serve", "--config", cfg], "ready")
+        try:
+            mb, _ = endpoints(ready)
+            via = lec_bench(f"tcp://127.0.0.1:{mb}", "echo", 2000)
+        finally:
+            stop(serve)
+    finally:
+        stop(twin)
+    return {"direct_p50_ms": direct["latency_ms"]["p50"], "direct_p99_ms": direct["latency_ms"]["p99"],
+            "daemon_p50_ms": via["latency_ms"]["p50"], "daemon_p99_ms": via["latency_ms"]["p99"],
+            "added_p50_ms": via["latency_ms"]["p50"] - direct["latency_ms"]["p50"],
+            "added_p99_ms": via["latency_ms"]["p99"] - direct["latency_ms"]["p99"]}
+
+
+def mixed_load(tmp):
+    twin, _ = start(["sim", "--pty", f"{tmp}/real", "--ids", "1-4"], "ready")
+    cfg = f"{tmp}/real.yaml"
+    serve_config(cfg, f"{tmp}/real", 20, 0, "telemetry at 20 Hz, no cache")
+    serve, ready = start(["serve", "--config", cfg], "ready")
+    try:
+        mb, http = endpoints(ready)
+        for body in ({"on": True},):
+            post(http, "/api/axes/axis1/serial", body)
+            post(http, "/api/axes/axis1/servo", body)
+        post(http, "/api/axes/axis1/home", {})
+        stop_moves = threading.Event()
+
+        def moves():
+            target = 50
+            while not stop_moves.is_set():
+                post(http, "/api/axes/axis1/move", {"position_mm": target, "speed_mm_s": 500})
+                target = 350 if target == 50 else 50
+
+        mover = threading.Thread(target=moves)
+        mover.start()
+        echo = struct.pack(">BHH", 8, 0, 0x1234)
+        poll_clients(mb, 3, 12, echo)  # the window of /metrics is 10 s
+        util = metric(http, "lec6_line_utilisation_ratio")
+        busy = metric(http, "lec6_line_busy_ratio")
+        tps = metric(http, "lec6_line_transactions_per_second")
+        stop_moves.set()
+        mover.join()
+    finally:
+        stop(serve)
+        stop(twin)
+    return {"utilisation": util, "busy": busy, "transactions_per_s": tps}
+
+
+def fifty_clients(tmp):
+    twin, _ = start(["sim", "--pty", f"{tmp}/fifty", "--ids", "1-4"], "ready")
+    cfg = f"{tmp}/fifty.yaml"
+    serve_config(cfg, f"{tmp}/fifty", 10, 200, "telemetry 10 Hz, cache 200 ms")
+    serve, ready = start(["serve", "--config", cfg], "ready")
+    try:
+        mb, http = endpoints(ready)
+        time.sleep(11)  # let the 10 s window fill with telemetry alone
+        quiet = metric(http, "lec6_line_transactions_per_second")
+        read_state = struct.pack(">BHH", 3, 0x9000, 7)
+        counts = poll_clients(mb, 50, 11, read_state)
+        loaded = metric(http, "lec6_line_transactions_per_second")
+        hits = metric(http, "lec6_line_cache_hits_total")
+    finally:
+        stop(serve)
+        stop(twin)
+    return {"clients": 50, "answers_per_s": sum(counts) / 11, "min_client_answers_per_s": min(counts) / 11,
+            "line_tps_without": quiet, "line_tps_with": loaded, "cache_hits": hits}
+
+
+def main():
+    with tempfile.TemporaryDirectory() as tmp:
+        results = {"added_latency": added_latency(tmp), "mixed_load": mixed_load(tmp),
+                   "fifty_clients": fifty_clients(tmp)}
+    print(json.dumps(results, indent=2))
+    if "--json" in sys.argv:
+        with open(sys.argv[sys.argv.index("--json") + 1], "w") as f:
+            json.dump(results, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()
