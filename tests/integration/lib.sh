@@ -1,6 +1,8 @@
 # Shared helpers for the integration scripts: start a twin on a real
 # pseudo-terminal, wait for its ready line (bounded), count checks.
 : "${LEC:?path of the lec binary}"
+source "$(dirname "${BASH_SOURCE[0]}")/harness.sh"
+need # json() below runs /usr/bin/python3
 
 tmp=$(mktemp -d)
 twin_pids=()

@@ -6,6 +6,7 @@
 # the limit (as ratios), TCP, fast timing and faults.
 
 source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
+need --module pymodbus.client
 
 PORT=$TMP/lec0
 

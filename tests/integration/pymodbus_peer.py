@@ -27,6 +27,13 @@ Every wait is bounded by a deadline.
 import logging
 import sys
 import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
+import lec6_preflight  # noqa: E402
+
+# Name the Debian package, not a traceback, when pymodbus or what it loads is missing.
+lec6_preflight.require(modules=["pymodbus.client", "pymodbus.framer.rtu_framer"])
 
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.framer.rtu_framer import ModbusRtuFramer

@@ -21,6 +21,8 @@ set -euo pipefail
 LEC=${LEC:?set LEC to the lec binary}
 TEST_DIR=${LEC6_TEST_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)}
 DATA=$TEST_DIR/data/steps
+source "$(dirname "${BASH_SOURCE[0]}")/harness.sh"
+need --program jq
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/lec6-step-cli.XXXXXX")
 
 declare -A PID=()

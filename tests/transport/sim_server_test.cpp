@@ -1,6 +1,10 @@
 // The twin's event loop on real pseudo-terminals and sockets: a server on a
 // thread, masters through SerialLink / TcpLink. Timing is checked as ratios
-// to the wire limit (digest §1), never as absolute times.
+// to the wire limit (digest §1), never as absolute times: a reply never comes
+// before the limit (it holds under any load), and its median stays within a
+// margin that holds under ASan + UBSan on a loaded 2-core machine too. How
+// close to the limit the twin really is (1.00x-1.01x) is measured by the
+// benchmark, not here: bench/poll_bus.cpp, `make bench` (BENCHMARKS.md).
 
 #include <stdlib.h>
 #include <unistd.h>
@@ -11,6 +15,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <mutex>
 #include <span>
 #include <string>
@@ -125,6 +130,10 @@ SimServerOptions pty_only() {
   return o;
 }
 
+// The median round trip / limit a test accepts: the twin answers at the
+// limit, plus scheduling and sanitizer slowness (a few ms at most).
+constexpr double kMedianMargin = 1.5;
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -134,7 +143,7 @@ double median(std::vector<double> v) {
 
 // The client measures from before its write to the complete reply, as our
 // benchmark does; on a pty that must come out at the limit (wire(query) + Ts +
-// 4 ms + Td + wire(reply)): never below it, and within 10 % above.
+// 4 ms + Td + wire(reply)): never below it, and the median within the margin.
 TEST(SimServer, ReadStateRoundTripOnAPtyMatchesTheLimit) {
   Running twin({1}, pty_only());
   SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 38400});
@@ -162,7 +171,7 @@ TEST(SimServer, ReadStateRoundTripOnAPtyMatchesTheLimit) {
   std::printf("twin write lateness: mean %.1f us, max %.1f us over %llu replies\n",
               to_ms(st.lateness_total) * 1000.0 / static_cast<double>(st.replies_sent),
               to_ms(st.lateness_max) * 1000.0, static_cast<unsigned long long>(st.replies_sent));
-  EXPECT_LE(m, 1.10) << "median of " << ratios.size() << " round trips";
+  EXPECT_LE(m, kMedianMargin) << "median of " << ratios.size() << " round trips";
 }
 
 TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
@@ -183,7 +192,7 @@ TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
     EXPECT_GE(ratio, 1.0);
     ratios.push_back(ratio);
   }
-  EXPECT_LE(median(ratios), 1.10);
+  EXPECT_LE(median(ratios), kMedianMargin);
 }
 
 TEST(SimServer, FastTimingAnswersWellWithinTheLimit) {
@@ -310,8 +319,13 @@ TEST(SimServer, StopBeforeRunReturnsAtOnce) {
   bus.add(1);
   SimServer server(bus, pty_only());
   server.stop();
-  server.run();  // returns: the stop was not lost
-  SUCCEED();
+  // run() must return by itself: the stop was not lost. On a thread, so that
+  // a lost stop fails here (and is then stopped again) instead of hanging.
+  auto ran = std::async(std::launch::async, [&] { server.run(); });
+  const bool returned = ran.wait_for(5s) == std::future_status::ready;
+  if (!returned) server.stop();
+  ran.get();
+  EXPECT_TRUE(returned) << "run() after stop() did not return within 5 s";
 }
 
 TEST(SimServer, NeedsSomewhereToServe) {
