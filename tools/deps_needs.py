@@ -164,11 +164,12 @@ def python_needs(shell_texts, declared):
         if r.returncode != 0:
             return [Need("Python imports", "tools/check-deps", problem=r.stderr.strip()[-500:])]
         result = json.load(open(out.name))
-    needs = []
+    needs, reported = [], set()
     for name, (kind, message, missing) in sorted(result["errors"].items()):
         where, optional = imports[name]
-        if optional and kind == "ModuleNotFoundError" and missing == name:
-            continue  # `from a import b`: b was a name, not a module
+        if optional or (missing or name) in reported:
+            continue  # `from a import b`: b may be a name (a itself is checked); one line per module
+        reported.add(missing or name)
         needs.append(Need(f"module {missing or name}", f"`import {name}` in {where}",
                           problem=f"{PY} cannot import it: {kind}: {message}"))
     for name, file in sorted(result["files"].items()):

@@ -35,7 +35,8 @@ def missing(modules=(), programs=()):
             importlib.import_module(m)
         except ImportError as e:
             name = getattr(e, "name", None) or m
-            out.append(("py", name, f"`import {m}`: {type(e).__name__}: {e}"))
+            if name not in (n for _, n, _ in out):
+                out.append(("py", name, f"`import {m}`: {type(e).__name__}: {e}"))
     for p in programs:
         found = os.access(p, os.X_OK) if os.path.isabs(p) else shutil.which(p, path=DEBIAN_PATH)
         if not found:
