@@ -266,6 +266,13 @@ def _outside(p, *dirs):
     return not any(str(p).startswith(str(d) + "/") or str(p) == str(d) for d in dirs)
 
 
+# Tools CMake takes from whatever is installed (llvm-ar when llvm is there,
+# binutils' ar otherwise): the build works with either, and the compilers'
+# hard Depends bring a working set (binutils), so they are not needs.
+_OPPORTUNISTIC = re.compile(r"^CMAKE_((\w+_COMPILER_)?(AR|RANLIB)|ADDR2LINE|DLLTOOL|LINKER|NM|OBJCOPY|OBJDUMP|"
+                            r"READELF|STRIP|TAPI|MT)$")
+
+
 def cmake_needs(cache_path):
     """(needs, include dirs) of one configured build."""
     cache = read_cache(cache_path)
@@ -276,7 +283,7 @@ def cmake_needs(cache_path):
             include_dirs += [d for d in value.split(";") if d]
         if not (kind in ("FILEPATH", "PATH") or key in ("CMAKE_COMMAND", "CMAKE_CTEST_COMMAND")):
             continue
-        if key.startswith("CMAKE_INSTALL") or not value.startswith("/"):
+        if key.startswith("CMAKE_INSTALL") or not value.startswith("/") or _OPPORTUNISTIC.match(key):
             continue
         p = Path(value)
         if not p.exists() or not _outside(p.resolve(), ROOT, build):
