@@ -262,7 +262,7 @@ def read_cache(path):
     return entries
 
 
-def _outside(p, *dirs):
+def outside(p, *dirs):
     return not any(str(p).startswith(str(d) + "/") or str(p) == str(d) for d in dirs)
 
 
@@ -286,7 +286,7 @@ def cmake_needs(cache_path):
         if key.startswith("CMAKE_INSTALL") or not value.startswith("/") or _OPPORTUNISTIC.match(key):
             continue
         p = Path(value)
-        if not p.exists() or not _outside(p.resolve(), ROOT, build):
+        if not p.exists() or not outside(p.resolve(), ROOT, build):
             continue
         files = [str(p)]
         if p.is_dir():
@@ -330,7 +330,7 @@ def header_needs(compiler, include_dirs):
             seen.setdefault(header, _rel(src))
     for header, where in sorted(seen.items()):
         found = next((d / header for d in dirs if (d / header).exists()), None)
-        if found and not _outside(found.resolve(), ROOT):
+        if found and not outside(found.resolve(), ROOT):
             continue
         need = Need(f"header <{header}>", where)
         if found:

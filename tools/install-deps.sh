@@ -33,7 +33,7 @@ done <"$list"
 
 sudo=""
 if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
-printf -v shown "%s; " "${groups[@]}"
+printf -v shown "%s; " "${groups[@]// / | }"
 echo "install-deps: missing from $list: ${shown%; }"
 $sudo apt-get update -qq
 
