@@ -22,7 +22,7 @@
 #include "lec6/lec/step_data.hpp"
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/sim/bus.hpp"
-#include "lec6/transport/sim_link.hpp"
+#include "lec6/twin/sim_link.hpp"
 
 namespace {
 
@@ -36,7 +36,7 @@ modbus::Bytes read_state_query(uint8_t id) {
 // Serial mode, servo on, home, then a direct ABS move to 200 m at 1 mm/s
 // (55 hours of motion) on every ID, through the client on the virtual clock.
 void start_long_moves(sim::Bus& bus, VirtualClock& clock) {
-  transport::SimLink link(bus, clock);
+  lec6::twin::SimLink link(bus, clock);
   client::Client c(link, {});
   const auto ids = bus.ids();
   for (uint8_t id : ids) {
@@ -155,7 +155,7 @@ BENCHMARK(BM_Twin_Real)->Args({1, 0})->Args({16, 0})->Args({64, 0})->Args({64, 1
 // against a fast-timing bus (encode, write, twin, framer, decode, typed state).
 void BM_InProcess_ClientReadState(benchmark::State& state) {
   Twin twin(1, sim::Timing::Fast, false);
-  transport::SimLink link(*twin.bus, twin.clock);
+  lec6::twin::SimLink link(*twin.bus, twin.clock);
   client::ClientOptions o;
   o.wait_for_silence = false;
   client::Client c(link, o);

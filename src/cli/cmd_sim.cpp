@@ -15,7 +15,7 @@
 #include "lec6/modbus/timing.hpp"
 #include "lec6/sim/bus.hpp"
 #include "lec6/sim/state_file.hpp"
-#include "lec6/transport/sim_server.hpp"
+#include "lec6/twin/sim_server.hpp"
 
 namespace lec6::cli {
 
@@ -141,7 +141,7 @@ std::pair<std::string, uint16_t> parse_tcp(const std::string& text) {
 }
 
 // Signals end the loop: the handler only writes to the server's eventfd.
-std::atomic<transport::SimServer*> g_server{nullptr};
+std::atomic<twin::SimServer*> g_server{nullptr};
 
 void on_stop_signal(int) {
   g_interrupted = true;
@@ -248,7 +248,7 @@ void run_sim(const SimArgs& a) {
     bus.add(id, config, power_on, eeprom);
   }
 
-  transport::SimServerOptions so;
+  twin::SimServerOptions so;
   so.pty = !a.pty.empty();
   so.pty_link = a.pty;
   if (!a.tcp.empty()) so.tcp = parse_tcp(a.tcp);
@@ -262,7 +262,7 @@ void run_sim(const SimArgs& a) {
   so.warn = [](const std::string& l) { print_line(stderr, "lec sim: warning: " + l); };
 
   install_stop_handlers();
-  transport::SimServer server(bus, std::move(so));
+  twin::SimServer server(bus, std::move(so));
   g_server = &server;
   if (g_interrupted) server.stop();  // a signal before the handler knew the server
   struct Unregister {

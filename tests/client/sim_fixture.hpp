@@ -9,7 +9,7 @@
 #include "lec6/client/actuator.hpp"
 #include "lec6/client/client.hpp"
 #include "lec6/sim/bus.hpp"
-#include "lec6/transport/sim_link.hpp"
+#include "lec6/twin/sim_link.hpp"
 
 namespace lec6::testing {
 
@@ -18,7 +18,7 @@ struct SimFixture {
                       sim::ActuatorConfig config = {})
       : bus(line) {
     for (uint8_t id : ids) bus.add(id, config, clock.now());
-    link = std::make_unique<transport::SimLink>(bus, clock);
+    link = std::make_unique<twin::SimLink>(bus, clock);
     client = std::make_unique<client::Client>(*link, options());
     axis = std::make_unique<client::Actuator>(*client);
   }
@@ -41,7 +41,7 @@ struct SimFixture {
 
   VirtualClock clock{TimePoint{} + std::chrono::seconds(1)};
   sim::Bus bus;
-  std::unique_ptr<transport::SimLink> link;
+  std::unique_ptr<twin::SimLink> link;
   std::unique_ptr<client::Client> client;
   std::unique_ptr<client::Actuator> axis;
   std::vector<modbus::Bytes> sent;

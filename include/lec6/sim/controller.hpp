@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -54,8 +55,31 @@ class Controller {
   // Acts on one decoded request addressed to this controller at time `t` and
   // returns its reply (an ExceptionResponse when refused, digest §3). The
   // write is applied first, then the reply is built: a start has already set
-  // BUSY and cleared INP in a reply read after it.
+  // BUSY and cleared INP in a reply read after it. The memory map onto the
+  // inputs and outputs below is in sim/register_adapter.cpp.
   modbus::Response handle(const modbus::Request& request, TimePoint t);
+
+  // ---- the controller's inputs, in the manual's terms ---------------------
+  // These act at now(); handle() advances to its request's time first.
+  //
+  // New Y10–Y1F and Y30 values (coils or D90C1/D90C2); the controller acts
+  // on their edges: SVON, RESET, HOLD, SETUP, DRIVE (with IN0–IN5), JOG±.
+  struct ControlWrite {
+    lec::ControlFlags flags;
+    // The write set SVON ← 1, even if it was on already: a servo-on after
+    // an EMG stop needs a new SVON write (digest §6).
+    bool svon_written = false;
+  };
+  void write_control(const ControlWrite& write);
+  // Direct-operation data D9102–D910F (RAM), by register index.
+  static constexpr std::size_t kDirectDataRegisters = 16;
+  const std::array<uint16_t, kDirectDataRegisters>& direct_data() const { return direct_; }
+  void write_direct_data(std::size_t index, uint16_t value);
+  // D9100 written non-zero: starts the direct-operation data as a move.
+  void start_direct();
+  // Step data written by one transaction (step number → new contents): each
+  // step counts one EEPROM write.
+  void write_steps(const std::map<unsigned, lec::StepData>& steps);
 
   // ---- external inputs ---------------------------------------------------
   // The EMG stop input (digest §6): on = stop at once, SVRE 0, ESTOP 1;
@@ -127,15 +151,6 @@ class Controller {
   void fire(const Event& e);
   std::optional<TimePoint> contact_time(TimePoint from) const;
 
-  // Requests.
-  modbus::Response read_bits(const modbus::ReadBitsRequest& q);
-  modbus::Response read_registers(const modbus::ReadRegistersRequest& q);
-  uint16_t read_register(uint16_t address);
-  void write_registers(const modbus::WriteRegistersRequest& q);
-
-  // Coils: store the new Y10–Y1F / Y30 values, then act on edges.
-  void apply_coils(uint16_t new_y10_1f, bool new_serial, bool wrote_svon);
-
   // Operations.
   Kinematics kin() const { return profile_.at(now_); }
   void servo_off();
@@ -159,7 +174,7 @@ class Controller {
 
   // RAM: flags, direct data, state.
   lec::ControlFlags control_{};
-  std::array<uint16_t, 16> direct_{};
+  std::array<uint16_t, kDirectDataRegisters> direct_{};
   bool svre_ = false;
   std::optional<TimePoint> svre_at_;
   bool seton_ = false;

@@ -55,7 +55,7 @@
 #include "lec6/transport/pty.hpp"
 #include "lec6/transport/tcp_server.hpp"
 
-namespace lec6::transport {
+namespace lec6::twin {
 
 struct SimServerOptions {
   // Serve a pseudo-terminal; with a non-empty `pty_link`, also a symlink to
@@ -116,8 +116,8 @@ class SimServer {
   // Makes run() return soon. Thread-safe and async-signal-safe.
   void stop() noexcept;
 
-  const Pty* pty() const { return pty_.get(); }
-  const TcpListener* tcp() const { return listener_.get(); }
+  const transport::Pty* pty() const { return pty_.get(); }
+  const transport::TcpListener* tcp() const { return listener_.get(); }
   // Where masters connect: the pty's client path and/or the TCP URL.
   std::string endpoints() const;
 
@@ -128,10 +128,10 @@ class SimServer {
   struct Impl;
   sim::Bus& bus_;
   SimServerOptions options_;
-  std::unique_ptr<Pty> pty_;
-  std::unique_ptr<TcpListener> listener_;
-  UniqueFd stop_fd_;
+  std::unique_ptr<transport::Pty> pty_;
+  std::unique_ptr<transport::TcpListener> listener_;
+  transport::UniqueFd stop_fd_;
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace lec6::transport
+}  // namespace lec6::twin

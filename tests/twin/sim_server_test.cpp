@@ -28,10 +28,11 @@
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/sim/state_file.hpp"
 #include "lec6/transport/serial_link.hpp"
-#include "lec6/transport/sim_server.hpp"
 #include "lec6/transport/tcp_link.hpp"
+#include "lec6/twin/sim_server.hpp"
 
-namespace lec6::transport {
+namespace lec6::twin {
+using namespace transport;
 namespace {
 
 namespace fs = std::filesystem;
@@ -387,4 +388,4 @@ TEST(SimServer, TraceShowsEachFrameDecoded) {
 }
 
 }  // namespace
-}  // namespace lec6::transport
+}  // namespace lec6::twin

@@ -10,7 +10,7 @@
 #include "lec6/client/link.hpp"
 #include "lec6/sim/bus.hpp"
 
-namespace lec6::transport {
+namespace lec6::twin {
 
 class SimLink final : public client::Link {
  public:
@@ -39,4 +39,4 @@ class SimLink final : public client::Link {
   std::deque<Arrival> incoming_;
 };
 
-}  // namespace lec6::transport
+}  // namespace lec6::twin

@@ -1,10 +1,10 @@
-#include "lec6/transport/sim_link.hpp"
+#include "lec6/twin/sim_link.hpp"
 
 #include <algorithm>
 #include <cstring>
 #include <thread>
 
-namespace lec6::transport {
+namespace lec6::twin {
 
 SimLink::SimLink(sim::Bus& bus, VirtualClock& clock) : bus_(bus), clock_(clock), virtual_(&clock) {}
 SimLink::SimLink(sim::Bus& bus, const SteadyClock& clock) : bus_(bus), clock_(clock) {}
@@ -65,4 +65,4 @@ void SimLink::discard_input() {
   while (!incoming_.empty() && incoming_.front().at <= clock_.now()) incoming_.pop_front();
 }
 
-}  // namespace lec6::transport
+}  // namespace lec6::twin

@@ -1,6 +1,6 @@
 // The twin's event loop. See the header for the timing rule.
 
-#include "lec6/transport/sim_server.hpp"
+#include "lec6/twin/sim_server.hpp"
 
 #include <poll.h>
 #include <sys/eventfd.h>
@@ -11,10 +11,8 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
-#include <condition_variable>
 #include <deque>
 #include <map>
-#include <mutex>
 #include <stdexcept>
 #include <system_error>
 #include <thread>
@@ -23,16 +21,17 @@
 #include <fmt/format.h>
 
 #include "lec6/client/link.hpp"
-#include "lec6/lec/explain.hpp"
-#include "lec6/modbus/framer.hpp"
-#include "lec6/sim/state_file.hpp"
+#include "twin/state_saver.hpp"
+#include "twin/trace_mirror.hpp"
 
-namespace lec6::transport {
+namespace lec6::twin {
 
 namespace {
 
 using client::LinkError;
 using client::LinkErrorKind;
+using transport::errno_text;
+using transport::UniqueFd;
 
 constexpr int kPtySource = 0;
 constexpr int kNoSource = -1;
@@ -94,30 +93,21 @@ struct SimServer::Impl {
   int next_source = kPtySource + 1;
   bool pty_full_warned = false;
 
-  // --trace: a second framer fed exactly like the bus's, to see its frames.
-  std::optional<modbus::DeviceFramer> mirror;
-  std::map<uint8_t, modbus::RequestFrame> last_request;
+  std::optional<TraceMirror> mirror;  // --trace
+  StateSaver saver;
 
-  // State file.
-  uint64_t saved_generation = 0;
-  std::optional<TimePoint> save_at;
-  TimePoint last_save{};
-  bool have_saved = false;
-  std::thread saver;
-  std::mutex saver_mutex;
-  std::condition_variable saver_cv;
-  std::optional<sim::EepromSet> saver_pending;
-  bool saver_quit = false;
-
-  std::atomic<uint64_t> bytes_in{0}, replies_sent{0}, replies_undeliverable{0}, accepted{0},
-      saves{0}, save_failures{0};
+  std::atomic<uint64_t> bytes_in{0}, replies_sent{0}, replies_undeliverable{0}, accepted{0};
   std::atomic<int64_t> late_total_ns{0}, late_max_ns{0};
 
-  Impl(SimServer& s, sim::Bus& b, const SimServerOptions& o) : self(s), bus(b), options(o) {
-    if (options.trace) mirror.emplace(bus.line().line.silent_interval(), !real);
+  Impl(SimServer& s, sim::Bus& b, const SimServerOptions& o)
+      : self(s),
+        bus(b),
+        options(o),
+        saver(b, {o.state_file, o.save_interval, o.state_carry, o.warn}) {
+    if (options.trace) {
+      mirror.emplace(bus.line().line.silent_interval(), !real, origin, options.trace);
+    }
   }
-
-  ~Impl() { stop_saver(); }
 
   void warn(const std::string& text) {
     if (options.warn) options.warn(text);
@@ -139,7 +129,7 @@ struct SimServer::Impl {
   void advance(TimePoint t) {
     bus.advance(t);
     account(last_source);
-    poll_mirror(t);
+    if (mirror) mirror->poll(t);
   }
 
   void feed(std::span<const uint8_t> bytes, TimePoint t, int source) {
@@ -150,10 +140,7 @@ struct SimServer::Impl {
     }
     bus.receive(bytes, t);
     account(source);
-    if (mirror) {
-      mirror->feed(bytes, t);
-      poll_mirror(t);
-    }
+    if (mirror) mirror->feed(bytes, t);
   }
 
   // Bytes read from `source` at `t`.
@@ -195,7 +182,7 @@ struct SimServer::Impl {
       const int64_t late = (clock.now() - o.at).count();
       late_total_ns += late;
       if (late > late_max_ns) late_max_ns = late;
-      if (options.trace) trace_tx(o, ok);
+      if (mirror) mirror->reply(o.bytes, clock.now(), ok);
     }
   }
 
@@ -248,115 +235,6 @@ struct SimServer::Impl {
     }
   }
 
-  // ---- trace -------------------------------------------------------------
-
-  double ms_since_start(TimePoint t) const { return to_ms(t - origin); }
-
-  void poll_mirror(TimePoint t) {
-    if (!mirror) return;
-    while (auto f = mirror->poll(t)) {
-      std::string meaning;
-      if (auto q = modbus::decode_request(f->bytes)) {
-        meaning = lec::explain_request(*q);
-        last_request[q->id] = *q;
-      } else {
-        meaning = lec::explain_bytes(f->bytes, false);
-      }
-      options.trace(fmt::format("{:12.3f} ms  <- {}  | {}", ms_since_start(f->end_of_query),
-                                modbus::to_hex(f->bytes), meaning));
-    }
-  }
-
-  void trace_tx(const Outgoing& o, bool delivered) {
-    std::string meaning;
-    if (auto r = modbus::decode_response(o.bytes)) {
-      auto q = last_request.find(r->id);
-      meaning = lec::explain_response(*r, q == last_request.end() ? nullptr : &q->second);
-    } else {
-      meaning = lec::explain_bytes(o.bytes, true);
-    }
-    options.trace(fmt::format("{:12.3f} ms  -> {}  | {}{}", ms_since_start(clock.now()),
-                              modbus::to_hex(o.bytes), meaning,
-                              delivered ? "" : "  (not delivered: no receiver)"));
-  }
-
-  // ---- state file ----------------------------------------------------------
-
-  uint64_t eeprom_generation() {
-    uint64_t g = 0;
-    for (uint8_t id : bus.ids()) g += bus.find(id)->eeprom_generation();
-    return g;
-  }
-
-  sim::EepromSet snapshot() {
-    sim::EepromSet s = options.state_carry;
-    for (uint8_t id : bus.ids()) s.insert_or_assign(id, bus.find(id)->eeprom());
-    return s;
-  }
-
-  void start_saver() {
-    if (options.state_file.empty()) return;
-    saved_generation = eeprom_generation();
-    saver = std::thread([this] { saver_loop(); });
-  }
-
-  void saver_loop() {
-    std::unique_lock lock(saver_mutex);
-    for (;;) {
-      saver_cv.wait(lock, [&] { return saver_pending.has_value() || saver_quit; });
-      if (!saver_pending) return;
-      sim::EepromSet state = std::move(*saver_pending);
-      saver_pending.reset();
-      lock.unlock();
-      auto saved = sim::save_state_file(options.state_file, state);
-      if (!saved) {
-        ++save_failures;
-        warn(saved.error());
-      }
-      lock.lock();
-    }
-  }
-
-  void submit_save(TimePoint now) {
-    {
-      std::lock_guard lock(saver_mutex);
-      saver_pending = snapshot();  // replaces a save not yet written: the newest wins
-    }
-    saver_cv.notify_one();
-    ++saves;
-    saved_generation = eeprom_generation();
-    last_save = now;
-    have_saved = true;
-    save_at.reset();
-  }
-
-  void check_save(TimePoint now) {
-    if (options.state_file.empty()) return;
-    if (!save_at && eeprom_generation() != saved_generation) {
-      save_at = have_saved ? std::max(now, last_save + options.save_interval) : now;
-    }
-    if (save_at && *save_at <= now) submit_save(now);
-  }
-
-  void final_save() {
-    if (options.state_file.empty() || !saver.joinable()) return;
-    std::error_code ec;
-    if (eeprom_generation() != saved_generation ||
-        !std::filesystem::exists(options.state_file, ec)) {
-      submit_save(clock.now());
-    }
-  }
-
-  void stop_saver() {
-    if (!saver.joinable()) return;
-    {
-      std::lock_guard lock(saver_mutex);
-      saver_quit = true;  // the loop writes what is pending first
-    }
-    saver_cv.notify_one();
-    saver.join();
-  }
-
   // ---- the loop --------------------------------------------------------------
 
   void step(TimePoint now) {
@@ -369,13 +247,13 @@ struct SimServer::Impl {
       while ((now = clock.now()) < at) cpu_relax();
     }
     flush_outbox(now);
-    check_save(now);
+    saver.check(now);
   }
 
   std::optional<TimePoint> deadline() const {
     std::optional<TimePoint> d = bus.next_deadline();
     if (!outbox.empty()) min_into(d, outbox.front().at - options.spin_before_write);
-    min_into(d, save_at);
+    min_into(d, saver.due());
     return d;
   }
 
@@ -427,7 +305,7 @@ struct SimServer::Impl {
   void run() {
     // Wake at the instant asked, not up to 50 µs later (the default slack).
     ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
-    start_saver();
+    saver.start();
     std::vector<pollfd> fds;
     std::vector<int> sources;  // per entry of fds: -2 stop, -3 listener, else a source
     constexpr int kStop = -2, kListener = -3;
@@ -485,8 +363,8 @@ struct SimServer::Impl {
     }
     // Replies already due still go out; then the last save.
     step(clock.now());
-    final_save();
-    stop_saver();
+    saver.final_save(clock.now());
+    saver.stop();
   }
 };
 
@@ -499,10 +377,10 @@ SimServer::SimServer(sim::Bus& bus, SimServerOptions options)
   if (!stop_fd_) throw std::system_error(errno, std::generic_category(), "eventfd");
   impl_ = std::make_unique<Impl>(*this, bus_, options_);
   if (options_.tcp) {
-    listener_ = std::make_unique<TcpListener>(options_.tcp->second, options_.tcp->first);
+    listener_ = std::make_unique<transport::TcpListener>(options_.tcp->second, options_.tcp->first);
   }
   // Last: the symlink appears only once everything else is ready.
-  if (options_.pty) pty_ = std::make_unique<Pty>(options_.pty_link);
+  if (options_.pty) pty_ = std::make_unique<transport::Pty>(options_.pty_link);
 }
 
 SimServer::~SimServer() {
@@ -525,7 +403,7 @@ std::string SimServer::endpoints() const {
   if (pty_) out = pty_->client_path();
   if (listener_) {
     if (!out.empty()) out += " and ";
-    out += listener_->url();
+    out += "rtu+" + listener_->url();  // RTU frames over TCP
   }
   return out;
 }
@@ -536,11 +414,11 @@ SimServer::Stats SimServer::stats() const {
   s.replies_sent = impl_->replies_sent;
   s.replies_undeliverable = impl_->replies_undeliverable;
   s.connections = impl_->accepted;
-  s.saves = impl_->saves;
-  s.save_failures = impl_->save_failures;
+  s.saves = impl_->saver.saves();
+  s.save_failures = impl_->saver.failures();
   s.lateness_total = Duration(impl_->late_total_ns.load());
   s.lateness_max = Duration(impl_->late_max_ns.load());
   return s;
 }
 
-}  // namespace lec6::transport
+}  // namespace lec6::twin

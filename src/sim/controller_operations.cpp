@@ -1,0 +1,289 @@
+// The twin controller's operations (digest §5–§6): what the inputs start and
+// stop (servo, homing, step and direct moves, pushing, jog, hold, reset,
+// alarms), acting on the edges of Y10–Y1F and Y30.
+
+#include <algorithm>
+#include <cmath>
+
+#include "lec6/sim/controller.hpp"
+#include "sim/controller_math.hpp"
+
+namespace lec6::sim {
+
+using detail::clamp_i32;
+using detail::kEps;
+using lec::Coil;
+
+double Controller::current_decel() const {
+  switch (op_.kind) {
+    case OpKind::Homing:
+      return config_.origin_accel_mm_s2;
+    case OpKind::Move:
+      return op_.phase == MovePhase::Push ? op_.move.push.deceleration
+                                          : op_.move.approach.deceleration;
+    case OpKind::Jog:
+    case OpKind::JogStop:
+      return config_.jog_accel_mm_s2;
+    case OpKind::Stalled:
+    case OpKind::None:
+      break;
+  }
+  return config_.max_accel_mm_s2;
+}
+
+void Controller::plan_phase() {
+  const Kinematics k = kin();
+  if (op_.held) {
+    profile_ = MotionProfile::stop(now_, k.position, k.velocity, current_decel());
+    return;
+  }
+  double target = k.position;
+  MoveLimits limits;
+  switch (op_.kind) {
+    case OpKind::Homing:
+      target = op_.homing_phase == 0 ? config_.stroke_min_mm : 0.0;
+      limits = {config_.origin_speed_mm_s, config_.origin_accel_mm_s2, config_.origin_accel_mm_s2};
+      break;
+    case OpKind::Move:
+      if (op_.phase == MovePhase::Approach) {
+        target = op_.move.target_phys;
+        limits = op_.move.approach;
+      } else {
+        target = op_.move.push_end_phys;
+        limits = op_.move.push;
+      }
+      break;
+    case OpKind::Jog:
+      target = op_.jog_dir > 0 ? config_.stroke_max_mm : config_.stroke_min_mm;
+      limits = {config_.jog_speed_mm_s, config_.jog_accel_mm_s2, config_.jog_accel_mm_s2};
+      break;
+    case OpKind::JogStop:
+    case OpKind::Stalled:
+    case OpKind::None:
+      return;
+  }
+  profile_ = MotionProfile::plan(now_, k.position, k.velocity, target, limits);
+}
+
+void Controller::cancel_op(double deceleration) {
+  const Kinematics k = kin();
+  profile_ = MotionProfile::stop(now_, k.position, k.velocity, deceleration);
+  op_ = Op{};
+  busy_ = false;
+  inp_ = false;
+  pressing_ = false;
+}
+
+void Controller::servo_off() {
+  svre_ = false;
+  svre_at_.reset();
+  // Servo released: the carriage stops where it is (no coasting modelled).
+  profile_ = MotionProfile::hold(now_, kin().position);
+  op_ = Op{};
+  busy_ = false;
+  inp_ = false;
+  pressing_ = false;
+}
+
+void Controller::raise_alarm(uint8_t code) {
+  const double dec = current_decel();
+  alarm_ = code;
+  lec::AlarmGroup g;
+  g.codes[0] = code;
+  eeprom_.alarms.push(g);
+  ++eeprom_generation_;
+  if (op_.kind != OpKind::None) {
+    cancel_op(dec);
+  } else {
+    busy_ = false;
+    inp_ = false;
+    pressing_ = false;
+  }
+}
+
+void Controller::reset() {
+  if (alarm_) {
+    if (lec::alarm_resettable(*alarm_) || !svre_) alarm_.reset();
+    return;
+  }
+  if (op_.kind != OpKind::None) {
+    cancel_op(current_decel());
+  } else if (pressing_) {
+    pressing_ = false;
+    inp_ = false;
+  }
+}
+
+void Controller::hold_on() {
+  switch (op_.kind) {
+    case OpKind::Homing:
+    case OpKind::Move:
+    case OpKind::Jog:
+      if (!op_.held) {
+        op_.held = true;
+        inp_ = false;
+        plan_phase();
+      }
+      return;
+    default:
+      return;
+  }
+}
+
+void Controller::hold_off() {
+  if (!op_.held) return;
+  op_.held = false;
+  plan_phase();
+}
+
+void Controller::start_homing() {
+  if (!svre_ || alarm_) return;  // only with SVRE = 1; refused while an alarm is present
+  op_ = Op{};
+  op_.kind = OpKind::Homing;
+  op_.held = control_.test(Coil::HOLD);
+  busy_ = true;
+  inp_ = false;
+  pressing_ = false;
+  plan_phase();
+}
+
+void Controller::start_record(const lec::StepData& data, bool is_step, uint8_t step_no) {
+  if (alarm_) return;  // motion refused until RESET
+  if (!svre_) return raise_alarm(lec::alarm::kServoOff);
+  if (is_step && data.is_blank()) return raise_alarm(lec::alarm::kStepNotRegistered);
+  if (!lec::validate(data).empty()) return raise_alarm(lec::alarm::kInvalidData);
+  const bool absolute = data.movement_mode == lec::MovementMode::Absolute;
+  if (absolute && !seton_) return raise_alarm(lec::alarm::kNotHomed);
+  const int64_t target = absolute ? data.position_001mm : target_001mm_ + data.position_001mm;
+  const double target_phys = static_cast<double>(target) / 100.0 + offset_mm_;
+  const uint8_t beyond = is_step ? lec::alarm::kStepBeyondStroke : lec::alarm::kDirectBeyondStroke;
+  if (target != clamp_i32(target) || target_phys < config_.stroke_min_mm - kEps ||
+      target_phys > config_.stroke_max_mm + kEps) {
+    return raise_alarm(beyond);
+  }
+
+  MoveSpec m;
+  const double max_v = config_.max_speed_mm_s;
+  const double max_a = config_.max_accel_mm_s2;
+  m.approach = {std::min<double>(data.speed_mm_s, max_v),
+                std::min<double>(data.acceleration_mm_s2, max_a),
+                std::min<double>(data.deceleration_mm_s2, max_a)};
+  m.target_phys = target_phys;
+  m.moving_force = data.moving_force_pct;
+  m.pushing = data.is_pushing();
+  if (m.pushing) {
+    const double here = kin().position;
+    const double dir = target_phys < here - kEps ? -1.0 : 1.0;
+    const double distance = static_cast<double>(data.in_position_001mm) / 100.0;
+    m.push_end_phys =
+        std::clamp(target_phys + dir * distance, config_.stroke_min_mm, config_.stroke_max_mm);
+    m.push = {std::min<double>(data.pushing_speed_mm_s, max_v), m.approach.acceleration,
+              m.approach.deceleration};
+    m.pushing_force = data.pushing_force_pct;
+    m.trigger_level = data.trigger_level_pct;
+  }
+
+  op_ = Op{};
+  op_.kind = OpKind::Move;
+  op_.phase = MovePhase::Approach;
+  op_.move = m;
+  op_.held = control_.test(Coil::HOLD);
+  busy_ = true;
+  inp_ = false;
+  pressing_ = false;
+  out_ = step_no;
+  step_no_ = step_no;
+  target_001mm_ = target;
+  area_mm_ = RangeMm{static_cast<double>(data.area1_001mm) / 100.0,
+                     static_cast<double>(data.area2_001mm) / 100.0};
+  plan_phase();
+}
+
+void Controller::update_jog() {
+  const bool minus = control_.test(Coil::JOG_MINUS);
+  const bool plus = control_.test(Coil::JOG_PLUS);
+  const int dir = plus && !minus ? 1 : (minus && !plus ? -1 : 0);
+  if (op_.kind == OpKind::Jog) {
+    if (dir == op_.jog_dir) return;
+    if (dir == 0) {
+      const Kinematics k = kin();
+      profile_ = MotionProfile::stop(now_, k.position, k.velocity, config_.jog_accel_mm_s2);
+      op_ = Op{};
+      op_.kind = OpKind::JogStop;  // BUSY falls when the carriage is at rest
+      return;
+    }
+  }
+  if (dir == 0) return;
+  const bool free =
+      op_.kind == OpKind::None || op_.kind == OpKind::Jog || op_.kind == OpKind::JogStop;
+  if (!free || !svre_ || alarm_) return;
+  op_ = Op{};
+  op_.kind = OpKind::Jog;
+  op_.jog_dir = dir;
+  op_.held = control_.test(Coil::HOLD);
+  busy_ = true;
+  inp_ = false;
+  pressing_ = false;
+  plan_phase();
+}
+
+void Controller::write_control(const ControlWrite& write) {
+  const lec::ControlFlags old = control_;
+  control_ = write.flags;
+  // Back to parallel mode: the twin's parallel inputs are all open (behaviour.hpp).
+  if (old.serial_mode && !control_.serial_mode) control_.y10_1f = 0;
+  auto was = [&](Coil c) { return old.test(c); };
+  auto is = [&](Coil c) { return control_.test(c); };
+  auto rose = [&](Coil c) { return !was(c) && is(c); };
+  auto fell = [&](Coil c) { return was(c) && !is(c); };
+
+  if (fell(Coil::SVON)) {
+    servo_off();
+  } else if (is(Coil::SVON) && (rose(Coil::SVON) || write.svon_written)) {
+    if (!svre_ && !svre_at_ && !estop_) svre_at_ = now_ + config_.svre_delay;
+  }
+  if (rose(Coil::RESET)) reset();
+  if (rose(Coil::HOLD)) hold_on();
+  if (fell(Coil::HOLD)) hold_off();
+  if (rose(Coil::SETUP)) start_homing();
+  if (rose(Coil::DRIVE)) {
+    const uint8_t n = control_.selected_step();
+    start_record(eeprom_.steps[n], true, n);
+  }
+  if (was(Coil::JOG_MINUS) != is(Coil::JOG_MINUS) || was(Coil::JOG_PLUS) != is(Coil::JOG_PLUS)) {
+    update_jog();
+  }
+}
+
+void Controller::set_estop(bool on, TimePoint t) {
+  advance(t);
+  if (on && !estop_) {
+    estop_ = true;
+    servo_off();
+  } else if (!on) {
+    estop_ = false;
+  }
+}
+
+// ---- memory inputs -------------------------------------------------------------
+
+void Controller::write_direct_data(std::size_t index, uint16_t value) {
+  if (index < direct_.size()) direct_[index] = value;
+}
+
+void Controller::start_direct() {
+  start_record(lec::StepData::from_registers(std::span<const uint16_t>(direct_)), false, 0);
+}
+
+void Controller::write_steps(const std::map<unsigned, lec::StepData>& steps) {
+  bool changed = false;
+  for (const auto& [n, data] : steps) {
+    if (n >= Eeprom::kSteps) continue;
+    eeprom_.steps[n] = data;
+    ++eeprom_.step_writes[n];
+    changed = true;
+  }
+  if (changed) ++eeprom_generation_;
+}
+
+}  // namespace lec6::sim
