@@ -213,7 +213,7 @@ def program_needs(shell_texts, declared):
     builtins = _builtins()
     functions, uses = set(), {}
     for path, text, _ in shell_texts:
-        functions |= deps_shell.functions(text)
+        functions |= deps_shell.functions(text) | deps_shell.functions(path.read_text(errors="replace"))
     for path, text, _ in shell_texts:
         variables = deps_shell.path_variables(path.read_text(errors="replace"))
         for word in deps_shell.command_words(text):

@@ -212,7 +212,7 @@ def _first_words(toks):
 
 def functions(text):
     """Names of the shell functions `text` defines."""
-    return set(re.findall(r"(?m)^\s*(?:function\s+)?([\w.:-]+)\s*\(\)", text))
+    return set(re.findall(r"(?m)(?:^|[;{&|]\s*)\s*(?:function\s+)?([\w.:-]+)\s*\(\)", text))
 
 
 def path_variables(text):

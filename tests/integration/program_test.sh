@@ -90,10 +90,8 @@ STATE=$TMP/twin.state
 if start_twin state1 --pty "$PORT" --state "$STATE"; then
   run_peer "pymodbus writes step 5" pymodbus "$PORT" write-step
   # The debounced save lands while the twin runs: wait (≤ 5 s) for it.
-  for _ in $(seq 1 250); do
-    grep -q "^step 5 " "$STATE" 2>/dev/null && break
-    sleep 0.02
-  done
+  saved_step5() { grep -q "^step 5 " "$STATE" 2>/dev/null; }
+  wait_for 5 "the state file to have step 5" -- saved_step5 || true
   check "the state file has step 5 while the twin runs" grep -q "^step 5 writes 1 " "$STATE"
   stop_twin "$TWIN_PID"
   check "twin ends with status 0" [ "$STATUS" = 0 ]
@@ -134,11 +132,11 @@ for after in 5 20 40; do
     pymodbus "$PORT" hammer 20 >"$TMP/hammer$after.out" 2>&1 &
     hammer=$!
     saved=0
-    for _ in $(seq 1 500); do # ≤ 10 s
+    saved_writes() {
       saved=$(sed -n 's/^step 6 writes \([0-9]*\) .*/\1/p' "$KSTATE" 2>/dev/null)
-      [[ -n $saved && $saved -ge $after ]] && break
-      sleep 0.02
-    done
+      [[ -n $saved && $saved -ge $after ]]
+    }
+    wait_for 10 "$after saved writes of step 6" -- saved_writes || true
     stop_twin "$TWIN_PID" KILL
     check "SIGKILL after >= $after saved writes of step 6 (file had $saved): status 137" [ "$STATUS" = 137 ]
     # The hammer stops by itself at its first failed write (the port is gone).
