@@ -58,7 +58,10 @@ ready() {
 start_twin() {
   local path=$1
   shift
-  "$LEC" sim --pty "$path" "$@" >"$tmp/sim.out" 2>"$tmp/sim.err" &
+  # Emptied here, not by the child's redirection: the child truncates only
+  # once it runs, and the last twin's ready line must not be read as this one's.
+  : >"$tmp/sim.out"
+  "$LEC" sim --pty "$path" "$@" >>"$tmp/sim.out" 2>"$tmp/sim.err" &
   twin=$!
   wait_for 10 "lec sim's ready line and $path" -- ready "$twin" "$tmp/sim.out" "lec sim: ready" "$path" ||
     fail "lec sim did not get ready"
@@ -69,7 +72,8 @@ now_ms() { date +%s%3N; }
 # ---- 1. the port vanishes mid-run --------------------------------------------------
 for sig in TERM KILL; do
   start_twin "$tmp/pty"
-  timeout 30 "$LEC" --port "$tmp/pty" watch --interval 20 >"$tmp/watch.out" 2>"$tmp/watch.err" &
+  : >"$tmp/watch.out" # (emptied before the child starts, as in start_twin)
+  timeout 30 "$LEC" --port "$tmp/pty" watch --interval 20 >>"$tmp/watch.out" 2>"$tmp/watch.err" &
   watch=$!
   wait_for 10 "lec watch's first sample" -- watch_polling "$tmp/watch.out" ||
     fail "lec watch printed no sample"
@@ -98,7 +102,7 @@ ok "missing port: exit 3: $(cat "$tmp/gone.err")"
 
 # ---- 3. the controller goes silent, the port stays ------------------------------------
 start_twin "$tmp/pty"
-timeout 30 "$LEC" --port "$tmp/pty" --retries 2 watch --interval 20 >"$tmp/silent.out" 2>"$tmp/silent.err" &
+timeout 30 "$LEC" --port "$tmp/pty" --retries 2 watch --interval 20 >"$tmp/silent.out" 2>"$tmp/silent.err" & # a new file
 watch=$!
 wait_for 10 "lec watch's first sample" -- watch_polling "$tmp/silent.out" || fail "lec watch printed no sample"
 t0=$(now_ms)
@@ -166,7 +170,8 @@ while True:
 EOF
 
 start_proxy() {
-  /usr/bin/python3 "$tmp/baud_proxy.py" "$tmp/pty" "$tmp/line" 115200 "$1" >"$tmp/proxy.out" 2>"$tmp/proxy.err" &
+  : >"$tmp/proxy.out"
+  /usr/bin/python3 "$tmp/baud_proxy.py" "$tmp/pty" "$tmp/line" 115200 "$1" >>"$tmp/proxy.out" 2>"$tmp/proxy.err" &
   proxy=$!
   wait_for 10 "the baud proxy's ready line and $tmp/line" -- ready "$proxy" "$tmp/proxy.out" "proxy ready" "$tmp/line" ||
     fail "baud proxy did not get ready"
@@ -174,6 +179,7 @@ start_proxy() {
 stop_proxy() {
   kill "$proxy" 2>/dev/null || true
   wait "$proxy" 2>/dev/null || true
+  rm -f "$tmp/line" # the proxy is killed: its link would dangle
   proxy=""
 }
 
