@@ -13,6 +13,8 @@
 #   program         without mbpoll (a program's package): fails
 #   redundant       with python3 added (a hard Depends of python3-pymodbus): fails
 #   wrong-note      with a [py: ...] note on the wrong package: fails
+#   installer       tools/install-deps.sh --dry-run reads entries, comments
+#                   and alternatives `a | b` of a list as the check does
 set -euo pipefail
 
 tools=$(cd "$(dirname "$0")" && pwd)
@@ -71,6 +73,23 @@ case $case_name in
   wrong-note)
     sed 's/^jq .*/jq  # [py: pymodbus] wrong on purpose/' "$tools/deps.txt" >"$list"
     expect_fail "says it provides module pymodbus"
+    ;;
+  installer)
+    # Installed, an installed second alternative, an indented comment: nothing missing.
+    printf '%s\n' "# head" "bash   # why [bin: bash]" "nosuch-lec6-a | coreutils  # alternatives" \
+      "                 # goes on" >"$list"
+    "$tools/install-deps.sh" --dry-run "$list"
+    # Nothing installed of a group: named with its alternatives, exit 1.
+    printf '%s\n' "bash" "nosuch-lec6-a | nosuch-lec6-b   # neither exists" >"$list"
+    rc=0
+    "$tools/install-deps.sh" --dry-run "$list" >"$work/out" 2>&1 || rc=$?
+    cat "$work/out"
+    [[ $rc -eq 1 ]] || { echo "FAIL: install-deps --dry-run exited $rc, expected 1" >&2; exit 1; }
+    grep -qF "missing from $list: nosuch-lec6-a | nosuch-lec6-b" "$work/out" ||
+      { echo "FAIL: the missing group is not named" >&2; exit 1; }
+    # The real list: after `make deps` nothing of it is missing.
+    "$tools/install-deps.sh" --dry-run
+    echo "ok: install-deps reads the list's entries, comments and alternatives"
     ;;
   *)
     echo "unknown case $case_name" >&2

@@ -5,9 +5,16 @@
 # For alternatives `a | b`: nothing to do when one is installed (or provided by
 # an installed package); otherwise the first one apt can install.
 #
-#   tools/install-deps.sh [LIST]        (default: tools/deps.txt beside this script)
+#   tools/install-deps.sh [--dry-run] [LIST]   (default: tools/deps.txt beside this script)
+#
+# --dry-run: only say what is missing (exit 1 if anything is); no apt at all.
 set -euo pipefail
 
+dry_run=0
+if [[ ${1:-} == --dry-run ]]; then
+  dry_run=1
+  shift
+fi
 list=${1:-$(dirname "$0")/deps.txt}
 [[ -r $list ]] || { echo "install-deps: cannot read $list" >&2; exit 2; }
 
@@ -29,12 +36,16 @@ while IFS= read -r line; do
   ((found)) || groups+=("$line")
 done <"$list"
 
-((${#groups[@]})) || exit 0
+if ((${#groups[@]} == 0)); then
+  ((dry_run == 0)) || echo "install-deps: nothing missing from $list"
+  exit 0
+fi
 
-sudo=""
-if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
 printf -v shown "%s; " "${groups[@]// / | }"
 echo "install-deps: missing from $list: ${shown%; }"
+((dry_run == 0)) || exit 1
+sudo=""
+if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
 $sudo apt-get update -qq
 
 installable() { [[ $(apt-cache policy "$1" 2>/dev/null | sed -n 's/^ *Candidate: *//p') =~ ^[0-9] ]]; }
