@@ -188,8 +188,10 @@ if start_twin timing2 --pty "$PORT" --baud 9600 --silent-interval 3 --delay-ms 1
 fi
 if start_twin fast --pty "$PORT" --timing fast; then
   check_sh "fast timing in the ready line" '[[ $READY == *"timing fast"* ]]'
-  run_peer "fast timing: well under the limit (median ratio <= 0.5)" \
-    pymodbus "$PORT" timing 38400 1 5 40 0 0.5
+  # Below the limit, which a real-timing reply never is (its min ratio is >= 1);
+  # unloaded the median is about 0.1, under ASan on loaded cores up to about 0.7.
+  run_peer "fast timing: under the limit (median ratio < 1)" \
+    pymodbus "$PORT" timing 38400 1 5 40 0 0.99
   stop_twin "$TWIN_PID"
 fi
 
