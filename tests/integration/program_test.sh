@@ -176,14 +176,16 @@ fi
 # ---- timing: client-observed round trips against the limit ---------------------------
 # From before the master's write to the reply's last byte, read-state (D9000 x7):
 # never below wire(query) + Ts + 4 ms + Td + wire(reply) (holds under any load),
-# median within 1.5x of it: a margin that holds under ASan on 2 loaded cores
-# (unloaded it is 1.01-1.03x; the precise figures are bench/compare's job).
+# median within 2.5x of it: a margin that holds under ASan and on 2 cores
+# overloaded 6 times (measured 1.84 there; unloaded it is 1.01-1.03x). Exact
+# timing is proved on a virtual clock (tests/sim, tests/client); the precise
+# wall-clock figures are bench/compare's job.
 if start_twin timing --pty "$PORT"; then
-  run_peer "real timing at 38400, k 1, Td 5 ms" pymodbus "$PORT" timing 38400 1 5 40 1.0 1.5
+  run_peer "real timing at 38400, k 1, Td 5 ms" pymodbus "$PORT" timing 38400 1 5 40 1.0 2.5
   stop_twin "$TWIN_PID"
 fi
 if start_twin timing2 --pty "$PORT" --baud 9600 --silent-interval 3 --delay-ms 12; then
-  run_peer "real timing at 9600, k 3, Td 12 ms" pymodbus "$PORT" timing 9600 3 12 15 1.0 1.5
+  run_peer "real timing at 9600, k 3, Td 12 ms" pymodbus "$PORT" timing 9600 3 12 15 1.0 2.5
   stop_twin "$TWIN_PID"
 fi
 if start_twin fast --pty "$PORT" --timing fast; then

@@ -132,8 +132,13 @@ SimServerOptions pty_only() {
 }
 
 // The median round trip / limit a test accepts: the twin answers at the
-// limit, plus scheduling and sanitizer slowness (a few ms at most).
-constexpr double kMedianMargin = 1.5;
+// limit, plus scheduling and sanitizer slowness. Measured: 1.01 unloaded,
+// 1.2 under ASan with the suite running, 1.65 with the load average at 12 on
+// 2 cores. A wake-up missed or left to a poll timeout still shows; the exact
+// timing (Ts, 4 ms, Td, wire times) is proved on a virtual clock
+// (tests/sim Line.RealTimingReplyEndsAtTheLimit, tests/client
+// Client.ReadStateTakesExactlyTheWireLimitInRealTiming).
+constexpr double kMedianMargin = 2.5;
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -216,10 +221,15 @@ TEST(SimServer, FastTimingAnswersWellWithinTheLimit) {
 }
 
 // A query written in two pieces back to back is one frame: the virtual line
-// carries them contiguously, with no silent interval between them.
+// carries them contiguously, with no silent interval between them. (At 9600
+// baud with k = 10, Ts is 36 ms: a writer descheduled between its two writes
+// on a loaded machine still falls inside it.)
 TEST(SimServer, AQueryWrittenInPiecesIsOneFrame) {
-  Running twin({1}, pty_only());
-  SerialLink link(twin.server().pty()->slave_path());
+  sim::LineConfig line;
+  line.line.baud = 9600;
+  line.line.silent_interval_k = 10;
+  Running twin({1}, pty_only(), line);
+  SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 9600});
   const Bytes query = echo(1, 0xBEEF);
   link.write(std::span(query).first(3));
   link.write(std::span(query).subspan(3));
