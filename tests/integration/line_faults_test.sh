@@ -169,6 +169,11 @@ while True:
         os.write(master, data if baud == want or mode == "deaf" else garble(data, baud))
 EOF
 
+# Through the proxy: a margin of 300 ms over Tx instead of 50, as the Python
+# proxy adds its own latency; on a loaded machine it would otherwise turn
+# garbled replies into timeouts.
+proxied=(--timeout 300)
+
 start_proxy() {
   : >"$tmp/proxy.out"
   /usr/bin/python3 "$tmp/baud_proxy.py" "$tmp/pty" "$tmp/line" 115200 "$1" >>"$tmp/proxy.out" 2>"$tmp/proxy.err" &
@@ -186,10 +191,10 @@ stop_proxy() {
 start_twin "$tmp/pty" --baud 115200
 start_proxy garble
 # At the right baud the proxy is transparent.
-"$LEC" --port "$tmp/line" --baud 115200 status >"$tmp/right.out" 2>"$tmp/right.err" ||
+"$LEC" "${proxied[@]}" --port "$tmp/line" --baud 115200 status >"$tmp/right.out" 2>"$tmp/right.err" ||
   fail "status through the proxy at the right baud failed"
 rc=0
-timeout 60 "$LEC" --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/baud.out" 2>"$tmp/baud.err" || rc=$?
+timeout 60 "$LEC" "${proxied[@]}" --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/baud.out" 2>"$tmp/baud.err" || rc=$?
 [[ $rc -ne 124 ]] || fail "scan --all-bauds hung"
 not_busy "$tmp/baud.err" "scan --all-bauds (garbled replies)"
 [[ $rc -eq 0 || $rc -eq 3 ]] || fail "scan at the wrong baud exited $rc"
@@ -199,13 +204,13 @@ grep -q "try --baud 115200" "$tmp/baud.err" || fail "no --baud hint: $(cat "$tmp
 ok "wrong baud (garbled replies): $(grep 'replies fail CRC' "$tmp/baud.err")"
 # Without --all-bauds: the CRC trouble is named and --all-bauds suggested.
 rc=0
-"$LEC" --port "$tmp/line" --baud 38400 scan --ids 1 >"$tmp/baud2.out" 2>"$tmp/baud2.err" || rc=$?
+"$LEC" "${proxied[@]}" --port "$tmp/line" --baud 38400 scan --ids 1 >"$tmp/baud2.out" 2>"$tmp/baud2.err" || rc=$?
 grep -q "check the baud rate" "$tmp/baud2.err" || fail "wrong baud, no hint: $(cat "$tmp/baud2.err")"
 grep -q -- "--all-bauds" "$tmp/baud2.err" || fail "no --all-bauds hint: $(cat "$tmp/baud2.err")"
 ok "wrong baud without --all-bauds: $(grep 'check the baud' "$tmp/baud2.err")"
 # An ordinary command at the wrong baud: a transport error naming the CRC / baud.
 rc=0
-"$LEC" --port "$tmp/line" --baud 38400 status >"$tmp/baud3.out" 2>"$tmp/baud3.err" || rc=$?
+"$LEC" "${proxied[@]}" --port "$tmp/line" --baud 38400 status >"$tmp/baud3.out" 2>"$tmp/baud3.err" || rc=$?
 [[ $rc -eq 3 ]] || fail "status at the wrong baud exited $rc, expected 3"
 grep -qiE "CRC|stray" "$tmp/baud3.err" || fail "status at the wrong baud: $(cat "$tmp/baud3.err")"
 grep -qi "baud" "$tmp/baud3.err" ||
@@ -217,14 +222,14 @@ stop_proxy
 # baud and stays silent. `scan --all-bauds` still finds it at 115200; say so.
 start_proxy deaf
 rc=0
-timeout 60 "$LEC" --json --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/deaf.json" 2>"$tmp/deaf.err" || rc=$?
+timeout 60 "$LEC" "${proxied[@]}" --json --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/deaf.json" 2>"$tmp/deaf.err" || rc=$?
 [[ $rc -ne 124 ]] || fail "scan --all-bauds of a silent controller hung"
 [[ $rc -eq 3 ]] || fail "scan of a controller silent at the wrong baud exited $rc, expected 3"
 not_busy "$tmp/deaf.err" "scan --all-bauds (silent controller)"
 grep -q '"suggested_baud": 115200' "$tmp/deaf.json" ||
   fail "silent at the wrong baud: no suggested baud: $(cat "$tmp/deaf.json")"
 rc=0
-timeout 60 "$LEC" --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/deaf.out" 2>"$tmp/deaf.err" || rc=$?
+timeout 60 "$LEC" "${proxied[@]}" --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/deaf.out" 2>"$tmp/deaf.err" || rc=$?
 [[ $rc -eq 3 ]] || fail "scan (text) of a controller silent at the wrong baud exited $rc, expected 3"
 grep -q "no answer at 38400 baud, the controller is at 115200?" "$tmp/deaf.err" ||
   fail "the text output does not say the silent controller is at 115200: $(cat "$tmp/deaf.out" "$tmp/deaf.err")"

@@ -174,26 +174,26 @@ else
 fi
 
 # ---- timing: client-observed round trips against the limit ---------------------------
-# From before the master's write to the reply's last byte, read-state (D9000 x7):
-# never below wire(query) + Ts + 4 ms + Td + wire(reply) (holds under any load),
-# median within 2.5x of it: a margin that holds under ASan and on 2 cores
-# overloaded 6 times (measured 1.84 there; unloaded it is 1.01-1.03x). Exact
-# timing is proved on a virtual clock (tests/sim, tests/client); the precise
-# wall-clock figures are bench/compare's job.
+# From before the master's write to the reply's last byte, read-state (D9000 x7),
+# as ratios to wire(query) + Ts + 4 ms + Td + wire(reply): never below 1 (holds
+# under any load), the best of N within 1.25 (unloaded 1.01-1.03; scheduling
+# only adds delay, so the best shows the twin's own timing, also on a loaded
+# machine: 1.01 measured at a load average of 13 on 2 cores), the median under
+# 4 (no systematic lateness). Exact timing is proved on a virtual clock
+# (tests/sim, tests/client); the precise wall-clock figures are bench/compare's.
 if start_twin timing --pty "$PORT"; then
-  run_peer "real timing at 38400, k 1, Td 5 ms" pymodbus "$PORT" timing 38400 1 5 40 1.0 2.5
+  run_peer "real timing at 38400, k 1, Td 5 ms" pymodbus "$PORT" timing 38400 1 5 40 1.0 1.25
   stop_twin "$TWIN_PID"
 fi
 if start_twin timing2 --pty "$PORT" --baud 9600 --silent-interval 3 --delay-ms 12; then
-  run_peer "real timing at 9600, k 3, Td 12 ms" pymodbus "$PORT" timing 9600 3 12 15 1.0 2.5
+  run_peer "real timing at 9600, k 3, Td 12 ms" pymodbus "$PORT" timing 9600 3 12 25 1.0 1.25
   stop_twin "$TWIN_PID"
 fi
 if start_twin fast --pty "$PORT" --timing fast; then
   check_sh "fast timing in the ready line" '[[ $READY == *"timing fast"* ]]'
-  # Below the limit, which a real-timing reply never is (its min ratio is >= 1);
-  # unloaded the median is about 0.1, under ASan on loaded cores up to about 0.7.
-  run_peer "fast timing: under the limit (median ratio < 1)" \
-    pymodbus "$PORT" timing 38400 1 5 40 0 0.99
+  # Fast timing answers below the limit, which a real-timing reply never does.
+  run_peer "fast timing: the best round trip under half the limit" \
+    pymodbus "$PORT" timing 38400 1 5 40 0 0.5
   stop_twin "$TWIN_PID"
 fi
 

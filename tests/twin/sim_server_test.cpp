@@ -131,14 +131,16 @@ SimServerOptions pty_only() {
   return o;
 }
 
-// The median round trip / limit a test accepts: the twin answers at the
-// limit, plus scheduling and sanitizer slowness. Measured: 1.01 unloaded,
-// 1.2 under ASan with the suite running, 1.65 with the load average at 12 on
-// 2 cores. A wake-up missed or left to a poll timeout still shows; the exact
-// timing (Ts, 4 ms, Td, wire times) is proved on a virtual clock
-// (tests/sim Line.RealTimingReplyEndsAtTheLimit, tests/client
+// Round trip / limit. Scheduling (a loaded machine, sanitizers) only ever
+// adds delay, so the best of N round trips shows the twin's own timing: within
+// kBestMargin of the limit (1.01 unloaded and at a load average of 12 on 2
+// cores, where the median was 1.65). The median only has to show no
+// systematic lateness (a wake-up left to a timeout). The exact timing (Ts,
+// 4 ms, Td, wire times) is proved on a virtual clock (tests/sim
+// Line.RealTimingReplyEndsAtTheLimit, tests/client
 // Client.ReadStateTakesExactlyTheWireLimitInRealTiming).
-constexpr double kMedianMargin = 2.5;
+constexpr double kBestMargin = 1.25;
+constexpr double kMedianMargin = 4.0;
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -177,6 +179,8 @@ TEST(SimServer, ReadStateRoundTripOnAPtyMatchesTheLimit) {
   std::printf("twin write lateness: mean %.1f us, max %.1f us over %llu replies\n",
               to_ms(st.lateness_total) * 1000.0 / static_cast<double>(st.replies_sent),
               to_ms(st.lateness_max) * 1000.0, static_cast<unsigned long long>(st.replies_sent));
+  EXPECT_LE(*std::min_element(ratios.begin(), ratios.end()), kBestMargin)
+      << "the best of " << ratios.size() << " round trips";
   EXPECT_LE(m, kMedianMargin) << "median of " << ratios.size() << " round trips";
 }
 
@@ -198,6 +202,7 @@ TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
     EXPECT_GE(ratio, 1.0);
     ratios.push_back(ratio);
   }
+  EXPECT_LE(*std::min_element(ratios.begin(), ratios.end()), kBestMargin);
   EXPECT_LE(median(ratios), kMedianMargin);
 }
 
@@ -215,9 +220,9 @@ TEST(SimServer, FastTimingAnswersWellWithinTheLimit) {
     ASSERT_EQ(read_link(link, kReadStateReply).size(), kReadStateReply);
     ratios.push_back(to_seconds(kClock.now() - t0) / to_seconds(limit));
   }
-  // Below the limit, which a real-timing reply never is (see above); unloaded
-  // the median is a few %, under ASan on loaded cores well under 1 still.
-  EXPECT_LT(median(ratios), 1.0);
+  // Below the limit, which a real-timing reply never is (see above): the best
+  // round trip (unloaded, the median is a few % of the limit).
+  EXPECT_LT(*std::min_element(ratios.begin(), ratios.end()), 0.5);
 }
 
 // A query written in two pieces back to back is one frame: the virtual line
