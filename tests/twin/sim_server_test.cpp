@@ -133,13 +133,13 @@ SimServerOptions pty_only() {
 
 // Round trip / limit. Scheduling (a loaded machine, sanitizers) only ever
 // adds delay, so the best of N round trips shows the twin's own timing: within
-// kBestMargin of the limit (1.01 unloaded and at a load average of 12 on 2
-// cores, where the median was 1.65). The median only has to show no
+// kBestMargin of the limit (1.01 unloaded, up to 1.18 at a load average of 13 on 2
+// cores, where the median was 2.6). The median only has to show no
 // systematic lateness (a wake-up left to a timeout). The exact timing (Ts,
 // 4 ms, Td, wire times) is proved on a virtual clock (tests/sim
 // Line.RealTimingReplyEndsAtTheLimit, tests/client
 // Client.ReadStateTakesExactlyTheWireLimitInRealTiming).
-constexpr double kBestMargin = 1.25;
+constexpr double kBestMargin = 1.5;
 constexpr double kMedianMargin = 4.0;
 
 double median(std::vector<double> v) {
