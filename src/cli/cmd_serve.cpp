@@ -76,19 +76,22 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
     throw UsageError(e.what());
   }
   if (a.check) {
-    fmt::print("{}: OK ({} line{}, {} ax{})\n", config.source, config.lines.size(),
-               config.lines.size() == 1 ? "" : "s", [&] {
-                 std::size_t n = 0;
-                 for (const auto& l : config.lines) n += l.axes.size();
-                 return n;
-               }(),
-               "es");
+    fmt::print(
+        "{}: OK ({} line{}, {} ax{})\n", config.source, config.lines.size(),
+        config.lines.size() == 1 ? "" : "s",
+        [&] {
+          std::size_t n = 0;
+          for (const auto& l : config.lines) n += l.axes.size();
+          return n;
+        }(),
+        "es");
     return;
   }
   serve::Daemon daemon(std::move(config), log_line);
   for (const auto& l : daemon.config().lines) {
     std::string ids;
-    for (const auto& ax : l.axes) ids += fmt::format("{}{}={}", ids.empty() ? "" : ", ", ax.name, ax.id);
+    for (const auto& ax : l.axes)
+      ids += fmt::format("{}{}={}", ids.empty() ? "" : ", ", ax.name, ax.id);
     const auto* line = daemon.line(l.name);
     log_line(serve::LogLevel::Info,
              fmt::format("line {} on {} ({} baud): {}", l.name, line->describe(), l.baud, ids));

@@ -41,10 +41,11 @@ void Daemon::start_lines() {
     o.name = lc.name;
     o.port = lc.port;
     o.scheduler = scheduler_config(lc);
-    auto line = std::make_unique<Line>(o, [lc] { return open_wire(lc); }, kClock);
+    auto line = std::make_unique<Line>(
+        o, [lc] { return open_wire(lc); }, kClock);
     if (line->is_down()) {
-      log_(LogLevel::Warning, fmt::format("line {} is down, retrying every second: {}", lc.name,
-                                          line->down_reason()));
+      log_(LogLevel::Warning,
+           fmt::format("line {} is down, retrying every second: {}", lc.name, line->down_reason()));
     }
     for (const AxisConfig& a : lc.axes) axes_.push_back(AxisRef{a.name, a.id, line.get(), &lc, &a});
     line->start();

@@ -37,7 +37,8 @@ GatewayDecision decide(const GatewayPolicy& policy, uint8_t unit, std::span<cons
   }
   const bool write = modbus::is_write(*request);
   if (unit == modbus::kBroadcastId) {
-    if (!policy.allow_broadcast || !write) return exception(fc, ExceptionCode::GatewayPathUnavailable);
+    if (!policy.allow_broadcast || !write)
+      return exception(fc, ExceptionCode::GatewayPathUnavailable);
   } else if (!policy.units.contains(unit)) {
     return exception(fc, ExceptionCode::GatewayPathUnavailable);
   }

@@ -60,8 +60,9 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
       mbap_.feed(bytes);
       while (auto adu = mbap_.next()) handle(adu->header.transaction, adu->header.unit, adu->pdu);
       if (mbap_.status() == modbus::MbapFramer::Status::Broken) {
-        server_.log_(LogLevel::Warning, fmt::format("Modbus TCP {}: closing the connection from {}: {}",
-                                                    server_.url(), peer_, mbap_.error()));
+        server_.log_(LogLevel::Warning,
+                     fmt::format("Modbus TCP {}: closing the connection from {}: {}", server_.url(),
+                                 peer_, mbap_.error()));
         close();
       }
       return;
@@ -97,7 +98,8 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
 
   void handle(uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu) {
     const auto decision = decide(server_.policy_, unit, pdu);
-    if (const auto* local = std::get_if<LocalAnswer>(&decision)) return answer(transaction, unit, local->pdu);
+    if (const auto* local = std::get_if<LocalAnswer>(&decision))
+      return answer(transaction, unit, local->pdu);
     const auto& request = std::get<LineRequest>(decision);
     const uint64_t key = next_key_++;
     Job job;
@@ -136,7 +138,8 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
       // A line has no gateway exceptions: the master hears nothing, as it
       // would from a controller that is not there. Broadcasts get no reply.
       const auto* ex = std::get_if<modbus::ExceptionResponse>(&pdu);
-      if (unit == modbus::kBroadcastId || (ex && !modbus::is_controller_exception(static_cast<uint8_t>(ex->code)))) {
+      if (unit == modbus::kBroadcastId ||
+          (ex && !modbus::is_controller_exception(static_cast<uint8_t>(ex->code)))) {
         return;
       }
       send(modbus::encode_response({unit, pdu}));
@@ -206,8 +209,8 @@ ModbusTcpServer::~ModbusTcpServer() {
 
 std::string ModbusTcpServer::url() const {
   const bool v6 = address_.find(':') != std::string::npos;
-  return fmt::format("{}://{}{}{}:{}", framing_ == Framing::Mbap ? "tcp" : "rtu+tcp",
-                     v6 ? "[" : "", address_, v6 ? "]" : "", port_);
+  return fmt::format("{}://{}{}{}:{}", framing_ == Framing::Mbap ? "tcp" : "rtu+tcp", v6 ? "[" : "",
+                     address_, v6 ? "]" : "", port_);
 }
 
 void ModbusTcpServer::accept() {

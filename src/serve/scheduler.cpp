@@ -121,8 +121,8 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     return id;
   }
   if (job.max_cache_age > Duration{}) {
-    if (auto hit = cache_.lookup(job.frame.id, job.frame.pdu, job.max_cache_age, now,
-                                 job.not_before)) {
+    if (auto hit =
+            cache_.lookup(job.frame.id, job.frame.pdu, job.max_cache_age, now, job.not_before)) {
       stats_.cache_hit();
       stats_.latency(job.priority, Duration{});
       JobResult r;
@@ -170,8 +170,14 @@ std::optional<Dispatch> Scheduler::next(TimePoint now) {
     q.pop_front();
     return dispatch(std::move(front), false, now);
   }
-  if (auto d = next_telemetry(now)) return d;
+  // Background reads age: one that waited long enough goes before telemetry,
+  // so a line saturated by telemetry still reads its alarm histories.
   auto& background = queues_[index(Priority::Background)];
+  const bool aged =
+      !background.empty() && now - background.front().submitted >= config_.background_max_wait;
+  if (!aged) {
+    if (auto d = next_telemetry(now)) return d;
+  }
   while (!background.empty()) {
     Queued front = std::move(background.front());
     background.pop_front();
@@ -222,9 +228,8 @@ std::optional<Dispatch> Scheduler::next_telemetry(TimePoint now) {
   const Block b = pick->pass.front();
   pick->pass.erase(pick->pass.begin());
   const TimePoint submitted = health_[pick->schedule.id].offline ? now : std::min(pick->due, now);
-  return dispatch(
-      Queued{0, internal_read(Priority::Telemetry, pick->schedule.id, b), submitted},
-      true, now);
+  return dispatch(Queued{0, internal_read(Priority::Telemetry, pick->schedule.id, b), submitted},
+                  true, now);
 }
 
 std::optional<TimePoint> Scheduler::wake_at() const {

@@ -93,6 +93,7 @@ struct SchedulerConfig {
   unsigned offline_after = 3;                                 // consecutive failed exchanges
   Duration probe_interval = std::chrono::seconds(2);          // of an offline controller
   Duration controls_period = std::chrono::milliseconds(500);  // Y10–Y30 within telemetry
+  Duration background_max_wait = std::chrono::seconds(1);     // then it goes before telemetry
   modbus::LineTiming timing;                                  // for the utilisation figure
 };
 
