@@ -5,7 +5,8 @@ packages (tools/check-deps maps them with `dpkg -S`):
   tests/, bench/, tools/, fuzz/, python/, examples/ (files, heredocs and
   `python3 -c` in scripts) run on /usr/bin/python3, not only the imports we
   write (pymodbus.client loads serial_asyncio);
-- programs: the command words of the shell scripts there (tools/deps_shell.py),
+- programs: the command words of the shell scripts there (tools/deps_shell.py)
+  and of the command lines C++ tests run (popen/system/run("..."));
   the programs Python starts with subprocess, and INDIRECT below;
 - CMake: every FILEPATH/PATH entry of the configured CMakeCache.txt files
   (the packages' config files for *_DIR), pkg-config modules' .pc files;
@@ -203,6 +204,17 @@ def _python_programs(path):
     return out
 
 
+# Shell command lines in C++ tests: popen("..."), system("..."), run("... ...").
+_CPP_COMMAND = re.compile(r'\b(?:popen|system|run)\s*\(\s*"((?:[^"\\]|\\.)*\s(?:[^"\\]|\\.)*)"')
+
+
+def _cpp_commands():
+    for p in _files(("tests", "bench", "fuzz"), lambda f: f.suffix in (".cpp", ".hpp", ".c")):
+        text = p.read_text(errors="replace")
+        for m in _CPP_COMMAND.finditer(text):
+            yield p, text.count("\n", 0, m.start()) + 1, m.group(1).encode().decode("unicode_escape")
+
+
 def _builtins():
     r = subprocess.run(["bash", "-c", "compgen -b; compgen -k"], capture_output=True, text=True)
     return set(r.stdout.split()) | {"[[", "]]", "[", "source", "."}
@@ -226,6 +238,10 @@ def program_needs(shell_texts, declared):
     for p in python_files():
         for word, line in _python_programs(p):
             uses.setdefault(word, f"{_rel(p)}:{line}")
+    for p, line, command in _cpp_commands():
+        for word in deps_shell.command_words(command):
+            if word not in builtins and re.match(r"^[\w/][\w.+/-]*$", word):
+                uses.setdefault(word, f"{_rel(p)}:{line}")
     for word, why in INDIRECT.items():
         uses.setdefault(word, why)
     for word in declared:
