@@ -8,12 +8,21 @@ FUZZ_SMOKE_SECONDS ?= 15
 SOAK_TRANSACTIONS ?= 10000
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo
 
-.PHONY: all deps build demo test test-fast test-asan test-fuzz fuzz-build bench fuzz soak format clean
+# Tests whose passing output the CI log must show (the soak's counts, the
+# number of fuzz regression inputs replayed, the dependency check): run apart, verbose.
+SHOWN_TESTS ?= ^Soak\.|KeptRegressionInputsPass|^deps\.
+
+.PHONY: all deps check-deps build demo test test-fast test-asan test-fuzz fuzz-build bench fuzz soak format clean
 
 all: build
 
 deps:
 	@tools/install-deps.sh
+
+# Everything the build and the tests use must come from tools/deps.txt (or a
+# hard Depends of it): see tools/check-deps. Run first by `make test`.
+check-deps: deps $(BUILD)/CMakeCache.txt $(ASAN_BUILD)/CMakeCache.txt $(FUZZ_BUILD)/CMakeCache.txt
+	tools/check-deps $(foreach b,$(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD),--cmake-cache $(b)/CMakeCache.txt)
 
 $(BUILD)/CMakeCache.txt: | deps
 	cmake -S . -B $(BUILD) $(CMAKE_FLAGS)
@@ -25,7 +34,8 @@ demo: build
 	$(BUILD)/lec demo
 
 test-fast: build
-	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) -E '$(SHOWN_TESTS)'
+	cd $(BUILD) && ctest -V -R '$(SHOWN_TESTS)'
 
 $(ASAN_BUILD)/CMakeCache.txt: | deps
 	cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug -DLEC6_SANITIZE=ON -DLEC6_BENCH=OFF
@@ -33,7 +43,9 @@ $(ASAN_BUILD)/CMakeCache.txt: | deps
 test-asan: deps $(ASAN_BUILD)/CMakeCache.txt
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-	  ctest --output-on-failure -j $(JOBS)
+	  ctest --output-on-failure -j $(JOBS) -E '$(SHOWN_TESTS)'
+	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest -V -R '$(SHOWN_TESTS)'
 
 # libFuzzer harnesses (clang, ASan + UBSan), one at a time: fuzz/run.sh.
 $(FUZZ_BUILD)/CMakeCache.txt: | deps
@@ -48,7 +60,7 @@ fuzz: fuzz-build
 test-fuzz: fuzz-build
 	fuzz/run.sh $(FUZZ_BUILD) $(FUZZ_SMOKE_SECONDS)
 
-test: test-fast test-asan test-fuzz
+test: check-deps test-fast test-asan test-fuzz
 
 # The fault soak: client against the twin on a noisy line, summary tables.
 soak: build

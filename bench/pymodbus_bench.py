@@ -15,6 +15,13 @@ than that ago; that is part of what is measured.
 import json
 import sys
 import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+import lec6_preflight  # noqa: E402
+
+# Name the Debian package, not a traceback, when pymodbus or what it loads is missing.
+lec6_preflight.require(modules=["pymodbus.client"])
 
 import pymodbus
 from pymodbus.client import ModbusSerialClient

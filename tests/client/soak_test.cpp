@@ -1,10 +1,12 @@
 // Fault soak: our client against the twin with a noisy line (replies
 // corrupted, dropped, preceded by garbage, late), on a virtual clock, for
-// thousands of mixed transactions. Every value the client accepts is checked
-// against the twin's actual state (its Controller, queried directly) or the
-// value we wrote; every failure must be one of the classified kinds; no call
-// may take longer than its configured deadlines allow. A summary table is
-// printed per run.
+// thousands of mixed transactions. Every call ends as one of three things,
+// counted apart: a correct value (checked against the twin's actual state, its
+// Controller queried directly, or the value we wrote), an error refused and
+// reported (a classified TransportError: the caller knows it has no value), or
+// a wrong value accepted. Only the last must be 0; no call may take longer than
+// its configured deadlines allow. A summary table and a line with the three
+// counts are printed per run.
 //
 // LEC6_SOAK_TRANSACTIONS sets the number of transactions per run (default
 // 10 000); `make soak` runs these tests alone. The client's bad-input tests
@@ -60,13 +62,16 @@ constexpr std::array<const char*, kOps> kOpNames = {
     "select step FC0F",   "write step (FC10)",    "  verify: read back", "write, no retry",
     "exception probe"};
 
-enum class Result { FirstTry, AfterRetry, Timeout, Crc, Framing, Exception, Other };
-constexpr std::size_t kResults = 7;
+// FirstTry/AfterRetry: a correct value; Wrong: a wrong value accepted; the
+// rest: an error refused and reported.
+enum class Result { FirstTry, AfterRetry, Timeout, Crc, Framing, Exception, Other, Wrong };
+constexpr std::size_t kResults = 8;
 
 struct Row {
   std::array<uint64_t, kResults> n{};
-  uint64_t wrong = 0;  // accepted a value that differs from the truth
   uint64_t calls = 0;
+  uint64_t correct() const { return n[0] + n[1]; }
+  uint64_t refused() const { return calls - correct() - n[7]; }
 };
 
 struct Report {
@@ -80,11 +85,14 @@ struct Report {
   LinkStats link;
   double wall_s = 0;
 
-  uint64_t wrong() const {
-    uint64_t w = 0;
-    for (const auto& r : rows) w += r.wrong;
-    return w;
+  uint64_t wrong() const { return count(Result::Wrong); }
+  uint64_t correct() const { return count(Result::FirstTry) + count(Result::AfterRetry); }
+  uint64_t calls() const {
+    uint64_t c = 0;
+    for (const auto& row : rows) c += row.calls;
+    return c;
   }
+  uint64_t refused() const { return calls() - correct() - wrong(); }
   uint64_t count(Result r) const {
     uint64_t c = 0;
     for (const auto& row : rows) c += row.n[static_cast<std::size_t>(r)];
@@ -104,25 +112,26 @@ struct Report {
   }
 };
 
+std::string row_line(const char* name, const Row& row) {
+  return fmt::format("{:<22} {:>6} {:>7} {:>7} {:>7} {:>7} {:>5} {:>7} {:>5} {:>5} {:>6}\n", name,
+                     row.calls, row.correct(), row.n[1], row.refused(), row.n[2], row.n[3],
+                     row.n[4], row.n[5], row.n[6], row.n[7]);
+}
+
 std::string table(const Report& r) {
   std::string out = fmt::format("\n== soak: {} ==\n", r.name);
-  out +=
-      fmt::format("{:<22} {:>6} {:>7} {:>7} {:>7} {:>5} {:>7} {:>5} {:>5} {:>6}\n", "operation",
-                  "calls", "ok", "retried", "timeout", "CRC", "framing", "exc.", "other", "WRONG");
+  out += fmt::format("{:<22} {:>6} {:>7} {:>7} {:>7} {:>7} {:>5} {:>7} {:>5} {:>5} {:>6}\n",
+                     "operation", "calls", "correct", "retried", "refused", "timeout", "CRC",
+                     "framing", "exc.", "other", "WRONG");
   Row total;
   for (std::size_t op = 0; op < kOps; ++op) {
     const Row& row = r.rows[op];
     if (!row.calls) continue;
-    out += fmt::format("{:<22} {:>6} {:>7} {:>7} {:>7} {:>5} {:>7} {:>5} {:>5} {:>6}\n",
-                       kOpNames[op], row.calls, row.n[0], row.n[1], row.n[2], row.n[3], row.n[4],
-                       row.n[5], row.n[6], row.wrong);
+    out += row_line(kOpNames[op], row);
     total.calls += row.calls;
-    total.wrong += row.wrong;
     for (std::size_t i = 0; i < kResults; ++i) total.n[i] += row.n[i];
   }
-  out += fmt::format("{:<22} {:>6} {:>7} {:>7} {:>7} {:>5} {:>7} {:>5} {:>5} {:>6}\n", "total",
-                     total.calls, total.n[0], total.n[1], total.n[2], total.n[3], total.n[4],
-                     total.n[5], total.n[6], total.wrong);
+  out += row_line("total", total);
   out += fmt::format(
       "Modbus transactions {} (retries {}); twin: {} replies, {} dropped, {} corrupted, {} with "
       "garbage, {} late\n",
@@ -135,7 +144,10 @@ std::string table(const Report& r) {
   out += fmt::format("writes reported failed but applied (reply lost): {}\n", r.failed_but_applied);
   out += fmt::format("longest call {:.1f} ms (bound {:.1f} ms), wall time {:.2f} s\n",
                      to_ms(r.longest_call), to_ms(r.call_bound), r.wall_s);
-  out += fmt::format("UNDETECTED CORRUPTIONS (wrong values accepted): {}\n", r.wrong());
+  out += fmt::format(
+      "soak [{}]: {} calls: {} correct values, {} errors refused and reported, {} wrong values "
+      "accepted\n",
+      r.name, r.calls(), r.correct(), r.refused(), r.wrong());
   return out;
 }
 
@@ -181,9 +193,11 @@ struct Soak {
     const TimePoint start = f.clock.now();
     Result result;
     try {
-      const bool right = fn();
-      if (!right) ++row.wrong;
-      result = f.client->stats().retries == retries_before ? Result::FirstTry : Result::AfterRetry;
+      if (!fn())
+        result = Result::Wrong;
+      else
+        result =
+            f.client->stats().retries == retries_before ? Result::FirstTry : Result::AfterRetry;
     } catch (const TransportError& e) {
       switch (e.kind()) {
         case TransportErrorKind::Timeout:
@@ -276,12 +290,11 @@ struct Soak {
       });
       if (!written && twin.eeprom().steps[n] == want) ++report.failed_but_applied;
     } else {
-      // A read outside the map, sent raw: the controller must answer 02.
+      // A read outside the map, sent raw: the right answer is exception 02.
       call(Op::ExceptionProbe, [&] {
         const auto reply = c.transact_raw({1, modbus::ReadRegistersRequest{0x2000, 1}});
         const auto* ex = std::get_if<modbus::ExceptionResponse>(&reply.pdu);
-        if (!ex || ex->code != modbus::ExceptionCode::IllegalAddress) return false;
-        throw ControllerException(ex->code, "expected");
+        return ex && ex->code == modbus::ExceptionCode::IllegalAddress;
       });
     }
   }
@@ -296,16 +309,18 @@ struct Soak {
   }
 };
 
-// The probes' exception is the only expected one; anything else is counted.
+// Only wrong values must be 0; errors are fine when refused and reported as
+// one of the kinds the line can cause (the twin at rest never answers a valid
+// request with an exception: the probes get theirs through transact_raw).
 void expect_clean(const Report& r, bool strict_recovery) {
   std::cout << table(r) << std::flush;
   EXPECT_EQ(r.wrong(), 0u) << "wrong values accepted";
+  EXPECT_EQ(r.correct() + r.refused() + r.wrong(), r.calls());
+  EXPECT_GT(r.correct(), r.calls() / 2) << "most calls must give a correct value";
   EXPECT_EQ(r.count(Result::Other), 0u) << "unclassified failures";
+  EXPECT_EQ(r.count(Result::Exception), 0u) << "exception replies to valid requests";
   EXPECT_LE(r.longest_call, r.call_bound) << "a call ran past its deadlines";
-  uint64_t calls = 0;
-  for (const auto& row : r.rows) calls += row.calls;
-  const auto& probes = r.rows[static_cast<std::size_t>(Op::ExceptionProbe)];
-  EXPECT_EQ(r.count(Result::Exception), probes.n[static_cast<std::size_t>(Result::Exception)]);
+  const uint64_t calls = r.calls();
   if (strict_recovery) {
     // Per attempt a few % of replies are lost; three attempts make a lost
     // call rare: at most 1 in 1000 calls may still fail.
@@ -388,11 +403,13 @@ TEST(Soak, ALateReplyIsNotTakenForTheNextRequestsReply) {
   f.bus.set_faults(faults(0, 0, 0, 1.0, milliseconds(100)));
   EXPECT_THROW(c.read_step(1), TransportError);  // timed out: the reply is on its way, late
   f.bus.set_faults({});
+  // The line is clean again: the read must give step 2's record. (An error
+  // here would hide the value this test exists to check.)
   lec::StepData got;
   try {
     got = c.read_step(2);
-  } catch (const TransportError&) {
-    return;  // detected: fine
+  } catch (const TransportError& e) {
+    FAIL() << "reading step 2 on a clean line failed: " << e.what();
   }
   EXPECT_EQ(got, two) << "step 2 read as position " << got.position_001mm << " (step 1's)";
 }

@@ -109,7 +109,9 @@ long="01 10 04 00 00 7F FE $(printf '00 %.0s' $(seq 293))"
 expect_exit 3 "oversized frame" -- lec raw --as-is $long
 contains "oversized frame" "(nothing)"
 # (The twin models the wire: 300 bytes keep its line busy for 78 ms at 38400.)
-sleep 0.2
+# Wait until it answers again (a ping gets its reply) before the next check.
+answers() { "$LEC" ping -c 1 -i 0 >/dev/null 2>&1; }
+wait_for 10 "the twin to answer again after the oversized frame" -- answers || bad "the twin stays silent after an oversized frame"
 # A read with a count the client refuses, sent raw: the controller's 03.
 expect_exit 4 "raw count 126" -- lec raw 01 03 90 00 00 7E
 contains "raw count 126" "exception 03"

@@ -89,14 +89,18 @@ head -1 "$tmp/watch.csv" | grep -q "^time_s,position_mm" && ok || bad "watch.csv
 expect_exit 6 "deadline" -- lec move --to 10 --speed 5 --timeout-s 0.3
 expect_exit 0 "stop" -- lec stop
 
-# Ctrl-C during a waiting move stops the axis before exiting.
-"$LEC" move --to 300 --speed 20 >"$tmp/int.out" 2>&1 &
+# Ctrl-C during a waiting move stops the axis before exiting. --trace shows
+# when the move is under way: the first poll that reads BUSY = 1.
+"$LEC" --trace move --to 300 --speed 20 >"$tmp/int.out" 2>&1 &
 mover=$!
-sleep 0.6
+moving() { grep -q "X40–X4F: BUSY" "$tmp/int.out"; }
+wait_for 10 "the move to be under way (BUSY = 1)" -- moving || bad "the move did not start: $(tail -n 5 "$tmp/int.out")"
 kill -INT $mover
 set +e; wait $mover; code=$?; set -e
-[[ $code -eq 130 ]] && ok || bad "Ctrl-C exit $code: $(cat "$tmp/int.out")"
-grep -q "stopped" "$tmp/int.out" && ok || bad "Ctrl-C message: $(cat "$tmp/int.out")"
+# The messages, without the trace's frame lines.
+said=$(grep -vE '^ *[0-9.]+ ms (->|<-) ' "$tmp/int.out" || true)
+[[ $code -eq 130 ]] && ok || bad "Ctrl-C exit $code: $said"
+grep -q "stopped" <<<"$said" && ok || bad "Ctrl-C message: $said"
 expect_exit 0 "after Ctrl-C" -- lec status --json
 [[ $(json 'd["flags"]["busy"], d["speed_mm_s"]') == "(False, 0)" ]] && ok || bad "still moving after Ctrl-C: $out"
 

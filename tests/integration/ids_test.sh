@@ -4,6 +4,7 @@
 # pymodbus timeout), and nobody else speaks meanwhile.
 
 source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
+need --module pymodbus.client
 
 PORT=$TMP/lec0
 if start_twin ids --pty "$PORT" --ids 1-16; then

@@ -1,6 +1,8 @@
 # Shared helpers for the integration scripts: start a twin on a real
 # pseudo-terminal, wait for its ready line (bounded), count checks.
 : "${LEC:?path of the lec binary}"
+source "$(dirname "${BASH_SOURCE[0]}")/harness.sh"
+need # json() below runs /usr/bin/python3
 
 tmp=$(mktemp -d)
 twin_pids=()
@@ -19,13 +21,17 @@ start_twin() {
   "$LEC" sim --pty "$tmp/$name" "$@" >>"$tmp/$name.out" 2>"$tmp/$name.err" &
   TWIN_PID=$!
   twin_pids+=("$TWIN_PID")
-  for _ in $(seq 1 200); do
-    grep -q "ready" "$tmp/$name.out" 2>/dev/null && return 0
-    kill -0 "$TWIN_PID" 2>/dev/null || break
-    sleep 0.05
-  done
+  wait_for 10 "twin $name's ready line and $tmp/$name" -- twin_ready "$name" || true
+  kill -0 "$TWIN_PID" 2>/dev/null && grep -q "ready" "$tmp/$name.out" && return 0
   echo "twin $name did not start:"; cat "$tmp/$name.err"
   exit 1
+}
+# twin_ready NAME: the ready line is out and the link exists (or the twin has
+# exited: stop waiting, start_twin reports it).
+twin_ready() {
+  if grep -q "ready" "$tmp/$1.out" 2>/dev/null && [[ -e $tmp/$1 ]]; then return 0; fi
+  kill -0 "$TWIN_PID" 2>/dev/null || return 0
+  return 1
 }
 
 pass=0

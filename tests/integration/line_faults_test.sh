@@ -14,10 +14,12 @@
 #  5. every reply corrupted at the right baud: CRC diagnosed, no baud suggested;
 #  6. a noisy line (2 % corrupted, 1 % dropped, 2 % garbage): `lec bench`
 #     completes, retries recover every read.
-# Needs: LEC (the lec binary), python3.
+# Needs: LEC (the lec binary), /usr/bin/python3.
 set -euo pipefail
 
 LEC=${LEC:?LEC must point at the lec binary}
+source "$(dirname "${BASH_SOURCE[0]}")/harness.sh"
+need # the baud proxy and the JSON check run /usr/bin/python3
 tmp=$(mktemp -d)
 twin=""
 proxy=""
@@ -34,30 +36,35 @@ fail() {
   exit 1
 }
 ok() { echo "ok: $*"; }
-# A known bug in code this test does not own (docs/robustness.md, "Known
-# bugs"): reported loudly; a failure only with LEC6_STRICT=1, so the suite
-# stays green until it is fixed and the check then passes by itself.
-known_bug() {
-  echo "KNOWN BUG: $*" >&2
-  [[ ${LEC6_STRICT:-0} != 1 ]] || fail "$*"
+# A second session opening the port while the first holds it (fixed: see
+# docs/robustness.md, "Known bugs and gaps", item 2): a failure.
+not_busy() {
+  if grep -q "port busy" "$1"; then
+    fail "$2: the port was opened a second time while held: $(tail -n1 "$1")"
+  fi
 }
-known_gap() {
-  echo "KNOWN GAP: $*" >&2
-  [[ ${LEC6_STRICT:-0} != 1 ]] || fail "$*"
+# watch_polling FILE: lec watch has printed its first sample to FILE.
+watch_polling() { [[ -s $1 ]]; }
+
+# ready PID OUT LINE LINK: PID printed LINE to OUT and LINK exists; fails
+# the test at once if PID has exited.
+ready() {
+  grep -q "$3" "$2" 2>/dev/null && [[ -e $4 ]] && return 0
+  kill -0 "$1" 2>/dev/null || fail "$3: the process exited: $(cat "${2%.out}.err")"
+  return 1
 }
 
-# start_twin PTY_PATH [lec sim options...]: waits for the ready line.
+# start_twin PTY_PATH [lec sim options...]: waits (<= 10 s) for the ready line and the link.
 start_twin() {
   local path=$1
   shift
-  "$LEC" sim --pty "$path" "$@" >"$tmp/sim.out" 2>"$tmp/sim.err" &
+  # Emptied here, not by the child's redirection: the child truncates only
+  # once it runs, and the last twin's ready line must not be read as this one's.
+  : >"$tmp/sim.out"
+  "$LEC" sim --pty "$path" "$@" >>"$tmp/sim.out" 2>"$tmp/sim.err" &
   twin=$!
-  for _ in $(seq 100); do
-    grep -q "lec sim: ready" "$tmp/sim.out" 2>/dev/null && return 0
-    kill -0 "$twin" 2>/dev/null || fail "lec sim exited: $(cat "$tmp/sim.err")"
-    sleep 0.1
-  done
-  fail "lec sim did not get ready"
+  wait_for 10 "lec sim's ready line and $path" -- ready "$twin" "$tmp/sim.out" "lec sim: ready" "$path" ||
+    fail "lec sim did not get ready"
 }
 
 now_ms() { date +%s%3N; }
@@ -65,9 +72,11 @@ now_ms() { date +%s%3N; }
 # ---- 1. the port vanishes mid-run --------------------------------------------------
 for sig in TERM KILL; do
   start_twin "$tmp/pty"
-  timeout 30 "$LEC" --port "$tmp/pty" watch --interval 20 >"$tmp/watch.out" 2>"$tmp/watch.err" &
+  : >"$tmp/watch.out" # (emptied before the child starts, as in start_twin)
+  timeout 30 "$LEC" --port "$tmp/pty" watch --interval 20 >>"$tmp/watch.out" 2>"$tmp/watch.err" &
   watch=$!
-  sleep 1
+  wait_for 10 "lec watch's first sample" -- watch_polling "$tmp/watch.out" ||
+    fail "lec watch printed no sample"
   kill -0 "$watch" 2>/dev/null || fail "lec watch ended before the port went away"
   t0=$(now_ms)
   kill -"$sig" "$twin"
@@ -93,9 +102,9 @@ ok "missing port: exit 3: $(cat "$tmp/gone.err")"
 
 # ---- 3. the controller goes silent, the port stays ------------------------------------
 start_twin "$tmp/pty"
-timeout 30 "$LEC" --port "$tmp/pty" --retries 2 watch --interval 20 >"$tmp/silent.out" 2>"$tmp/silent.err" &
+timeout 30 "$LEC" --port "$tmp/pty" --retries 2 watch --interval 20 >"$tmp/silent.out" 2>"$tmp/silent.err" & # a new file
 watch=$!
-sleep 1
+wait_for 10 "lec watch's first sample" -- watch_polling "$tmp/silent.out" || fail "lec watch printed no sample"
 t0=$(now_ms)
 kill -STOP "$twin"
 rc=0
@@ -160,74 +169,71 @@ while True:
         os.write(master, data if baud == want or mode == "deaf" else garble(data, baud))
 EOF
 
+# Through the proxy: a margin of 300 ms over Tx instead of 50, as the Python
+# proxy adds its own latency; on a loaded machine it would otherwise turn
+# garbled replies into timeouts.
+proxied=(--timeout 300)
+
 start_proxy() {
-  python3 "$tmp/baud_proxy.py" "$tmp/pty" "$tmp/line" 115200 "$1" >"$tmp/proxy.out" 2>"$tmp/proxy.err" &
+  : >"$tmp/proxy.out"
+  /usr/bin/python3 "$tmp/baud_proxy.py" "$tmp/pty" "$tmp/line" 115200 "$1" >>"$tmp/proxy.out" 2>"$tmp/proxy.err" &
   proxy=$!
-  for _ in $(seq 100); do
-    grep -q "proxy ready" "$tmp/proxy.out" 2>/dev/null && return 0
-    kill -0 "$proxy" 2>/dev/null || fail "baud proxy exited: $(cat "$tmp/proxy.err")"
-    sleep 0.1
-  done
-  fail "baud proxy did not get ready"
+  wait_for 10 "the baud proxy's ready line and $tmp/line" -- ready "$proxy" "$tmp/proxy.out" "proxy ready" "$tmp/line" ||
+    fail "baud proxy did not get ready"
 }
 stop_proxy() {
   kill "$proxy" 2>/dev/null || true
   wait "$proxy" 2>/dev/null || true
+  rm -f "$tmp/line" # the proxy is killed: its link would dangle
   proxy=""
 }
 
 start_twin "$tmp/pty" --baud 115200
 start_proxy garble
 # At the right baud the proxy is transparent.
-"$LEC" --port "$tmp/line" --baud 115200 status >"$tmp/right.out" 2>"$tmp/right.err" ||
+"$LEC" "${proxied[@]}" --port "$tmp/line" --baud 115200 status >"$tmp/right.out" 2>"$tmp/right.err" ||
   fail "status through the proxy at the right baud failed"
 rc=0
-timeout 60 "$LEC" --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/baud.out" 2>"$tmp/baud.err" || rc=$?
+timeout 60 "$LEC" "${proxied[@]}" --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/baud.out" 2>"$tmp/baud.err" || rc=$?
 [[ $rc -ne 124 ]] || fail "scan --all-bauds hung"
-if grep -q "port busy" "$tmp/baud.err"; then
-  known_bug "scan --all-bauds opens the port a second time while its first session holds it: $(tail -n1 "$tmp/baud.err")"
-else
-  [[ $rc -eq 0 || $rc -eq 3 ]] || fail "scan at the wrong baud exited $rc"
-  grep -q "replies fail CRC: check the baud rate, the controller is at 115200?" "$tmp/baud.err" ||
-    fail "wrong baud not diagnosed: $(cat "$tmp/baud.out" "$tmp/baud.err")"
-  grep -q "try --baud 115200" "$tmp/baud.err" || fail "no --baud hint: $(cat "$tmp/baud.err")"
-  ok "wrong baud (garbled replies): $(grep 'replies fail CRC' "$tmp/baud.err")"
-fi
+not_busy "$tmp/baud.err" "scan --all-bauds (garbled replies)"
+[[ $rc -eq 0 || $rc -eq 3 ]] || fail "scan at the wrong baud exited $rc"
+grep -q "replies fail CRC: check the baud rate, the controller is at 115200?" "$tmp/baud.err" ||
+  fail "wrong baud not diagnosed: $(cat "$tmp/baud.out" "$tmp/baud.err")"
+grep -q "try --baud 115200" "$tmp/baud.err" || fail "no --baud hint: $(cat "$tmp/baud.err")"
+ok "wrong baud (garbled replies): $(grep 'replies fail CRC' "$tmp/baud.err")"
 # Without --all-bauds: the CRC trouble is named and --all-bauds suggested.
 rc=0
-"$LEC" --port "$tmp/line" --baud 38400 scan --ids 1 >"$tmp/baud2.out" 2>"$tmp/baud2.err" || rc=$?
+"$LEC" "${proxied[@]}" --port "$tmp/line" --baud 38400 scan --ids 1 >"$tmp/baud2.out" 2>"$tmp/baud2.err" || rc=$?
 grep -q "check the baud rate" "$tmp/baud2.err" || fail "wrong baud, no hint: $(cat "$tmp/baud2.err")"
 grep -q -- "--all-bauds" "$tmp/baud2.err" || fail "no --all-bauds hint: $(cat "$tmp/baud2.err")"
 ok "wrong baud without --all-bauds: $(grep 'check the baud' "$tmp/baud2.err")"
 # An ordinary command at the wrong baud: a transport error naming the CRC / baud.
 rc=0
-"$LEC" --port "$tmp/line" --baud 38400 status >"$tmp/baud3.out" 2>"$tmp/baud3.err" || rc=$?
+"$LEC" "${proxied[@]}" --port "$tmp/line" --baud 38400 status >"$tmp/baud3.out" 2>"$tmp/baud3.err" || rc=$?
 [[ $rc -eq 3 ]] || fail "status at the wrong baud exited $rc, expected 3"
 grep -qiE "CRC|stray" "$tmp/baud3.err" || fail "status at the wrong baud: $(cat "$tmp/baud3.err")"
-ok "status at the wrong baud: exit 3: $(cat "$tmp/baud3.err")"
 grep -qi "baud" "$tmp/baud3.err" ||
-  known_gap "a reply of stray bytes (framing) does not mention the baud rate, as the CRC and timeout messages do"
+  fail "a reply of stray bytes (framing) must name the baud rate, as the CRC and timeout messages do: $(cat "$tmp/baud3.err")"
+ok "status at the wrong baud: exit 3, the baud named: $(cat "$tmp/baud3.err")"
 stop_proxy
 
 # The realistic variant: the controller cannot read a query sent at the wrong
 # baud and stays silent. `scan --all-bauds` still finds it at 115200; say so.
 start_proxy deaf
 rc=0
-timeout 60 "$LEC" --json --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/deaf.json" 2>"$tmp/deaf.err" || rc=$?
+timeout 60 "$LEC" "${proxied[@]}" --json --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/deaf.json" 2>"$tmp/deaf.err" || rc=$?
 [[ $rc -ne 124 ]] || fail "scan --all-bauds of a silent controller hung"
 [[ $rc -eq 3 ]] || fail "scan of a controller silent at the wrong baud exited $rc, expected 3"
-if grep -q "port busy" "$tmp/deaf.err"; then
-  known_bug "scan --all-bauds (silent controller): $(tail -n1 "$tmp/deaf.err")"
-elif ! grep -q '"suggested_baud": 115200' "$tmp/deaf.json"; then
+not_busy "$tmp/deaf.err" "scan --all-bauds (silent controller)"
+grep -q '"suggested_baud": 115200' "$tmp/deaf.json" ||
   fail "silent at the wrong baud: no suggested baud: $(cat "$tmp/deaf.json")"
-else
-  "$LEC" --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/deaf.out" 2>"$tmp/deaf.err" || true
-  if grep -q "115200" "$tmp/deaf.out" "$tmp/deaf.err"; then
-    ok "wrong baud (silent controller): suggests 115200"
-  else
-    known_bug "scan --all-bauds finds the silent controller at 115200 (JSON suggested_baud) but the text output does not say so"
-  fi
-fi
+rc=0
+timeout 60 "$LEC" "${proxied[@]}" --port "$tmp/line" --baud 38400 scan --ids 1 --all-bauds >"$tmp/deaf.out" 2>"$tmp/deaf.err" || rc=$?
+[[ $rc -eq 3 ]] || fail "scan (text) of a controller silent at the wrong baud exited $rc, expected 3"
+grep -q "no answer at 38400 baud, the controller is at 115200?" "$tmp/deaf.err" ||
+  fail "the text output does not say the silent controller is at 115200: $(cat "$tmp/deaf.out" "$tmp/deaf.err")"
+ok "wrong baud (silent controller): suggests 115200 in JSON and text"
 stop_proxy
 kill "$twin"
 wait "$twin" 2>/dev/null || true
@@ -240,13 +246,11 @@ timeout 60 "$LEC" --port "$tmp/pty" scan --ids 1 >"$tmp/crc.out" 2>"$tmp/crc.err
 grep -q "replies fail CRC: check the baud rate" "$tmp/crc.err" || fail "corrupted replies not diagnosed: $(cat "$tmp/crc.err")"
 rc=0
 timeout 60 "$LEC" --port "$tmp/pty" scan --ids 1 --all-bauds >"$tmp/crc.out" 2>"$tmp/crc.err" || rc=$?
-if grep -q "port busy" "$tmp/crc.err"; then
-  known_bug "scan --all-bauds (noisy line): $(tail -n1 "$tmp/crc.err")"
-else
-  grep -q "replies fail CRC: check the baud rate" "$tmp/crc.err" || fail "corrupted replies not diagnosed: $(cat "$tmp/crc.err")"
-  if grep -q "the controller is at" "$tmp/crc.err"; then fail "a baud was suggested for a noisy line: $(cat "$tmp/crc.err")"; fi
-  ok "all replies corrupted: CRC diagnosed, no baud suggested"
-fi
+[[ $rc -ne 124 ]] || fail "scan --all-bauds of a noisy line hung"
+not_busy "$tmp/crc.err" "scan --all-bauds (noisy line)"
+grep -q "replies fail CRC: check the baud rate" "$tmp/crc.err" || fail "corrupted replies not diagnosed: $(cat "$tmp/crc.err")"
+if grep -q "the controller is at" "$tmp/crc.err"; then fail "a baud was suggested for a noisy line: $(cat "$tmp/crc.err")"; fi
+ok "all replies corrupted: CRC diagnosed, no baud suggested"
 rc=0
 "$LEC" --port "$tmp/pty" --trace status >"$tmp/crc2.out" 2>"$tmp/crc2.err" || rc=$?
 [[ $rc -eq 3 ]] || fail "status with every reply corrupted exited $rc, expected 3"
@@ -260,7 +264,7 @@ twin=""
 start_twin "$tmp/pty" --corrupt-rate 0.02 --drop-rate 0.01 --garbage-rate 0.02 --seed 42
 timeout 120 "$LEC" --json --port "$tmp/pty" bench --op read-state -n 400 >"$tmp/noisy.out" 2>"$tmp/noisy.err" ||
   fail "bench over a noisy line failed: $(cat "$tmp/noisy.err")"
-retries=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["retries"])' "$tmp/noisy.out")
+retries=$(/usr/bin/python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["retries"])' "$tmp/noisy.out")
 ((retries > 0)) || fail "no retries over a noisy line: $(cat "$tmp/noisy.out")"
 ok "noisy line (2% corrupt, 1% drop, 2% garbage): 401 reads done, ${retries} retries"
 kill "$twin"

@@ -5,6 +5,7 @@
 # 36864). The twin's --trace shows which function code mbpoll really sent.
 
 source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
+need --program mbpoll
 
 PORT=$TMP/lec0
 start_twin mbpoll --pty "$PORT" --trace || {

@@ -12,7 +12,7 @@ Run with /usr/bin/python3 (the interpreter Debian's pymodbus is installed for):
                                         N read-state round trips (pyserial, from before
                                         the write to the last reply byte) over the limit
                                         wire(q) + Ts + 4 ms + Td + wire(r): the smallest
-                                        ratio >= MIN, the median <= MAX
+                                        ratio in [MIN, MAX], the median <= 4
     pymodbus_peer.py PORT bad-crc       replies arrive whole but with a broken CRC
     pymodbus_peer.py tcp://H:P tcp      RTU over TCP (ModbusTcpClient, RTU framer),
                                         two clients at once
@@ -27,6 +27,13 @@ Every wait is bounded by a deadline.
 import logging
 import sys
 import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
+import lec6_preflight  # noqa: E402
+
+# Name the Debian package, not a traceback, when pymodbus or what it loads is missing.
+lec6_preflight.require(modules=["pymodbus.client", "pymodbus.framer.rtu_framer"])
 
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.framer.rtu_framer import ModbusRtuFramer
@@ -361,8 +368,12 @@ def timing(peer, c, baud, k, td_ms, n, min_ratio, max_ratio):
     median = ratios[len(ratios) // 2]
     summary = (f"limit {limit_ms:.3f} ms; round trip / limit: min {ratios[0]:.4f}, "
                f"median {median:.4f}, max {ratios[-1]:.4f} over {n}")
+    # Scheduling (a loaded machine, sanitizers) only ever adds delay, so the
+    # best of n round trips shows the twin's own timing; the median only has
+    # to show no systematic lateness (a wake-up left to a timeout).
     c.check(ratios[0] >= min_ratio, f"no reply before its time (min ratio >= {min_ratio}); {summary}")
-    c.check(median <= max_ratio, f"median ratio <= {max_ratio}; {summary}")
+    c.check(ratios[0] <= max_ratio, f"the best round trip within {max_ratio}x the limit; {summary}")
+    c.check(median <= 4.0, f"median ratio <= 4 (no systematic lateness); {summary}")
 
 
 def bad_crc(peer, c):

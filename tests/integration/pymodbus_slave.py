@@ -7,6 +7,13 @@ Usage: pymodbus_slave.py PORT
 """
 import logging
 import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
+import lec6_preflight  # noqa: E402
+
+# Name the Debian package, not a traceback, when pymodbus or what it loads is missing.
+lec6_preflight.require(modules=["pymodbus.datastore", "pymodbus.server"])
 
 from pymodbus.datastore import ModbusServerContext, ModbusSlaveContext, ModbusSparseDataBlock
 from pymodbus.server import StartTcpServer

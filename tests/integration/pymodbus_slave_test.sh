@@ -5,17 +5,23 @@
 set -euo pipefail
 : "${LEC:?path of the lec binary}"
 here=$(cd "$(dirname "$0")" && pwd)
+source "$here/harness.sh"
+need --module pymodbus.server --module pymodbus.datastore
 port=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
-/usr/bin/python3 "$here/pymodbus_slave.py" "$port" >/dev/null 2>&1 &
+slave_log=$(mktemp)
+/usr/bin/python3 "$here/pymodbus_slave.py" "$port" >"$slave_log" 2>&1 &
 slave=$!
-trap 'kill $slave 2>/dev/null || true' EXIT
+trap 'kill $slave 2>/dev/null || true; rm -f "$slave_log"' EXIT
 
 lec() { "$LEC" --port "rtu+tcp://127.0.0.1:$port" --timeout 200 "$@"; }
-# Bounded wait for the slave to answer (it has no ready signal once serving).
-for _ in $(seq 1 100); do
-  if lec ping -c 1 -i 0 >/dev/null 2>&1 || lec name >/dev/null 2>&1; then break; fi
-  sleep 0.1
-done
+# Wait (<= 10 s) for the slave to answer: it prints no ready line, so the
+# event is its first reply.
+answers() { lec name >/dev/null 2>&1; }
+if ! wait_for 10 "the pymodbus slave on 127.0.0.1:$port to answer" -- answers; then
+  kill -0 "$slave" 2>/dev/null || { echo "the pymodbus slave exited:" >&2; cat "$slave_log" >&2; }
+  echo "0 passed, 1 failed"
+  exit 1
+fi
 
 pass=0 fail=0
 check() {  # check NAME EXPECTED ACTUAL

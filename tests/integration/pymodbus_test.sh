@@ -5,6 +5,7 @@
 # powered-on twin (the exception checks need parallel mode, as at power-on).
 
 source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
+need --module pymodbus.client
 
 PORT=$TMP/lec0
 

@@ -21,20 +21,21 @@ set -euo pipefail
 LEC=${LEC:?set LEC to the lec binary}
 TEST_DIR=${LEC6_TEST_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)}
 DATA=$TEST_DIR/data/steps
+source "$(dirname "${BASH_SOURCE[0]}")/harness.sh"
+need --program jq
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/lec6-step-cli.XXXXXX")
 
 declare -A PID=()
 
+gone() { ! kill -0 "$1" 2>/dev/null; }
+
 cleanup() {
-  local name i
+  local name
   for name in "${!PID[@]}"; do
     kill -TERM "${PID[$name]}" 2>/dev/null || true
   done
   for name in "${!PID[@]}"; do
-    for ((i = 0; i < 100; i++)); do  # at most 5 s each, then SIGKILL
-      kill -0 "${PID[$name]}" 2>/dev/null || break
-      sleep 0.05
-    done
+    wait_for 5 "twin $name to end after SIGTERM" -- gone "${PID[$name]}" || true  # then SIGKILL
     kill -KILL "${PID[$name]}" 2>/dev/null || true
     wait "${PID[$name]}" 2>/dev/null || true
   done
@@ -57,33 +58,25 @@ start_twin() {
   "$LEC" sim --pty "$WORK/$name" --state "$WORK/$name.state" --timing fast "$@" \
     >>"$WORK/$name.log" 2>&1 &
   PID[$name]=$!
-  local i
-  for ((i = 0; i < 200; i++)); do  # at most 10 s
-    if grep -qs '^lec sim: ready on ' "$WORK/$name.log"; then return 0; fi
-    if ! kill -0 "${PID[$name]}" 2>/dev/null; then
-      cat "$WORK/$name.log" >&2
-      fail "twin $name exited before it was ready"
-    fi
-    sleep 0.05
-  done
-  cat "$WORK/$name.log" >&2
-  fail "twin $name printed no ready line within 10 s"
+  wait_for 10 "twin $name's ready line" -- ready_or_gone "$name" ||
+    { cat "$WORK/$name.log" >&2; fail "twin $name printed no ready line within 10 s"; }
+  if ! grep -qs '^lec sim: ready on ' "$WORK/$name.log"; then
+    cat "$WORK/$name.log" >&2
+    fail "twin $name exited before it was ready"
+  fi
 }
+ready_or_gone() { grep -qs '^lec sim: ready on ' "$WORK/$1.log" || gone "${PID[$1]}"; }
 
 # stop_twin NAME: SIGTERM (saves the state file), bounded wait.
 stop_twin() {
-  local name=$1 pid=${PID[$1]} i
+  local name=$1 pid=${PID[$1]}
   kill -TERM "$pid"
-  for ((i = 0; i < 200; i++)); do
-    if ! kill -0 "$pid" 2>/dev/null; then
-      wait "$pid" || fail "twin $name exited with status $?"
-      unset "PID[$name]"
-      return 0
-    fi
-    sleep 0.05
-  done
-  kill -KILL "$pid" 2>/dev/null || true
-  fail "twin $name did not stop within 10 s of SIGTERM"
+  if ! wait_for 10 "twin $name to end after SIGTERM" -- gone "$pid"; then
+    kill -KILL "$pid" 2>/dev/null || true
+    fail "twin $name did not stop within 10 s of SIGTERM"
+  fi
+  wait "$pid" || fail "twin $name exited with status $?"
+  unset "PID[$name]"
 }
 
 # counters NAME: sets COUNTERS to "step:writes" lines for every step written

@@ -12,6 +12,7 @@ set -o pipefail
 : "${LEC:?LEC must name the lec binary}"
 : "${LEC6_BUILD_DIR:=$(dirname "$LEC")}"
 IT_DIR=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+source "$IT_DIR/harness.sh"
 # Debian's pymodbus is installed for the system interpreter, not a pyenv one.
 PY=/usr/bin/python3
 PEER_PY=$IT_DIR/pymodbus_peer.py

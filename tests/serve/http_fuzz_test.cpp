@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -65,7 +66,9 @@ TEST(HttpFuzzHarness, KeptRegressionInputsPass) {
     run(s.str(), entry.path().filename().string());
     ++n;
   }
-  if (n == 0) GTEST_SKIP() << "no regression inputs for http yet";
+  // No skip: with no kept input it runs none and says so (the CI log shows the count).
+  std::printf("fuzz regression replay: %zu kept input(s) of harness 'http' run%s\n", n,
+              n == 0 ? " (none kept)" : "");
 }
 
 // The harness notices what it is meant to notice.

