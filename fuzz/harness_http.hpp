@@ -42,6 +42,13 @@ using serve::HttpRequestReader;
 struct Outcome {
   std::vector<HttpRequest> requests;
   int error_status = 0;  // 0: no error
+  std::string reason;
+
+  std::string text() const {
+    std::string t = std::to_string(requests.size()) + " requests";
+    for (const auto& r : requests) t += " [" + r.method + " " + r.target + "]";
+    return t + ", refusal " + std::to_string(error_status) + " " + reason;
+  }
 
   bool same_as(const Outcome& o) const {
     if (error_status != o.error_status || requests.size() != o.requests.size()) return false;
@@ -129,6 +136,7 @@ Outcome read_all(std::string_view stream, const serve::HttpLimits& limits, NextS
           "a refusal with an unexpected status");
     check(!e.reason.empty(), "a refusal without a reason");
     out.error_status = e.status;
+    out.reason = e.reason;
   }
   return out;
 }
@@ -165,8 +173,10 @@ inline void http_one(const uint8_t* data, std::size_t size) {
   Rng rng(ctl);
   const Outcome chunks =
       read_all(stream, limits, [&] { return 1 + rng.below(rng.below(4) ? 16 : 700); });
-  check(whole.same_as(bytes), "reading byte by byte differs from reading all at once");
-  check(whole.same_as(chunks), "reading in chunks differs from reading all at once");
+  check(whole.same_as(bytes), "reading byte by byte differs from reading all at once: " +
+                                  whole.text() + " / " + bytes.text());
+  check(whole.same_as(chunks), "reading in chunks differs from reading all at once: " +
+                                   whole.text() + " / " + chunks.text());
 
   // SSE: the input as an event's data comes back as a browser reads it, with
   // its line ends made \n.

@@ -117,4 +117,15 @@ std::optional<HttpResponse> check_access(const HttpRequest& request, const HttpC
       "writes on this listener need the token: send 'Authorization: Bearer <token>'", false);
 }
 
+Router with_access_rules(HttpConfig config, Router inner) {
+  return [config = std::move(config), inner = std::move(inner)](HttpRequest request,
+                                                                Responder responder) {
+    if (auto refusal = check_access(request, config)) {
+      responder.respond(std::move(*refusal));
+      return;
+    }
+    inner(std::move(request), std::move(responder));
+  };
+}
+
 }  // namespace lec6::serve

@@ -91,6 +91,7 @@ void HttpRequestReader::restart() {
   parser_ = std::make_unique<Parser>(limits_);
   status_ = Status::NeedMore;
   continue_pending_ = continue_sent_ = false;
+  header_seen_.clear();
 }
 
 HttpRequestReader::Status HttpRequestReader::fail(int status, std::string reason) {
@@ -100,23 +101,53 @@ HttpRequestReader::Status HttpRequestReader::fail(int status, std::string reason
   return status_;
 }
 
-// Beast reports a lone LF, or a well-formed version other than 1.x, as
-// "bad version": tell the client what is really wrong.
-HttpRequestReader::Status HttpRequestReader::refuse(const boost::system::error_code& ec) {
-  const std::string_view first_line =
-      std::string_view(buffer_).substr(0, std::min(buffer_.find('\n'), buffer_.size()));
-  if (!parser_->p.is_header_done() && buffer_.find('\n') != std::string::npos &&
-      (first_line.empty() || first_line.back() != '\r'))
+namespace {
+
+// "GET / HTTP/2.0\r": a request line in good form, whatever its version.
+// "GET / HTTP/2.0": a request line in good form up to a version other than
+// 1.x (Beast stops there, before the line's end); the version, or empty.
+std::string_view other_version(std::string_view request) {
+  const auto s1 = request.find(' ');
+  if (s1 == 0 || s1 == std::string_view::npos) return {};
+  const auto s2 = request.find(' ', s1 + 1);
+  if (s2 == std::string_view::npos || s2 == s1 + 1) return {};
+  if (request.substr(0, s2).find_first_of("\r\n") != std::string_view::npos) return {};
+  const std::string_view v = request.substr(s2 + 1, 8);
+  const bool in_form = v.size() == 8 && v.starts_with("HTTP/") &&
+                       std::isdigit(static_cast<unsigned char>(v[5])) && v[6] == '.' &&
+                       std::isdigit(static_cast<unsigned char>(v[7]));
+  if (!in_form || v == "HTTP/1.0" || v == "HTTP/1.1") return {};
+  return v.substr(5);
+}
+
+}  // namespace
+
+// Beast tries to parse a header as soon as bytes come, then (once it needed
+// more) waits for the whole header or the limit. So a syntax error inside
+// the limit may show fed whole, and only the limit fed in pieces. The answer
+// must not depend on how the bytes were cut: the first `header_bytes` of the
+// header, parsed in one go, decide.
+HttpRequestReader::Status HttpRequestReader::refuse_header_limit() {
+  const std::string head = (header_seen_ + buffer_).substr(0, limits_.header_bytes);
+  Parser probe(limits_);
+  boost::system::error_code ec;
+  probe.p.put(boost::asio::buffer(head.data(), head.size()), ec);
+  if (ec && ec != http::error::need_more && ec != http::error::header_limit)
+    return refuse(ec, head);
+  return fail(431, "the request's header is larger than " + size_text(limits_.header_bytes));
+}
+
+// Beast's errors in the client's terms: a lone LF and a version other than
+// 1.x both come as "bad version". `request`: the request's bytes from its start.
+HttpRequestReader::Status HttpRequestReader::refuse(const boost::system::error_code& ec,
+                                                    std::string_view request) {
+  const auto nl = request.find('\n');
+  if (nl != std::string_view::npos && (nl == 0 || request[nl - 1] != '\r'))
     return fail(400, parse_error_text(http::error::bad_line_ending));
   if (ec == http::error::bad_version) {
-    const auto v = first_line.rfind(" HTTP/");
-    const std::string_view version =
-        v == std::string_view::npos ? std::string_view() : first_line.substr(v + 6);
-    if (version.size() == 4 && std::isdigit(static_cast<unsigned char>(version[0])) &&
-        version[1] == '.' && std::isdigit(static_cast<unsigned char>(version[2])) &&
-        version[3] == '\r')
-      return fail(505, "HTTP/" + std::string(version.substr(0, 3)) +
-                           " is not supported (lec serve speaks HTTP/1.0 and 1.1)");
+    if (const auto v = other_version(request); !v.empty())
+      return fail(
+          505, "HTTP/" + std::string(v) + " is not supported (lec serve speaks HTTP/1.0 and 1.1)");
   }
   return fail(400, parse_error_text(ec));
 }
@@ -129,12 +160,12 @@ HttpRequestReader::Status HttpRequestReader::feed(std::string_view bytes) {
     const bool had_header = p.is_header_done();
     boost::system::error_code ec;
     const std::size_t used = p.put(boost::asio::buffer(buffer_.data(), buffer_.size()), ec);
+    if (!p.is_header_done()) header_seen_.append(buffer_, 0, used);
     buffer_.erase(0, used);
-    if (ec == http::error::header_limit)
-      return fail(431, "the request's header is larger than " + size_text(limits_.header_bytes));
+    if (ec == http::error::header_limit) return refuse_header_limit();
     if (ec == http::error::body_limit)
       return fail(413, "the request's body is larger than " + size_text(limits_.body_bytes));
-    if (ec && ec != http::error::need_more) return refuse(ec);
+    if (ec && ec != http::error::need_more) return refuse(ec, header_seen_ + buffer_);
     if (!had_header && p.is_header_done()) {
       const auto& m = p.get();
       if (m.version() != 10 && m.version() != 11) {

@@ -106,6 +106,27 @@ TEST(CheckAccess, FollowsTheTable) {
   }
 }
 
+TEST(WithAccessRules, ARefusedRequestNeverReachesTheRouter) {
+  int reached = 0;
+  const Router guarded =
+      with_access_rules(listener("127.0.0.1", true, ""), [&](HttpRequest, Responder res) {
+        ++reached;
+        res.respond(text_response(200, "ok"));
+      });
+  auto ask = [&](const char* method) {
+    HttpRequest r;
+    r.method = method;
+    r.headers.add("Host", "127.0.0.1:8080");
+    int status = 0;
+    guarded(r, Responder::capture([&](HttpResponse resp) { status = resp.status; }));
+    return status;
+  };
+  EXPECT_EQ(ask("POST"), 403);
+  EXPECT_EQ(reached, 0);
+  EXPECT_EQ(ask("GET"), 200);
+  EXPECT_EQ(reached, 1);
+}
+
 TEST(TokenEquals, ComparesWholeTokens) {
   EXPECT_TRUE(token_equals("abc", "abc"));
   EXPECT_FALSE(token_equals("abd", "abc"));

@@ -27,11 +27,16 @@
 
 #include "lec6/serve/config.hpp"
 #include "lec6/serve/http.hpp"
+#include "lec6/serve/http_server.hpp"
 
 namespace lec6::serve {
 
 // nullopt: go ahead; otherwise the refusal to send as it is.
 std::optional<HttpResponse> check_access(const HttpRequest& request, const HttpConfig& config);
+
+// `inner` behind the rules: a refused request is answered here and never
+// reaches it. What HttpServer is given for a listener.
+Router with_access_rules(HttpConfig config, Router inner);
 
 // Whether a Host field names this machine's loopback ("localhost:8080",
 // "127.0.0.1", "[::1]:8080").

@@ -71,7 +71,8 @@ class HttpRequestReader {
  private:
   struct Parser;
   void restart();
-  Status refuse(const boost::system::error_code& ec);
+  Status refuse(const boost::system::error_code& ec, std::string_view request);
+  Status refuse_header_limit();
   Status fail(int status, std::string reason);
 
   HttpLimits limits_;
@@ -81,6 +82,7 @@ class HttpRequestReader {
   HttpParseError error_;
   bool continue_pending_ = false;
   bool continue_sent_ = false;
+  std::string header_seen_;  // header bytes the parser took already (at most the limit)
 };
 
 inline constexpr std::string_view kContinue = "HTTP/1.1 100 Continue\r\n\r\n";
