@@ -5,6 +5,7 @@
 #include "cli/app.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
+#include "lec6/version.hpp"
 
 namespace lec6::cli {
 std::atomic<bool> g_interrupted{false};
@@ -88,6 +89,8 @@ int main(int argc, char** argv) {
   CLI::App app{"lec: drive SMC LEC\u25A16 electric-actuator controllers over RS485 (Modbus RTU)",
                "lec"};
   app.footer(kExitCodes);
+  app.set_version_flag("--version", std::string("lec ") + LEC6_VERSION_STRING,
+                       "Print the version and exit");
   app.require_subcommand(1);
   app.fallthrough();
   cli::GlobalOptions options;

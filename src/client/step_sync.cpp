@@ -131,7 +131,11 @@ Expected<void, std::string> write_table_file(const std::filesystem::path& path,
   const std::string text = lec::format_table(table, lec::table_format_for_path(path.string()));
   const std::filesystem::path dir =
       path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
-  std::string tmpl = (dir / ("." + path.filename().string() + ".tmp-XXXXXX")).string();
+  // Appended piecewise: `"." + a + b` trips GCC 12's -Wrestrict false positive at -O3.
+  std::string name = ".";
+  name += path.filename().string();
+  name += ".tmp-XXXXXX";
+  std::string tmpl = (dir / name).string();
   const int fd = ::mkstemp(tmpl.data());
   auto os_error = [&](std::string_view what) {
     return unexpected(fmt::format("cannot {} {}: {}", what, path.string(), std::strerror(errno)));
