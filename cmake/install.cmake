@@ -11,7 +11,9 @@ install(TARGETS lec RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(TARGETS lec6_modbus lec6_lec lec6_client lec6_transport lec6 lec6_sim lec6_twin lec6_simulator
         EXPORT lec6Targets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
-install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/lec6 DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+# serve/ is `lec serve`'s, inside the binary; it is not part of the library.
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/lec6 DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+        PATTERN serve EXCLUDE)
 install(FILES ${PROJECT_BINARY_DIR}/include/lec6/version.hpp
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lec6)
 

@@ -41,17 +41,13 @@ void run_decode(const Session& s, const std::vector<std::string>& words, bool as
   if (!(reply ? reply_ok : request_ok)) throw CommandFailed(kUsage, "the frame does not decode");
 }
 
-void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
-  Bytes frame = parse_hex_args(words);
-  if (!as_is && !modbus::crc_ok(frame)) modbus::append_crc(frame);
-  auto& c = s.client();
-  auto& link = c.link();
+// Sends the bytes as they are on an RTU link and collects whatever comes back
+// within the reply window.
+Bytes exchange_bytes(client::Client& c, client::Link& link, const Bytes& frame) {
   link.discard_input();
-  const TimePoint start = c.clock().now();
   link.write(frame);
-  const TimePoint sent = c.clock().now();
   const TimePoint deadline =
-      sent + c.timing().response_time(modbus::kMaxAdu) + c.options().timeout_margin;
+      c.clock().now() + c.timing().response_time(modbus::kMaxAdu) + c.options().timeout_margin;
   Bytes reply;
   std::array<uint8_t, 512> buf{};
   while (c.clock().now() < deadline) {
@@ -60,6 +56,35 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
     const auto len = modbus::response_length(reply);
     if (len.status == modbus::FrameLength::Status::Known && reply.size() >= len.bytes) break;
   }
+  return reply;
+}
+
+// A master that carries requests rather than bytes (Modbus TCP): the frame
+// must decode; the reply comes back as the RTU frame the controller sent.
+Bytes exchange_request(client::Client& c, const Bytes& frame, std::string_view port) {
+  const auto request = modbus::decode_request(frame);
+  if (!request) {
+    throw UsageError(fmt::format(
+        "{} carries Modbus requests, not raw bytes, and this frame does not decode ({}): send "
+        "malformed frames on a serial port, rtu+tcp:// or sim",
+        port, request.error().message));
+  }
+  try {
+    return modbus::encode_response(c.transact_raw(*request));
+  } catch (const client::TransportError& e) {
+    if (e.kind() != client::TransportErrorKind::Timeout) throw;
+    return {};
+  }
+}
+
+void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
+  Bytes frame = parse_hex_args(words);
+  if (!as_is && !modbus::crc_ok(frame)) modbus::append_crc(frame);
+  auto& c = s.client();
+  const TimePoint start = c.clock().now();
+  client::Link* link = c.master().link();
+  const Bytes reply =
+      link ? exchange_bytes(c, *link, frame) : exchange_request(c, frame, s.port_description());
   const double ms = to_ms(c.clock().now() - start);
   const std::string sent_text = lec::explain_bytes(frame, false);
   std::string reply_text = "no reply";

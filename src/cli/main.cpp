@@ -24,7 +24,8 @@ constexpr const char* kExitCodes = R"(Exit codes:
   6  a wait ran past its deadline
   130 interrupted by Ctrl-C (a moving axis is stopped first)
 
-Ports: --port /dev/ttyUSB0 | tcp://host:502 | sim (in-process twin); LEC_PORT sets a default.)";
+Ports: --port /dev/ttyUSB0 | tcp://host:502 (Modbus TCP, e.g. lec serve) | rtu+tcp://host:4001
+(RTU frames over TCP) | sim (in-process twin); LEC_PORT sets a default.)";
 
 void on_signal(int) {
   cli::g_interrupted = true;
@@ -45,7 +46,8 @@ int fail(int code, const std::string& message) {
 
 void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
   app.add_option("--port,-p", o.port,
-                 "Port: /dev/ttyUSB0, tcp://host:502 or sim (default: $LEC_PORT)");
+                 "Port: /dev/ttyUSB0, tcp://host:502 (Modbus TCP), rtu+tcp://host:port or sim "
+                 "(default: $LEC_PORT)");
   app.add_option("--baud,-b", o.baud, "Line speed (9600 19200 38400 57600 115200 230400)")
       ->capture_default_str()
       ->check(CLI::IsMember({9600, 19200, 38400, 57600, 115200, 230400}));

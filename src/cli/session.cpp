@@ -4,6 +4,7 @@
 #include "cli/trace_printer.hpp"
 #include "lec6/lec/units.hpp"
 #include "lec6/sim/bus.hpp"
+#include "lec6/transport/modbus_tcp_master.hpp"
 #include "lec6/transport/port_spec.hpp"
 #include "lec6/transport/serial_link.hpp"
 #include "lec6/transport/tcp_link.hpp"
@@ -13,8 +14,9 @@ namespace lec6::cli {
 
 struct Session::Impl {
   SteadyClock clock;
-  std::unique_ptr<sim::Bus> twin;  // only for --port sim
-  std::unique_ptr<client::Link> link;
+  std::unique_ptr<sim::Bus> twin;          // only for --port sim
+  std::unique_ptr<client::Link> link;      // RTU on bytes: serial, rtu+tcp://, sim
+  std::unique_ptr<client::Master> master;  // Modbus TCP: tcp://
   std::unique_ptr<client::Client> client;
   std::unique_ptr<client::Actuator> axis;
   std::string description;
@@ -37,11 +39,11 @@ std::string resolve_port(const GlobalOptions& o, std::string_view default_port) 
   if (!o.port.empty()) return o.port;
   if (const char* env = std::getenv("LEC_PORT"); env && *env) return env;
   if (!default_port.empty()) return std::string(default_port);
-  throw UsageError(
-      fmt::format("no port given: use --port /dev/ttyUSB0 (or tcp://host:502, or sim for the "
-                  "built-in twin), or set "
-                  "LEC_PORT\n{}",
-                  ports_found()));
+  throw UsageError(fmt::format(
+      "no port given: use --port /dev/ttyUSB0 (or tcp://host:502 for Modbus TCP, e.g. lec "
+      "serve, or sim for the built-in twin), or set "
+      "LEC_PORT\n{}",
+      ports_found()));
 }
 
 }  // namespace
@@ -65,10 +67,23 @@ client::Client& Session::client(std::string_view default_port) {
       impl->link = std::move(serial);
       break;
     }
-    case transport::PortKind::Tcp: {
+    case transport::PortKind::RtuOverTcp: {
       transport::TcpOptions to;
       to.baud = options_.baud;
+      to.scheme = "rtu+tcp";
       impl->link = std::make_unique<transport::TcpLink>(spec.host, spec.tcp_port, to);
+      break;
+    }
+    case transport::PortKind::Tcp: {
+      transport::ModbusTcpOptions mo;
+      mo.line.baud = options_.baud;
+      mo.line.silent_interval_k = options_.silent_interval_k;
+      mo.line.delay_td = milliseconds(options_.delay_td_ms);
+      // The gateway queues us behind other clients on its line: a second on
+      // top of the serial reply window.
+      mo.timeout = std::chrono::seconds(1) + milliseconds(options_.timeout_margin_ms);
+      if (options_.trace) mo.trace = print_trace_event;
+      impl->master = std::make_unique<transport::ModbusTcpMaster>(spec.host, spec.tcp_port, mo);
       break;
     }
     case transport::PortKind::Sim: {
@@ -82,7 +97,7 @@ client::Client& Session::client(std::string_view default_port) {
       break;
     }
   }
-  impl->description = impl->link->describe();
+  impl->description = impl->link ? impl->link->describe() : impl->master->describe();
   client::ClientOptions co;
   co.id = static_cast<uint8_t>(options_.id);
   co.retries = options_.retries;
@@ -91,7 +106,8 @@ client::Client& Session::client(std::string_view default_port) {
   co.delay_td = milliseconds(options_.delay_td_ms);
   co.wait_for_silence = !options_.no_silence_wait;
   if (options_.trace) co.trace = print_trace_event;
-  impl->client = std::make_unique<client::Client>(*impl->link, co);
+  impl->client = impl->link ? std::make_unique<client::Client>(*impl->link, co)
+                            : std::make_unique<client::Client>(*impl->master, co);
   impl->axis = std::make_unique<client::Actuator>(*impl->client);
   impl_ = std::move(impl);
   return *impl_->client;

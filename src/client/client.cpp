@@ -1,5 +1,7 @@
 #include "lec6/client/client.hpp"
 
+#include "lec6/client/rtu_master.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -16,11 +18,6 @@ std::string join(const std::vector<std::string>& lines) {
   std::string out;
   for (const auto& l : lines) out += (out.empty() ? "" : "; ") + l;
   return out;
-}
-
-TransportErrorKind kind_of(LinkErrorKind k) {
-  return k == LinkErrorKind::EchoMismatch ? TransportErrorKind::EchoMismatch
-                                          : TransportErrorKind::Port;
 }
 
 template <typename T>
@@ -44,91 +41,35 @@ void check_record(const lec::StepData& data, std::optional<unsigned> step) {
 
 }  // namespace
 
-Client::Client(Link& link, ClientOptions options) : link_(link), options_(std::move(options)) {
-  timing_.line.baud = link_.baud();
-  timing_.line.silent_interval_k = options_.silent_interval_k;
-  timing_.line.delay_td = options_.delay_td;
-  timing_.margin = options_.timeout_margin;
+namespace {
+
+RtuOptions rtu_options(const ClientOptions& o) {
+  RtuOptions r;
+  r.silent_interval_k = o.silent_interval_k;
+  r.delay_td = o.delay_td;
+  r.timeout_margin = o.timeout_margin;
+  r.wait_for_silence = o.wait_for_silence;
+  r.trace = o.trace;
+  return r;
 }
 
-void Client::trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
-                   const RequestFrame& request, const ResponseFrame* response) {
-  if (!options_.trace) return;
-  std::string text =
-      outgoing ? lec::explain_request(request)
-               : (response ? lec::explain_response(*response, &request) : std::string("?"));
-  options_.trace(TraceEvent{outgoing, at, bytes, std::move(text)});
-}
+}  // namespace
 
-// The manual's frame delimiter works both ways: the controller must see Ts of
-// silence before our query, so anything still arriving (a late reply, noise)
-// is drained until the line has been quiet for Ts. After a failed transaction
-// the line must stay quiet for a whole reply window: a reply later than our
-// timeout would otherwise land in the next transaction, and Modbus RTU has no
-// transaction ID to tell it from a fresh reply of the same shape.
-void Client::wait_for_silence() {
-  const Duration quiet =
-      std::max(options_.wait_for_silence ? timing_.line.silent_interval() : Duration{},
-               guard_after_failure_);
-  guard_after_failure_ = Duration{};
-  std::array<uint8_t, 256> sink{};
-  for (;;) {
-    const TimePoint quiet_at = line_busy_until_ + quiet;
-    if (link_.clock().now() >= quiet_at) break;
-    if (link_.read_some(sink, quiet_at) > 0) {
-      stats_.bytes_discarded += 1;
-      line_busy_until_ = link_.clock().now();
-    }
-  }
-  link_.discard_input();
-}
+Client::Client(Link& link, ClientOptions options)
+    : owned_(std::make_unique<RtuMaster>(link, rtu_options(options))),
+      master_(*owned_),
+      options_(std::move(options)) {}
 
-ResponseFrame Client::run_once(const RequestFrame& frame) {
-  Transaction tx(frame, timing_);
-  std::array<uint8_t, kMaxAdu * 2> buffer{};
-  try {
-    wait_for_silence();
-    const TimePoint start = link_.clock().now();
-    link_.write(tx.bytes());
-    tx.sent(link_.clock().now());
-    trace(true, start, tx.bytes(), frame, nullptr);
-    while (tx.step() == Transaction::Step::Receive) {
-      const std::size_t n = link_.read_some(buffer, tx.deadline());
-      const TimePoint now = link_.clock().now();
-      if (n > 0) {
-        tx.received(std::span(buffer.data(), n), now);
-      } else if (now >= tx.deadline()) {
-        tx.timed_out(now);
-      }
-    }
-    line_busy_until_ = link_.clock().now();
-    ++stats_.transactions;
-    stats_.bytes_discarded += tx.discarded();
-    if (tx.step() == Transaction::Step::Failed) {
-      guard_after_failure_ = tx.deadline() - tx.sent_at();
-      switch (tx.error_kind()) {
-        case TransportErrorKind::Timeout:
-          ++stats_.timeouts;
-          break;
-        case TransportErrorKind::Crc:
-          ++stats_.crc_errors;
-          break;
-        default:
-          ++stats_.framing_errors;
-          break;
-      }
-      throw TransportError(tx.error_kind(), tx.error());
-    }
-    if (tx.broadcast()) return ResponseFrame{kBroadcastId, WriteMultipleResponse{}};
-    last_round_trip_ = tx.finished_at() - start;
-    const auto& reply = tx.response();
-    if (options_.trace) trace(false, tx.finished_at(), encode_response(reply), frame, &reply);
-    return reply;
-  } catch (const LinkError& e) {
-    line_busy_until_ = link_.clock().now();
-    guard_after_failure_ = timing_.line.response_time(kMaxAdu) + timing_.margin;
-    throw TransportError(kind_of(e.kind()), e.what());
-  }
+Client::Client(Master& master, ClientOptions options)
+    : master_(master), options_(std::move(options)) {}
+
+Client::~Client() = default;
+
+LinkStats Client::stats() const {
+  LinkStats s = master_.stats();
+  s.retries += retries_;
+  s.exceptions += exceptions_;
+  return s;
 }
 
 Response Client::transact(const Request& request, Retry retry, std::optional<uint8_t> id) {
@@ -142,9 +83,9 @@ Response Client::transact(const Request& request, Retry retry, std::optional<uin
   const int attempts = retry == Retry::Safe ? 1 + std::max(0, options_.retries) : 1;
   for (int attempt = 1;; ++attempt) {
     try {
-      ResponseFrame reply = run_once(frame);
+      ResponseFrame reply = master_.exchange(frame);
       if (const auto* ex = std::get_if<ExceptionResponse>(&reply.pdu)) {
-        ++stats_.exceptions;
+        ++exceptions_;
         throw ControllerException(
             ex->code, fmt::format("controller ID {} refused \"{}\": {}", frame.id,
                                   lec::explain_request(frame), lec::explain_exception(ex->code)));
@@ -155,20 +96,20 @@ Response Client::transact(const Request& request, Retry retry, std::optional<uin
                               e.kind() == TransportErrorKind::Crc ||
                               e.kind() == TransportErrorKind::Framing;
       if (!line_fault || attempt >= attempts) throw;
-      ++stats_.retries;
+      ++retries_;
     }
   }
 }
 
 ResponseFrame Client::transact_raw(const RequestFrame& frame) {
-  return run_once(frame);
+  return master_.exchange(frame);
 }
 
 void Client::broadcast(const Request& request) {
   if (!is_write(request)) {
     throw InvalidRequest("a broadcast (ID 0) only carries writes (05, 0F, 10): reads get no reply");
   }
-  run_once(RequestFrame{kBroadcastId, request});
+  master_.exchange(RequestFrame{kBroadcastId, request});
 }
 
 // ---- reads ------------------------------------------------------------------

@@ -16,6 +16,10 @@ std::string_view transport_error_name(TransportErrorKind k) noexcept {
       return "framing";
     case TransportErrorKind::EchoMismatch:
       return "echo mismatch";
+    case TransportErrorKind::LineBusy:
+      return "line busy";
+    case TransportErrorKind::Unreachable:
+      return "unreachable";
   }
   return "transport";
 }

@@ -87,14 +87,6 @@ std::optional<Refusal> check_write(const Access& a, bool serial_mode) {
   return std::nullopt;
 }
 
-std::optional<Refusal> check_count(uint16_t count, uint16_t max, std::string_view what) {
-  if (count == 0 || count > max) {
-    return refuse(ExceptionCode::IllegalAccessRange,
-                  fmt::format("{} count {} is outside 1–{}", what, count, max));
-  }
-  return std::nullopt;
-}
-
 std::optional<Refusal> check_access(const Access& a, bool serial_mode) {
   if (auto r = check_range(a)) return r;
   if (a.write) return check_write(a, serial_mode);
@@ -134,15 +126,15 @@ WriteRule write_rule(Space space, uint16_t address) noexcept {
 
 std::optional<Refusal> check_request(const modbus::Request& request, bool serial_mode) {
   using namespace modbus;
+  // Counts and byte counts first (03): the codec's limits, one definition.
+  if (auto e = check_counts(request)) return refuse(ExceptionCode::IllegalAccessRange, e->message);
   struct Visitor {
     bool serial_mode;
     std::optional<Refusal> operator()(const ReadBitsRequest& q) const {
-      if (auto r = check_count(q.count, kMaxReadBits, "read")) return r;
       const Space s = q.function == FunctionCode::ReadCoils ? Space::Coil : Space::Input;
       return check_access({s, q.start, q.count, false}, serial_mode);
     }
     std::optional<Refusal> operator()(const ReadRegistersRequest& q) const {
-      if (auto r = check_count(q.count, kMaxReadRegisters, "read")) return r;
       return check_access({Space::Register, q.start, q.count, false}, serial_mode);
     }
     std::optional<Refusal> operator()(const WriteCoilRequest& q) const {
@@ -163,21 +155,9 @@ std::optional<Refusal> check_request(const modbus::Request& request, bool serial
       return std::nullopt;
     }
     std::optional<Refusal> operator()(const WriteCoilsRequest& q) const {
-      if (auto r = check_count(q.count, kMaxWriteCoils, "write")) return r;
-      if (q.packed.size() != (q.count + 7u) / 8u) {
-        return refuse(
-            ExceptionCode::IllegalAccessRange,
-            fmt::format("byte count {} does not match {} coils", q.packed.size(), q.count));
-      }
       return check_access({Space::Coil, q.start, q.count, true}, serial_mode);
     }
     std::optional<Refusal> operator()(const WriteRegistersRequest& q) const {
-      if (auto r = check_count(q.count, kMaxWriteRegisters, "write")) return r;
-      if (q.data.size() != 2u * q.count) {
-        return refuse(
-            ExceptionCode::IllegalAccessRange,
-            fmt::format("byte count {} does not match {} registers", q.data.size(), q.count));
-      }
       return check_access({Space::Register, q.start, q.count, true}, serial_mode);
     }
   };
@@ -198,6 +178,13 @@ std::string explain_exception(modbus::ExceptionCode code) {
       return "03: access range refused — the count is 0 or too large, the access runs past the end "
              "of "
              "its area, or a coil value is not FF00h/0000h";
+    case modbus::ExceptionCode::ServerDeviceFailure:
+      return "04: the gateway failed while handling the request (see the lec serve log)";
+    case modbus::ExceptionCode::GatewayPathUnavailable:
+      return "0A: gateway path unavailable — this unit ID is not configured on the gateway's lines";
+    case modbus::ExceptionCode::GatewayTargetFailed:
+      return "0B: the gateway's target device did not answer (timeout, or backed off after "
+             "repeated timeouts)";
   }
   return "unknown exception code";
 }

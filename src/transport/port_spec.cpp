@@ -18,7 +18,8 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr std::string_view kExpected =
-    "expected a device path like /dev/ttyUSB0, tcp://host:port, or sim";
+    "expected a device path like /dev/ttyUSB0, tcp://host:port (Modbus TCP), "
+    "rtu+tcp://host:port (RTU over TCP), or sim";
 
 [[noreturn]] void bad(const std::string& message) {
   throw std::invalid_argument(message);
@@ -34,9 +35,10 @@ uint16_t parse_tcp_port(std::string_view digits, std::string_view text) {
   return static_cast<uint16_t>(value);
 }
 
-PortSpec parse_tcp(std::string_view rest, std::string_view text) {
+PortSpec parse_tcp(PortKind kind, std::string_view rest, std::string_view text) {
   PortSpec spec;
-  spec.kind = PortKind::Tcp;
+  spec.kind = kind;
+  const std::string_view scheme = kind == PortKind::Tcp ? "tcp" : "rtu+tcp";
   spec.tcp_port = kDefaultTcpPort;
   std::string_view host;
   std::string_view after;  // what follows the host: empty or ":port"
@@ -50,17 +52,18 @@ PortSpec parse_tcp(std::string_view rest, std::string_view text) {
     host = rest.substr(0, colon);
     after = colon == std::string_view::npos ? std::string_view{} : rest.substr(colon);
     if (after.find(':', 1) != std::string_view::npos) {
-      bad(fmt::format("cannot read '{}': write IPv6 addresses in brackets, like tcp://[::1]:502",
-                      text));
+      bad(fmt::format("cannot read '{}': write IPv6 addresses in brackets, like {}://[::1]:502",
+                      text, scheme));
     }
   }
-  if (host.empty()) bad(fmt::format("missing host in '{}': expected tcp://host:port", text));
+  if (host.empty()) bad(fmt::format("missing host in '{}': expected {}://host:port", text, scheme));
   if (host.find('/') != std::string_view::npos || after.find('/') != std::string_view::npos) {
-    bad(fmt::format("cannot read '{}': expected tcp://host:port with nothing after the port",
-                    text));
+    bad(fmt::format("cannot read '{}': expected {}://host:port with nothing after the port", text,
+                    scheme));
   }
   if (!after.empty()) {
-    if (after.front() != ':') bad(fmt::format("cannot read '{}': expected tcp://host:port", text));
+    if (after.front() != ':')
+      bad(fmt::format("cannot read '{}': expected {}://host:port", text, scheme));
     spec.tcp_port = parse_tcp_port(after.substr(1), text);
   }
   spec.host = std::string(host);
@@ -95,17 +98,50 @@ bool is_real_uart(const fs::path& sysfs_root, const std::string& name) {
   return true;
 }
 
+// What other tools call their TCP transports, and what we call it.
+struct OtherSpelling {
+  std::string_view prefix;
+  std::string_view ours;
+};
+constexpr OtherSpelling kOtherSpellings[] = {
+    {"rtu://", "rtu+tcp://"},     {"tcp+rtu://", "rtu+tcp://"},    {"rtutcp://", "rtu+tcp://"},
+    {"rtu-tcp://", "rtu+tcp://"}, {"rtuovertcp://", "rtu+tcp://"}, {"modbus://", "tcp://"},
+    {"modbus+tcp://", "tcp://"},  {"mbap://", "tcp://"},           {"modbustcp://", "tcp://"},
+};
+
+[[noreturn]] void other_spelling(std::string_view text) {
+  for (const auto& o : kOtherSpellings) {
+    if (text.starts_with(o.prefix)) {
+      bad(
+          fmt::format("unknown port '{}': did you mean {}{}? (tcp:// is Modbus TCP, rtu+tcp:// is "
+                      "Modbus RTU frames over TCP)",
+                      text, o.ours, text.substr(o.prefix.size())));
+    }
+  }
+  const auto colon = text.rfind(':');
+  if (colon != std::string_view::npos && colon > 0 && text.find("://") == std::string_view::npos) {
+    bad(
+        fmt::format("unknown port '{}': a TCP address needs its protocol, tcp://{} for Modbus TCP "
+                    "(e.g. lec serve) or rtu+tcp://{} for RTU frames over TCP",
+                    text, text, text));
+  }
+  bad(fmt::format("unknown port '{}': {}", text, kExpected));
+}
+
 }  // namespace
 
 std::string PortSpec::text() const {
+  const bool v6 = host.find(':') != std::string::npos;
   switch (kind) {
     case PortKind::Serial:
       return device;
     case PortKind::Sim:
       return "sim";
     case PortKind::Tcp:
-      if (host.find(':') != std::string::npos) return fmt::format("tcp://[{}]:{}", host, tcp_port);
-      return fmt::format("tcp://{}:{}", host, tcp_port);
+      return fmt::format(fmt::runtime(v6 ? "tcp://[{}]:{}" : "tcp://{}:{}"), host, tcp_port);
+    case PortKind::RtuOverTcp:
+      return fmt::format(fmt::runtime(v6 ? "rtu+tcp://[{}]:{}" : "rtu+tcp://{}:{}"), host,
+                         tcp_port);
   }
   return device;
 }
@@ -113,14 +149,15 @@ std::string PortSpec::text() const {
 PortSpec parse_port_spec(std::string_view text) {
   if (text.empty()) bad(fmt::format("empty port: {}", kExpected));
   if (text == "sim") return PortSpec{PortKind::Sim, {}, {}, 0};
-  if (text.starts_with("tcp://")) return parse_tcp(text.substr(6), text);
+  if (text.starts_with("tcp://")) return parse_tcp(PortKind::Tcp, text.substr(6), text);
+  if (text.starts_with("rtu+tcp://")) return parse_tcp(PortKind::RtuOverTcp, text.substr(10), text);
   if (text.starts_with('/') || text.starts_with("./") || text.starts_with("../")) {
     return PortSpec{PortKind::Serial, std::string(text), {}, 0};
   }
   if (text.starts_with("tty")) {
     bad(fmt::format("unknown port '{}': {} (did you mean /dev/{}?)", text, kExpected, text));
   }
-  bad(fmt::format("unknown port '{}': {}", text, kExpected));
+  other_spelling(text);
 }
 
 std::vector<SerialPortInfo> list_serial_ports(const fs::path& dev_root,

@@ -91,7 +91,7 @@ TcpLink::TcpLink(std::string host, uint16_t port, TcpOptions options)
 }
 
 std::string TcpLink::url() const {
-  return fmt::format("tcp://{}:{}", host_in_url(host_), port_);
+  return fmt::format("{}://{}:{}", options_.scheme, host_in_url(host_), port_);
 }
 
 std::string TcpLink::describe() const {

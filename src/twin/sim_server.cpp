@@ -403,7 +403,7 @@ std::string SimServer::endpoints() const {
   if (pty_) out = pty_->client_path();
   if (listener_) {
     if (!out.empty()) out += " and ";
-    out += listener_->url();
+    out += "rtu+" + listener_->url();  // RTU frames over TCP
   }
   return out;
 }

@@ -195,7 +195,7 @@ fi
 # ---- TCP ------------------------------------------------------------------------------
 if start_twin tcp --pty "$PORT" --tcp 127.0.0.1:0; then
   URL=$(grep -o 'tcp://127\.0\.0\.1:[0-9]*' <<<"$READY")
-  check_sh "ready line names the pty and the TCP port: $READY" '[[ $READY == *"$PORT and tcp://127.0.0.1:"* ]]'
+  check_sh "ready line names the pty and the TCP port: $READY" '[[ $READY == *"$PORT and rtu+tcp://127.0.0.1:"* ]]'
   run_peer "pymodbus over TCP (RTU framer), two clients on one bus" pymodbus "$URL" tcp
   run_peer "the pty still serves alongside TCP" pymodbus "$PORT" echo-ids 1 2
   stop_twin "$TWIN_PID"

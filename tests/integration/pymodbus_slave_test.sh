@@ -10,7 +10,7 @@ port=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1
 slave=$!
 trap 'kill $slave 2>/dev/null || true' EXIT
 
-lec() { "$LEC" --port "tcp://127.0.0.1:$port" --timeout 200 "$@"; }
+lec() { "$LEC" --port "rtu+tcp://127.0.0.1:$port" --timeout 200 "$@"; }
 # Bounded wait for the slave to answer (it has no ready signal once serving).
 for _ in $(seq 1 100); do
   if lec ping -c 1 -i 0 >/dev/null 2>&1 || lec name >/dev/null 2>&1; then break; fi

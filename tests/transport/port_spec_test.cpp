@@ -43,6 +43,10 @@ INSTANTIATE_TEST_SUITE_P(
              "tcp://localhost:65535"},
         Good{"tcp://[::1]:5020", {PortKind::Tcp, "", "::1", 5020}, "tcp://[::1]:5020"},
         Good{"tcp://[fe80::1]", {PortKind::Tcp, "", "fe80::1", 502}, "tcp://[fe80::1]:502"},
+        Good{"rtu+tcp://10.0.0.5:4001",
+             {PortKind::RtuOverTcp, "", "10.0.0.5", 4001},
+             "rtu+tcp://10.0.0.5:4001"},
+        Good{"rtu+tcp://[::1]", {PortKind::RtuOverTcp, "", "::1", 502}, "rtu+tcp://[::1]:502"},
         Good{"sim", {PortKind::Sim, "", "", 0}, "sim"}));
 
 class RejectPortSpec : public ::testing::TestWithParam<std::pair<std::string, std::string>> {};
@@ -61,21 +65,40 @@ INSTANTIATE_TEST_SUITE_P(
     Table, RejectPortSpec,
     ::testing::Values(
         std::pair{std::string("foo"),
-                  std::string("unknown port 'foo': expected a device path like /dev/ttyUSB0, "
-                              "tcp://host:port, or sim")},
+                  std::string(
+                      "unknown port 'foo': expected a device path like /dev/ttyUSB0, "
+                      "tcp://host:port (Modbus TCP), rtu+tcp://host:port (RTU over TCP), or sim")},
         std::pair{std::string(""),
-                  std::string("empty port: expected a device path like /dev/ttyUSB0, "
-                              "tcp://host:port, or sim")},
-        std::pair{std::string("ttyUSB0"),
-                  std::string("unknown port 'ttyUSB0': expected a device path like "
-                              "/dev/ttyUSB0, tcp://host:port, or sim (did you mean "
-                              "/dev/ttyUSB0?)")},
+                  std::string(
+                      "empty port: expected a device path like /dev/ttyUSB0, "
+                      "tcp://host:port (Modbus TCP), rtu+tcp://host:port (RTU over TCP), or sim")},
+        std::pair{
+            std::string("ttyUSB0"),
+            std::string("unknown port 'ttyUSB0': expected a device path like "
+                        "/dev/ttyUSB0, tcp://host:port (Modbus TCP), rtu+tcp://host:port (RTU "
+                        "over TCP), or sim (did you mean /dev/ttyUSB0?)")},
         std::pair{std::string("SIM"),
-                  std::string("unknown port 'SIM': expected a device path like /dev/ttyUSB0, "
-                              "tcp://host:port, or sim")},
+                  std::string(
+                      "unknown port 'SIM': expected a device path like /dev/ttyUSB0, "
+                      "tcp://host:port (Modbus TCP), rtu+tcp://host:port (RTU over TCP), or sim")},
         std::pair{std::string("udp://host:502"),
                   std::string("unknown port 'udp://host:502': expected a device path like "
-                              "/dev/ttyUSB0, tcp://host:port, or sim")},
+                              "/dev/ttyUSB0, tcp://host:port (Modbus TCP), rtu+tcp://host:port "
+                              "(RTU over TCP), or sim")},
+        // Other tools' spellings get the right form.
+        std::pair{std::string("rtu://10.0.0.5:4001"),
+                  std::string("unknown port 'rtu://10.0.0.5:4001': did you mean "
+                              "rtu+tcp://10.0.0.5:4001? (tcp:// is Modbus TCP, rtu+tcp:// is "
+                              "Modbus RTU frames over TCP)")},
+        std::pair{std::string("modbus://plc:502"),
+                  std::string("unknown port 'modbus://plc:502': did you mean tcp://plc:502? "
+                              "(tcp:// is Modbus TCP, rtu+tcp:// is Modbus RTU frames over TCP)")},
+        std::pair{std::string("127.0.0.1:1502"),
+                  std::string("unknown port '127.0.0.1:1502': a TCP address needs its protocol, "
+                              "tcp://127.0.0.1:1502 for Modbus TCP (e.g. lec serve) or "
+                              "rtu+tcp://127.0.0.1:1502 for RTU frames over TCP")},
+        std::pair{std::string("rtu+tcp://:4001"),
+                  std::string("missing host in 'rtu+tcp://:4001': expected rtu+tcp://host:port")},
         std::pair{std::string("tcp://"),
                   std::string("missing host in 'tcp://': expected tcp://host:port")},
         std::pair{std::string("tcp://:502"),

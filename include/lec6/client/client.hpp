@@ -11,20 +11,22 @@
 // TransportError (line), ControllerException (exception reply),
 // InvalidRequest (refused before sending). See errors.hpp.
 //
-// Timing (digest §1): before sending, the line must have been silent for Ts;
-// a reply completes the moment its expected length is in; it times out at
-// Tx + margin after the query; after a broadcast the client waits Tx.
+// The wire is a Master's business (master.hpp): Modbus RTU with the manual's
+// timing (RtuMaster, made for you when the Client is given a Link), or Modbus
+// TCP (transport::ModbusTcpMaster), e.g. through `lec serve`.
 
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
-#include "lec6/client/transaction.hpp"
+#include "lec6/client/master.hpp"
 #include "lec6/lec/alarms.hpp"
 #include "lec6/lec/equipment_name.hpp"
 #include "lec6/lec/flags.hpp"
@@ -41,41 +43,30 @@ enum class Retry {
   Never,  // starts of relative moves: a repeat would move twice
 };
 
-struct TraceEvent {
-  bool outgoing;  // true: sent, false: received
-  TimePoint at;
-  std::span<const uint8_t> bytes;
-  std::string explanation;  // in LEC terms
-};
-
 struct ClientOptions {
   uint8_t id = 1;
+  int retries = 2;  // for Retry::Safe requests
+  // For a Client made on a Link (Modbus RTU): the line and the controller's
+  // settings, see RtuOptions. Ignored when the Client is given a Master.
   unsigned silent_interval_k = 1;              // the controller's "Silent INT"
   Duration delay_td = milliseconds(5);         // the controller's "Min Resp delay"
   Duration timeout_margin = milliseconds(50);  // added to Tx
-  int retries = 2;                             // for Retry::Safe requests
-  // Wait for Ts of line silence before each query (manual §8.2: a controller
-  // delimits frames by it). Keep it on for any real RS485 line. Off only for
-  // peers that frame by length (a `--timing fast` twin, software benchmarks),
-  // where it would measure the line rule rather than the software.
-  bool wait_for_silence = true;
-  std::function<void(const TraceEvent&)> trace;  // every frame, when set
+  bool wait_for_silence = true;                // see RtuOptions
+  TraceSink trace{};                           // every frame, when set
 };
 
-// Counters for a session: what the line did.
-struct LinkStats {
-  uint64_t transactions = 0;
-  uint64_t retries = 0;
-  uint64_t timeouts = 0;
-  uint64_t crc_errors = 0;
-  uint64_t framing_errors = 0;
-  uint64_t exceptions = 0;
-  uint64_t bytes_discarded = 0;
-};
-
+// Thread safety: one thread at a time (a Client owns its line while a call
+// runs; lec serve shares a line between clients with its scheduler instead).
 class Client {
  public:
-  Client(Link& link, ClientOptions options = {});
+  // Modbus RTU on a byte link (serial port, RTU over TCP, the in-process twin).
+  explicit Client(Link& link, ClientOptions options = {});
+  // Any other way to reach controllers (Modbus TCP, lec serve's scheduler).
+  // The master must outlive the Client.
+  explicit Client(Master& master, ClientOptions options = {});
+  ~Client();
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
 
   // ---- raw ----------------------------------------------------------------
   // Sends a request to `options.id` (or `id` when given) and returns the
@@ -115,28 +106,22 @@ class Client {
   void write_registers(uint16_t start, std::span<const uint16_t> values, Retry retry = Retry::Safe);
 
   // ---- line -----------------------------------------------------------------
-  Link& link() noexcept { return link_; }
-  const Clock& clock() const noexcept { return link_.clock(); }
+  Master& master() noexcept { return master_; }
+  const Clock& clock() const noexcept { return master_.clock(); }
   const ClientOptions& options() const noexcept { return options_; }
   void set_id(uint8_t id) noexcept { options_.id = id; }
-  const modbus::LineTiming& timing() const noexcept { return timing_.line; }
-  const LinkStats& stats() const noexcept { return stats_; }
+  const modbus::LineTiming& timing() const noexcept { return master_.line_timing(); }
+  // The master's counters with this client's retries and exceptions.
+  LinkStats stats() const;
   // The round trip of the last successful transaction (first byte sent → reply complete).
-  Duration last_round_trip() const noexcept { return last_round_trip_; }
+  Duration last_round_trip() const { return master_.last_round_trip(); }
 
  private:
-  modbus::ResponseFrame run_once(const modbus::RequestFrame& frame);
-  void wait_for_silence();
-  void trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
-             const modbus::RequestFrame& request, const modbus::ResponseFrame* response);
-
-  Link& link_;
+  std::unique_ptr<Master> owned_;  // the RtuMaster of a Client made on a Link
+  Master& master_;
   ClientOptions options_;
-  TransactionTiming timing_;
-  TimePoint line_busy_until_{};
-  Duration guard_after_failure_{};  // silence required before the next query after a failure
-  LinkStats stats_;
-  Duration last_round_trip_{};
+  uint64_t retries_ = 0;
+  uint64_t exceptions_ = 0;
 };
 
 }  // namespace lec6::client

@@ -19,6 +19,8 @@ enum class TransportErrorKind {
   Crc,           // reply bytes arrived but failed the CRC (noise, or wrong baud)
   Framing,       // bytes arrived that never formed the expected reply
   EchoMismatch,  // 2-wire echo differs: bus collision
+  LineBusy,      // the line never went quiet for Ts before sending: noise, another master
+  Unreachable,   // a gateway has no path to the unit (Modbus TCP exception 0A)
 };
 
 std::string_view transport_error_name(TransportErrorKind k) noexcept;

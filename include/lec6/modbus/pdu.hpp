@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -37,7 +38,16 @@ enum class ExceptionCode : uint8_t {
   IllegalFunction = 0x01,     // manual: "Illegal function"
   IllegalAddress = 0x02,      // manual: "Outside address range"
   IllegalAccessRange = 0x03,  // manual: "Outside access point range"
+  // Codes a controller never sends but a Modbus TCP gateway (`lec serve`) does,
+  // per the Modbus application protocol specification §7.
+  ServerDeviceFailure = 0x04,     // the gateway failed while handling the request
+  GatewayPathUnavailable = 0x0A,  // no such unit behind the gateway
+  GatewayTargetFailed = 0x0B,     // the unit did not answer
 };
+
+// Whether a controller on a serial line can send this code (01–03), as
+// opposed to a gateway-only code.
+bool is_controller_exception(uint8_t code) noexcept;
 
 bool is_known_function(uint8_t fc) noexcept;
 std::string_view function_name(FunctionCode fc) noexcept;
@@ -182,10 +192,26 @@ struct Error {
 
 std::string_view error_kind_name(ErrorKind k) noexcept;
 
+// The count limits of digest §2, the one place they are checked: a count
+// outside them, or a byte count that disagrees with the count. The client
+// refuses such a request before sending; the controller answers it with 03.
+std::optional<Error> check_counts(const Request& request);
+
 // Encoding. A request with a count outside digest §2 is refused, so the
 // client never sends what the controller would only answer with 03.
 Expected<Bytes, Error> encode_request(const RequestFrame& frame);
 Bytes encode_response(const ResponseFrame& frame);
+
+// The PDU alone (function code and data, no ID, no CRC): what Modbus TCP
+// carries after its MBAP header. Same rules as the ADU functions above.
+Expected<Bytes, Error> encode_request_pdu(const Request& request);
+Bytes encode_response_pdu(const Response& response);
+Expected<Request, Error> decode_request_pdu(std::span<const uint8_t> pdu);
+// Which exception codes a reply may carry: a controller sends 01–03 only; a
+// gateway also 04, 0A and 0B.
+enum class ExceptionSource { Controller, Gateway };
+Expected<Response, Error> decode_response_pdu(std::span<const uint8_t> pdu,
+                                              ExceptionSource source = ExceptionSource::Controller);
 
 // Appends the CRC to an ADU body (ID + PDU).
 void append_crc(Bytes& body);

@@ -10,9 +10,10 @@
 namespace lec6::transport {
 
 enum class PortKind {
-  Serial,  // a device path: /dev/ttyUSB0, /dev/serial/by-id/..., a twin's pty symlink
-  Tcp,     // tcp://host:port
-  Sim,     // the in-process twin (constructed by the caller, not here)
+  Serial,      // a device path: /dev/ttyUSB0, /dev/serial/by-id/..., a twin's pty symlink
+  Tcp,         // tcp://host:port — Modbus TCP (MBAP), e.g. `lec serve` or any gateway
+  RtuOverTcp,  // rtu+tcp://host:port — RTU frames over TCP (device servers, `lec sim --tcp`)
+  Sim,         // the in-process twin (constructed by the caller, not here)
 };
 
 inline constexpr uint16_t kDefaultTcpPort = 502;
@@ -20,18 +21,23 @@ inline constexpr uint16_t kDefaultTcpPort = 502;
 struct PortSpec {
   PortKind kind = PortKind::Serial;
   std::string device;  // Serial: the path as given
-  std::string host;    // Tcp: host name or address, without IPv6 brackets
+  std::string host;    // Tcp, RtuOverTcp: host name or address, without IPv6 brackets
   uint16_t tcp_port = 0;
 
-  // Back to the canonical text form ("/dev/ttyUSB0", "tcp://host:502", "sim").
+  // Back to the canonical text form ("/dev/ttyUSB0", "tcp://host:502",
+  // "rtu+tcp://host:4001", "sim").
   std::string text() const;
   bool operator==(const PortSpec&) const = default;
 };
 
 // Parses a --port value. Accepted forms:
 //   a path (absolute, or starting with ./ or ../): a serial device
-//   tcp://host[:port] or tcp://[v6addr][:port], port 1..65535, default 502
+//   tcp://host[:port] or tcp://[v6addr][:port], port 1..65535, default 502:
+//     Modbus TCP, as users of any Modbus TCP gateway expect
+//   rtu+tcp://host[:port]: Modbus RTU frames over TCP
 //   sim
+// Spellings of other tools (rtu://, tcp+rtu://, modbus://, host:port) get a
+// hint naming the right form.
 // Throws std::invalid_argument with a message for the user, e.g.
 //   unknown port 'foo': expected a device path like /dev/ttyUSB0, tcp://host:port, or sim
 PortSpec parse_port_spec(std::string_view text);

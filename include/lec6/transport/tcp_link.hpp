@@ -1,6 +1,9 @@
 #pragma once
-// A Link carrying RTU frames (with CRC, no MBAP header) over TCP: serial
-// device servers in transparent mode, and `lec sim --tcp`.
+// A Link carrying bytes over TCP: RTU frames (with CRC, no MBAP header) to
+// serial device servers in transparent mode and `lec sim --tcp`
+// (`rtu+tcp://host:port`), and the stream under a Modbus TCP master.
+//
+// Thread safety: one thread at a time.
 
 #include <cstddef>
 #include <cstdint>
@@ -18,6 +21,9 @@ struct TcpOptions {
   // (Ts, wire time), never sent anywhere.
   uint32_t baud = 38400;
   Duration connect_timeout = std::chrono::seconds(3);
+  // How the link names itself in messages: "rtu+tcp" for RTU frames over TCP,
+  // "tcp" for a plain byte stream (e.g. under a Modbus TCP master).
+  std::string scheme = "tcp";
 };
 
 class TcpLink final : public client::Link {
@@ -38,15 +44,17 @@ class TcpLink final : public client::Link {
   void discard_input() override;
   const Clock& clock() const override { return clock_; }
   uint32_t baud() const override { return options_.baud; }
-  // "tcp://host:port @ 38400"
+  // "rtu+tcp://host:port @ 38400" (scheme from the options)
   std::string describe() const override;
 
   const std::string& host() const { return host_; }
   uint16_t port() const { return port_; }
   int fd() const { return fd_.get(); }
 
- private:
+  // "rtu+tcp://host:port", without the baud.
   std::string url() const;
+
+ private:
   [[noreturn]] void fail(const char* operation, int err) const;
 
   std::string host_;

@@ -1,0 +1,57 @@
+#pragma once
+// Modbus RTU on a byte Link, with the manual's timing (digest §1): before
+// sending, the line must have been silent for Ts; a reply completes the
+// moment its expected length is in; it times out at Tx + margin after the
+// query; after a broadcast the master waits Tx. The sans-I/O Transaction
+// (transaction.hpp) decides; this class only moves its bytes.
+//
+// Thread safety: one thread at a time (it owns the line while it runs).
+
+#include <functional>
+
+#include "lec6/client/master.hpp"
+#include "lec6/client/transaction.hpp"
+
+namespace lec6::client {
+
+struct RtuOptions {
+  unsigned silent_interval_k = 1;              // the controller's "Silent INT"
+  Duration delay_td = milliseconds(5);         // the controller's "Min Resp delay"
+  Duration timeout_margin = milliseconds(50);  // added to Tx
+  // Wait for Ts of line silence before each query (manual §8.2: a controller
+  // delimits frames by it). Keep it on for any real RS485 line. Off only for
+  // peers that frame by length (a `--timing fast` twin, software benchmarks),
+  // where it would measure the line rule rather than the software.
+  bool wait_for_silence = true;
+  TraceSink trace{};  // every frame, when set
+};
+
+class RtuMaster final : public Master {
+ public:
+  explicit RtuMaster(Link& link, RtuOptions options = {});
+
+  modbus::ResponseFrame exchange(const modbus::RequestFrame& frame) override;
+  const Clock& clock() const override { return link_.clock(); }
+  std::string describe() const override { return link_.describe(); }
+  LinkStats stats() const override { return stats_; }
+  Duration last_round_trip() const override { return last_round_trip_; }
+  const modbus::LineTiming& line_timing() const override { return timing_.line; }
+  Link* link() noexcept override { return &link_; }
+
+  const TransactionTiming& timing() const noexcept { return timing_; }
+
+ private:
+  void wait_for_silence();
+  void trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
+             const modbus::RequestFrame& request, const modbus::ResponseFrame* response);
+
+  Link& link_;
+  RtuOptions options_;
+  TransactionTiming timing_;
+  TimePoint line_busy_until_{};
+  Duration guard_after_failure_{};  // silence required before the next query after a failure
+  LinkStats stats_;
+  Duration last_round_trip_{};
+};
+
+}  // namespace lec6::client

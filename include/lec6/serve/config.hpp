@@ -1,0 +1,145 @@
+#pragma once
+// What `lec serve` runs: its lines, their axes, and the listeners of every
+// front-end. Read from YAML (`lec serve --config lec6.yaml`, yaml-cpp) or
+// made from flags for the simple case (`lec serve --port /dev/ttyUSB0 --ids 1-4`).
+// docs/serve.md shows every key with its default.
+//
+// A mistake names the file, the line in it, the key and the rule it breaks:
+//   lec6.yaml:14: lines[0].axes[1].id: 300 is not a controller ID (1 to 255, digest §2)
+// Nothing runs with a config that has an error.
+//
+// Thread safety: plain values.
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "lec6/clock.hpp"
+
+namespace lec6::serve {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct Endpoint {
+  std::string address = "127.0.0.1";
+  uint16_t port = 0;
+  bool loopback() const;
+  std::string text() const;  // "127.0.0.1:1502", "[::1]:1502"
+};
+
+struct ListenerConfig {
+  Endpoint listen;
+  bool read_only = false;  // writes get exception 01 / HTTP 403
+};
+
+struct AxisConfig {
+  uint8_t id = 1;
+  std::string name;          // unique across lines; "axis<ID>" by default
+  double telemetry_hz = 10;  // 0: no telemetry polling
+};
+
+struct Rs485Config {
+  bool enabled = false;
+  bool rts_after_send = false;
+  uint32_t delay_before_ms = 0;
+  uint32_t delay_after_ms = 0;
+};
+
+// The built-in twin behind a `port: sim` line.
+struct SimLineConfig {
+  bool fast = false;  // timing: fast (no line delays) or real (default)
+  std::optional<double> workpiece_mm;
+  double stroke_max_mm = 400;
+  double initial_position_mm = 10;
+  double drop_rate = 0, corrupt_rate = 0, garbage_rate = 0;
+  uint64_t seed = 1;
+};
+
+struct LineConfig {
+  std::string name;
+  std::string port;  // /dev/ttyUSB0, sim, rtu+tcp://host:port
+  uint32_t baud = 38400;
+  unsigned silent_interval = 1;  // k: Ts = k × 3.5 chars
+  double delay_ms = 5;           // Td
+  double timeout_margin_ms = 50;
+  int retries = 2;  // reads from clients, after a lost reply
+  bool echo = false;
+  Rs485Config rs485;
+  SimLineConfig sim;
+  std::vector<AxisConfig> axes;
+  // A state read may be answered from the telemetry cache when no older than
+  // this; default (nullopt): twice the slowest telemetry period, at least 100 ms.
+  std::optional<double> cache_max_age_ms;
+  unsigned offline_after = 3;
+  double probe_interval_ms = 2000;
+  bool allow_broadcast = false;  // unit id 0 from Modbus TCP: a broadcast write
+  std::optional<ListenerConfig> modbus_tcp;
+  std::optional<ListenerConfig> rtu_tcp;
+
+  Duration cache_max_age() const;
+};
+
+struct HttpConfig {
+  ListenerConfig listener;
+  std::string token;               // required for writes when the listener is not loopback
+  std::filesystem::path web_root;  // the dashboard's files; empty: beside the binary
+};
+
+struct MqttConfig {
+  std::string broker = "mqtt://127.0.0.1:1883";
+  std::string client_id;  // default: lec6-<host name>
+  std::string bridge;     // the name in PREFIX/<bridge>/status; default: the client id
+  std::string prefix = "lec6";
+  std::string username, password;
+  std::filesystem::path ca_file, cert_file, key_file;  // TLS (mqtts://)
+  double telemetry_hz = 5;
+  double command_valid_for_s = 5;  // older commands are refused
+  bool home_assistant = false;     // MQTT discovery
+};
+
+struct ServeConfig {
+  std::string source;  // the file read, or "command line"
+  std::vector<LineConfig> lines;
+  std::optional<HttpConfig> http;
+  std::optional<MqttConfig> mqtt;
+
+  // The axis called `name`, with its line; nullopt when there is none.
+  struct Found {
+    const LineConfig* line;
+    const AxisConfig* axis;
+  };
+  std::optional<Found> find_axis(std::string_view name) const;
+};
+
+// Reads and checks a config file. Throws ConfigError naming file and line.
+ServeConfig load_config(const std::filesystem::path& file);
+// The same from text (tests; `source` names it in messages).
+ServeConfig parse_config(const std::string& text, const std::string& source);
+
+// `lec serve --port P --ids 1-4`: one line, Modbus TCP on 127.0.0.1:1502 and
+// HTTP on 127.0.0.1:8080 unless told otherwise.
+struct FlagConfig {
+  std::string port;
+  std::string ids = "1";
+  uint32_t baud = 38400;
+  double telemetry_hz = 10;
+  std::string modbus_tcp = "127.0.0.1:1502";  // empty: none
+  std::string rtu_tcp;                        // empty: none
+  std::string http = "127.0.0.1:8080";        // empty: none
+  std::string token;
+  bool fast_sim = false;
+};
+ServeConfig config_from_flags(const FlagConfig& flags);
+
+// "1-4,7" → {1,2,3,4,7}; throws ConfigError naming what is wrong.
+std::vector<uint8_t> parse_ids(const std::string& text);
+// "127.0.0.1:1502", "[::1]:1502", ":1502" (loopback); throws ConfigError.
+Endpoint parse_endpoint(const std::string& text);
+
+}  // namespace lec6::serve

@@ -1,0 +1,209 @@
+#pragma once
+// The heart of lec serve: who gets the RS485 line next (sans-I/O).
+//
+// One transaction at a time per line. Requests queue by priority (priority.hpp):
+// stop/hold writes first, then client commands, move-completion polling,
+// telemetry (round-robin over IDs at their rates, earliest due first) and
+// background reads. A request never splits: a write of several registers is
+// one FC10, one transaction.
+//
+// A controller that stops answering is backed off: after `offline_after`
+// consecutive failed exchanges it is offline; requests for it fail at once
+// (Failure::Offline) and it is probed once per `probe_interval` until it
+// answers. So a dead device costs the others at most one timeout per probe
+// interval.
+//
+// Reads of the telemetry blocks may be answered from the cache
+// (telemetry_cache.hpp) when the request allows it (Job::max_cache_age).
+//
+// The scheduler never reads a clock, never blocks, never calls back while it
+// runs: completions and telemetry events are collected and handed out by
+// take_completions() / take_events(), so its driver (serve::Line, or a test
+// on a virtual clock) calls them outside its lock.
+//
+//   auto d = s.next(now);                   // a job to put on the wire, or nothing
+//   ... exchange d->frame on the line ...
+//   s.completed(reply, start, end) / s.failed(error, start, end);
+//   for (auto& c : s.take_completions()) c.done(c.result);
+//
+// Thread safety: none; its driver serialises every call.
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lec6/client/errors.hpp"
+#include "lec6/clock.hpp"
+#include "lec6/modbus/pdu.hpp"
+#include "lec6/modbus/timing.hpp"
+#include "lec6/serve/line_stats.hpp"
+#include "lec6/serve/priority.hpp"
+#include "lec6/serve/telemetry_cache.hpp"
+
+namespace lec6::serve {
+
+using JobId = uint64_t;
+
+// Why a job got no reply from its controller.
+enum class Failure : uint8_t {
+  None,
+  NoAnswer,      // the exchange failed on the line (timeout, CRC, framing) after its attempts
+  Offline,       // the controller is backed off: refused at once
+  LineDown,      // the port is gone (unplugged adapter); being reopened
+  Cancelled,     // the submitter cancelled it before it started (client gone)
+  ShuttingDown,  // lec serve is stopping
+};
+std::string_view failure_name(Failure f) noexcept;
+
+struct JobResult {
+  Failure failure = Failure::None;
+  std::optional<modbus::ResponseFrame> reply;  // when failure == None (may be an exception reply)
+  client::TransportErrorKind error_kind = client::TransportErrorKind::Timeout;
+  std::string error;  // for failures, in the user's terms
+  bool from_cache = false;
+  TimePoint submitted{}, started{}, finished{};
+};
+
+struct Job {
+  Priority priority = Priority::Command;
+  modbus::RequestFrame frame;
+  std::function<void(const JobResult&)> done;  // called once, by the driver, outside its lock
+  // > 0: a read of a telemetry block may be answered from the cache if no older.
+  Duration max_cache_age{};
+  // Exchanges to try on a line fault (timeout, CRC, framing); reads may retry, starts never.
+  int attempts = 1;
+};
+
+struct AxisSchedule {
+  uint8_t id = 1;
+  Duration telemetry_period{};  // zero: no telemetry for this axis
+};
+
+struct SchedulerConfig {
+  std::vector<AxisSchedule> axes;
+  unsigned offline_after = 3;                                 // consecutive failed exchanges
+  Duration probe_interval = std::chrono::seconds(2);          // of an offline controller
+  Duration controls_period = std::chrono::milliseconds(500);  // Y10–Y30 within telemetry
+  modbus::LineTiming timing;                                  // for the utilisation figure
+};
+
+// The job now on the wire.
+struct Dispatch {
+  JobId id = 0;
+  modbus::RequestFrame frame;
+  Priority priority = Priority::Command;
+};
+
+// A controller's health as the scheduler sees it.
+struct DeviceHealth {
+  bool offline = false;
+  unsigned consecutive_failures = 0;
+  TimePoint next_probe{};     // when offline
+  TimePoint offline_since{};  // when offline
+  std::string last_error;
+};
+
+// Something a telemetry observer wants to know: a block of an axis changed.
+struct TelemetryEvent {
+  uint8_t id = 0;
+  Block block = Block::Flags;
+  bool flags_changed = false;  // Block::Flags and the bits differ from the previous read
+  bool online_changed = false;
+  TimePoint at{};
+};
+
+struct PendingCompletion {
+  std::function<void(const JobResult&)> done;
+  JobResult result;
+};
+
+class Scheduler {
+ public:
+  Scheduler(SchedulerConfig config, TimePoint now);
+
+  // Queues a job. A cache hit, an offline controller or a down line complete
+  // it at once (collected like any completion).
+  JobId submit(Job job, TimePoint now);
+  // Removes a job that has not started (its completion says Cancelled).
+  // Returns false when it is on the wire or already done.
+  bool cancel(JobId id, TimePoint now);
+
+  // The next job to put on the wire at `now`, if any; it stays in flight
+  // until completed() or failed().
+  std::optional<Dispatch> next(TimePoint now);
+  // When next() will have something without a new submit (telemetry due, a
+  // probe); nullopt: only a submit can wake the line.
+  std::optional<TimePoint> wake_at() const;
+  bool in_flight() const noexcept { return flight_.has_value(); }
+
+  void completed(const modbus::ResponseFrame& reply, TimePoint start, TimePoint end);
+  void failed(const client::TransportError& error, TimePoint start, TimePoint end);
+
+  // The port is gone / back. While down, jobs fail at once with LineDown.
+  void line_down(const std::string& why, TimePoint now);
+  void line_up(TimePoint now);
+  bool is_line_down() const noexcept { return !line_down_.empty(); }
+  const std::string& down_reason() const noexcept { return line_down_; }
+  // Fails every queued job with ShuttingDown; later submits fail likewise.
+  void shut_down(TimePoint now);
+
+  std::vector<PendingCompletion> take_completions();
+  std::vector<TelemetryEvent> take_events();
+
+  const TelemetryCache& cache() const noexcept { return cache_; }
+  DeviceHealth health(uint8_t id) const;
+  LineStatsSnapshot stats(TimePoint now) const;
+  std::array<std::size_t, kPriorities> queue_depth() const;
+  const SchedulerConfig& config() const noexcept { return config_; }
+
+ private:
+  struct Queued {
+    JobId id;
+    Job job;
+    TimePoint submitted;
+  };
+  struct Flight {
+    JobId id;
+    Job job;
+    TimePoint submitted;
+    bool internal;  // telemetry, probe or background read: no client waits
+  };
+  struct Telemetry {
+    AxisSchedule schedule;
+    TimePoint due{};
+    std::vector<Block> pass;  // blocks still to read in the pass under way
+  };
+
+  std::optional<Dispatch> dispatch(Queued q, bool internal, TimePoint now);
+  std::optional<Dispatch> next_telemetry(TimePoint now);
+  void start_pass(Telemetry& t, TimePoint now);
+  void finish(JobResult result);
+  void record(const Flight& f, TimePoint start, TimePoint end, ExchangeResult r);
+  void note_reply(const Flight& f, const modbus::ResponseFrame& reply, TimePoint start,
+                  TimePoint end);
+  bool note_failure(uint8_t id, const std::string& why, TimePoint now);
+  void fail_queued(uint8_t id, Failure why, const std::string& text, TimePoint now);
+  void fail_all_queued(Failure why, const std::string& text, TimePoint now);
+  std::optional<JobResult> refuse_now(const Job& job, TimePoint now) const;
+  void complete(Job& job, JobResult result);
+
+  SchedulerConfig config_;
+  std::array<std::deque<Queued>, kPriorities> queues_;
+  std::optional<Flight> flight_;
+  std::map<uint8_t, Telemetry> telemetry_;
+  std::map<uint8_t, DeviceHealth> health_;
+  TelemetryCache cache_;
+  LineStats stats_;
+  std::vector<PendingCompletion> completions_;
+  std::vector<TelemetryEvent> events_;
+  std::string line_down_;  // non-empty: why the line is down
+  bool shutting_down_ = false;
+  JobId next_id_ = 1;
+};
+
+}  // namespace lec6::serve

@@ -1,0 +1,122 @@
+#include "lec6/client/rtu_master.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+
+#include "lec6/lec/explain.hpp"
+
+namespace lec6::client {
+namespace {
+
+TransportErrorKind kind_of(LinkErrorKind k) {
+  return k == LinkErrorKind::EchoMismatch ? TransportErrorKind::EchoMismatch
+                                          : TransportErrorKind::Port;
+}
+
+}  // namespace
+
+RtuMaster::RtuMaster(Link& link, RtuOptions options) : link_(link), options_(std::move(options)) {
+  timing_.line.baud = link_.baud();
+  timing_.line.silent_interval_k = options_.silent_interval_k;
+  timing_.line.delay_td = options_.delay_td;
+  timing_.margin = options_.timeout_margin;
+}
+
+void RtuMaster::trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
+                      const modbus::RequestFrame& request, const modbus::ResponseFrame* response) {
+  if (!options_.trace) return;
+  std::string text =
+      outgoing ? lec::explain_request(request)
+               : (response ? lec::explain_response(*response, &request) : std::string("?"));
+  options_.trace(TraceEvent{outgoing, at, bytes, std::move(text)});
+}
+
+// The manual's frame delimiter works both ways: the controller must see Ts of
+// silence before our query, so anything still arriving (a late reply, noise)
+// is drained until the line has been quiet for Ts. After a failed transaction
+// the line must stay quiet for a whole reply window: a reply later than our
+// timeout would otherwise land in the next transaction, and Modbus RTU has no
+// transaction ID to tell it from a fresh reply of the same shape.
+// The wait is bounded: a line that never goes quiet (noise, a second master)
+// fails within a transaction timeout instead of hanging.
+void RtuMaster::wait_for_silence() {
+  const Duration quiet =
+      std::max(options_.wait_for_silence ? timing_.line.silent_interval() : Duration{},
+               guard_after_failure_);
+  guard_after_failure_ = Duration{};
+  const TimePoint began = link_.clock().now();
+  const TimePoint give_up =
+      began + quiet + timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
+  std::array<uint8_t, 256> sink{};
+  for (;;) {
+    const TimePoint now = link_.clock().now();
+    const TimePoint quiet_at = line_busy_until_ + quiet;
+    if (now >= quiet_at) break;
+    if (now >= give_up) {
+      throw TransportError(
+          TransportErrorKind::LineBusy,
+          fmt::format("line never silent for Ts ({:.2f} ms) within {:.1f} ms before sending: "
+                      "noise on the line, or another master talking",
+                      to_ms(quiet), to_ms(give_up - began)));
+    }
+    const std::size_t n = link_.read_some(sink, std::min(quiet_at, give_up));
+    if (n > 0) {
+      stats_.bytes_discarded += n;
+      line_busy_until_ = link_.clock().now();
+    }
+  }
+  link_.discard_input();
+}
+
+modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
+  Transaction tx(frame, timing_);
+  std::array<uint8_t, modbus::kMaxAdu * 2> buffer{};
+  try {
+    wait_for_silence();
+    const TimePoint start = link_.clock().now();
+    link_.write(tx.bytes());
+    tx.sent(link_.clock().now());
+    trace(true, start, tx.bytes(), frame, nullptr);
+    while (tx.step() == Transaction::Step::Receive) {
+      const std::size_t n = link_.read_some(buffer, tx.deadline());
+      const TimePoint now = link_.clock().now();
+      if (n > 0) {
+        tx.received(std::span(buffer.data(), n), now);
+      } else if (now >= tx.deadline()) {
+        tx.timed_out(now);
+      }
+    }
+    line_busy_until_ = link_.clock().now();
+    ++stats_.transactions;
+    stats_.bytes_discarded += tx.discarded();
+    if (tx.step() == Transaction::Step::Failed) {
+      guard_after_failure_ = tx.deadline() - tx.sent_at();
+      switch (tx.error_kind()) {
+        case TransportErrorKind::Timeout:
+          ++stats_.timeouts;
+          break;
+        case TransportErrorKind::Crc:
+          ++stats_.crc_errors;
+          break;
+        default:
+          ++stats_.framing_errors;
+          break;
+      }
+      throw TransportError(tx.error_kind(), tx.error());
+    }
+    if (tx.broadcast())
+      return modbus::ResponseFrame{modbus::kBroadcastId, modbus::WriteMultipleResponse{}};
+    last_round_trip_ = tx.finished_at() - start;
+    const auto& reply = tx.response();
+    if (options_.trace) trace(false, tx.finished_at(), encode_response(reply), frame, &reply);
+    return reply;
+  } catch (const LinkError& e) {
+    line_busy_until_ = link_.clock().now();
+    guard_after_failure_ = timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
+    throw TransportError(kind_of(e.kind()), e.what());
+  }
+}
+
+}  // namespace lec6::client

@@ -1,0 +1,55 @@
+#include "lec6/serve/line_master.hpp"
+
+#include <fmt/format.h>
+
+#include <future>
+
+#include "lec6/lec/flags.hpp"
+
+namespace lec6::serve {
+
+Priority priority_of(const modbus::RequestFrame& frame, Priority reads, Priority writes) {
+  if (!modbus::is_write(frame.pdu)) return reads;
+  if (const auto* c = std::get_if<modbus::WriteCoilRequest>(&frame.pdu)) {
+    using lec::Coil;
+    const auto coil = static_cast<Coil>(c->coil);
+    const bool off = c->value == modbus::kCoilOff;
+    if (coil == Coil::RESET || coil == Coil::HOLD) return Priority::Emergency;
+    if (off && (coil == Coil::SVON || coil == Coil::JOG_MINUS || coil == Coil::JOG_PLUS)) {
+      return Priority::Emergency;
+    }
+  }
+  return writes;
+}
+
+client::TransportError transport_error(const JobResult& r) {
+  return client::TransportError(r.error_kind,
+                                r.error.empty() ? std::string(failure_name(r.failure)) : r.error);
+}
+
+LineMaster::LineMaster(Line& line, Priority reads, Priority writes)
+    : line_(line), reads_(reads), writes_(writes) {}
+
+std::string LineMaster::describe() const {
+  return fmt::format("{} (lec serve line {})", line_.describe(), line_.options().name);
+}
+
+modbus::ResponseFrame LineMaster::exchange(const modbus::RequestFrame& frame) {
+  auto promise = std::make_shared<std::promise<JobResult>>();
+  auto result = promise->get_future();
+  Job job;
+  job.priority = priority_of(frame, reads_, writes_);
+  job.frame = frame;
+  job.done = [promise](const JobResult& r) { promise->set_value(r); };
+  line_.submit(std::move(job));
+  const JobResult r = result.get();  // the line always answers: on the wire, or failed
+  ++stats_.transactions;
+  if (r.failure != Failure::None) {
+    if (r.error_kind == client::TransportErrorKind::Timeout) ++stats_.timeouts;
+    throw transport_error(r);
+  }
+  last_round_trip_ = r.finished - r.started;
+  return *r.reply;
+}
+
+}  // namespace lec6::serve

@@ -1,0 +1,426 @@
+#include "lec6/serve/scheduler.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+namespace lec6::serve {
+namespace {
+
+using client::TransportErrorKind;
+
+std::size_t query_bytes(const modbus::RequestFrame& f) {
+  const auto bytes = modbus::encode_request(f);
+  return bytes ? bytes->size() : 8;
+}
+
+Duration limit_of(const modbus::LineTiming& t, const modbus::RequestFrame& f) {
+  const std::size_t reply = f.id == modbus::kBroadcastId ? 0 : expected_response_length(f.pdu);
+  return t.transaction_limit(query_bytes(f), reply);
+}
+
+ExchangeResult result_of(TransportErrorKind k) {
+  switch (k) {
+    case TransportErrorKind::Timeout:
+      return ExchangeResult::Timeout;
+    case TransportErrorKind::Crc:
+      return ExchangeResult::Crc;
+    case TransportErrorKind::Framing:
+      return ExchangeResult::Framing;
+    default:
+      return ExchangeResult::Other;
+  }
+}
+
+bool is_line_fault(TransportErrorKind k) {
+  return k == TransportErrorKind::Timeout || k == TransportErrorKind::Crc ||
+         k == TransportErrorKind::Framing || k == TransportErrorKind::EchoMismatch ||
+         k == TransportErrorKind::LineBusy;
+}
+
+}  // namespace
+
+std::string_view failure_name(Failure f) noexcept {
+  switch (f) {
+    case Failure::None:
+      return "none";
+    case Failure::NoAnswer:
+      return "no answer";
+    case Failure::Offline:
+      return "offline";
+    case Failure::LineDown:
+      return "line down";
+    case Failure::Cancelled:
+      return "cancelled";
+    case Failure::ShuttingDown:
+      return "shutting down";
+  }
+  return "failure";
+}
+
+Scheduler::Scheduler(SchedulerConfig config, TimePoint now)
+    : config_(std::move(config)), stats_(now) {
+  for (const AxisSchedule& a : config_.axes) {
+    telemetry_[a.id] = Telemetry{a, now, {}};
+    health_[a.id];
+    // Read each alarm history once at start, in the background.
+    if (a.telemetry_period > Duration{}) {
+      queues_[index(Priority::Background)].push_back(Queued{
+          0, Job{Priority::Background, {a.id, block_request(Block::Alarms)}, {}, {}, 1}, now});
+    }
+  }
+}
+
+void Scheduler::complete(Job& job, JobResult result) {
+  if (job.done) completions_.push_back({std::move(job.done), std::move(result)});
+}
+
+std::optional<JobResult> Scheduler::refuse_now(const Job& job, TimePoint now) const {
+  JobResult r;
+  r.submitted = r.started = r.finished = now;
+  if (shutting_down_) {
+    r.failure = Failure::ShuttingDown;
+    r.error_kind = TransportErrorKind::Port;
+    r.error = "lec serve is shutting down";
+    return r;
+  }
+  if (!line_down_.empty()) {
+    r.failure = Failure::LineDown;
+    r.error_kind = TransportErrorKind::Port;
+    r.error = line_down_;
+    return r;
+  }
+  const uint8_t id = job.frame.id;
+  const auto h = health_.find(id);
+  if (id != modbus::kBroadcastId && h != health_.end() && h->second.offline) {
+    r.failure = Failure::Offline;
+    r.error_kind = TransportErrorKind::Timeout;
+    r.error = fmt::format(
+        "controller ID {} is not answering: backed off after {} failed exchanges ({}); next probe "
+        "in {:.1f} s",
+        id, h->second.consecutive_failures, h->second.last_error,
+        std::max(0.0, to_seconds(h->second.next_probe - now)));
+    return r;
+  }
+  return std::nullopt;
+}
+
+JobId Scheduler::submit(Job job, TimePoint now) {
+  const JobId id = next_id_++;
+  if (auto refused = refuse_now(job, now)) {
+    complete(job, std::move(*refused));
+    return id;
+  }
+  if (job.max_cache_age > Duration{}) {
+    if (auto hit = cache_.lookup(job.frame.id, job.frame.pdu, job.max_cache_age, now)) {
+      stats_.cache_hit();
+      stats_.latency(job.priority, Duration{});
+      JobResult r;
+      r.reply = modbus::ResponseFrame{job.frame.id, std::move(*hit)};
+      r.from_cache = true;
+      r.submitted = r.started = r.finished = now;
+      complete(job, std::move(r));
+      return id;
+    }
+  }
+  queues_[index(job.priority)].push_back(Queued{id, std::move(job), now});
+  return id;
+}
+
+bool Scheduler::cancel(JobId id, TimePoint now) {
+  for (auto& q : queues_) {
+    const auto it = std::find_if(q.begin(), q.end(), [&](const Queued& x) { return x.id == id; });
+    if (it == q.end()) continue;
+    JobResult r;
+    r.failure = Failure::Cancelled;
+    r.error = "cancelled before it reached the line";
+    r.submitted = it->submitted;
+    r.started = r.finished = now;
+    complete(it->job, std::move(r));
+    q.erase(it);
+    return true;
+  }
+  return false;
+}
+
+std::optional<Dispatch> Scheduler::dispatch(Queued q, bool internal, TimePoint) {
+  Dispatch d{q.id, q.job.frame, q.job.priority};
+  flight_ = Flight{q.id, std::move(q.job), q.submitted, internal};
+  return d;
+}
+
+std::optional<Dispatch> Scheduler::next(TimePoint now) {
+  if (flight_ || !line_down_.empty() || shutting_down_) return std::nullopt;
+  for (Priority p :
+       {Priority::Emergency, Priority::Command, Priority::Completion, Priority::Telemetry}) {
+    auto& q = queues_[index(p)];
+    if (q.empty()) continue;
+    Queued front = std::move(q.front());
+    q.pop_front();
+    return dispatch(std::move(front), false, now);
+  }
+  if (auto d = next_telemetry(now)) return d;
+  auto& background = queues_[index(Priority::Background)];
+  while (!background.empty()) {
+    Queued front = std::move(background.front());
+    background.pop_front();
+    const auto h = health_.find(front.job.frame.id);
+    const bool internal = !front.job.done;
+    if (internal && h != health_.end() && h->second.offline) continue;  // skip, not a probe
+    return dispatch(std::move(front), internal, now);
+  }
+  return std::nullopt;
+}
+
+void Scheduler::start_pass(Telemetry& t, TimePoint now) {
+  t.pass.clear();
+  const uint8_t id = t.schedule.id;
+  if (health_[id].offline) {
+    t.pass.push_back(Block::Flags);  // the probe: one short read
+    return;
+  }
+  // Blocks another client read recently are fresh enough: skip them.
+  const Duration fresh = t.schedule.telemetry_period / 2;
+  for (Block b : {Block::Flags, Block::State}) {
+    const auto age = cache_.age(id, b, now);
+    if (!age || *age >= fresh) t.pass.push_back(b);
+  }
+  const auto controls_age = cache_.age(id, Block::Controls, now);
+  if (!controls_age || *controls_age >= config_.controls_period) t.pass.push_back(Block::Controls);
+}
+
+std::optional<Dispatch> Scheduler::next_telemetry(TimePoint now) {
+  Telemetry* pick = nullptr;
+  TimePoint pick_at = TimePoint::max();
+  for (auto& [id, t] : telemetry_) {
+    const DeviceHealth& h = health_[id];
+    if (t.schedule.telemetry_period <= Duration{} && !h.offline) continue;
+    if (!t.pass.empty()) {  // a pass under way goes on first
+      pick = &t;
+      break;
+    }
+    const TimePoint at = h.offline ? h.next_probe : t.due;
+    if (at <= now && at < pick_at) pick = &t, pick_at = at;
+  }
+  if (!pick) return std::nullopt;
+  if (pick->pass.empty()) start_pass(*pick, now);
+  if (pick->pass.empty()) {  // everything fresh: this period's sample is the cache's
+    pick->due += pick->schedule.telemetry_period;
+    return next_telemetry(now);
+  }
+  const Block b = pick->pass.front();
+  pick->pass.erase(pick->pass.begin());
+  const TimePoint submitted = health_[pick->schedule.id].offline ? now : std::min(pick->due, now);
+  return dispatch(
+      Queued{0, Job{Priority::Telemetry, {pick->schedule.id, block_request(b)}, {}, {}, 1},
+             submitted},
+      true, now);
+}
+
+std::optional<TimePoint> Scheduler::wake_at() const {
+  std::optional<TimePoint> at;
+  for (const auto& [id, t] : telemetry_) {
+    const auto h = health_.find(id);
+    const bool offline = h != health_.end() && h->second.offline;
+    if (t.schedule.telemetry_period <= Duration{} && !offline) continue;
+    const TimePoint due = offline ? h->second.next_probe : t.due;
+    if (!at || due < *at) at = due;
+  }
+  return at;
+}
+
+void Scheduler::record(const Flight& f, TimePoint start, TimePoint end, ExchangeResult r) {
+  stats_.exchange(f.job.frame.id, start, end, limit_of(config_.timing, f.job.frame), r);
+  if (f.job.done || f.internal) stats_.latency(f.job.priority, end - f.submitted);
+}
+
+void Scheduler::note_reply(const Flight& f, const modbus::ResponseFrame& reply, TimePoint start,
+                           TimePoint end) {
+  const uint8_t id = f.job.frame.id;
+  if (std::holds_alternative<modbus::ExceptionResponse>(reply.pdu)) return;
+  if (modbus::is_write(f.job.frame.pdu)) {
+    id == modbus::kBroadcastId ? cache_.invalidate_all(end) : cache_.invalidate(id, end);
+    return;
+  }
+  const auto before = cache_.snapshot(id).flags;
+  const auto block = cache_.update(id, f.job.frame.pdu, reply.pdu, start);
+  if (!block) return;
+  TelemetryEvent e{id, *block, false, false, end};
+  if (*block == Block::Flags) {
+    const auto after = cache_.snapshot(id).flags;
+    e.flags_changed = !before || before->bits != after->bits;
+    // An alarm appeared: fetch its history entry in the background.
+    if (after->alarm() && (!before || !before->alarm())) {
+      queues_[index(Priority::Background)].push_back(
+          Queued{0, Job{Priority::Background, {id, block_request(Block::Alarms)}, {}, {}, 1}, end});
+    }
+  }
+  events_.push_back(e);
+}
+
+void Scheduler::completed(const modbus::ResponseFrame& reply, TimePoint start, TimePoint end) {
+  if (!flight_) return;
+  Flight f = std::move(*flight_);
+  flight_.reset();
+  const uint8_t id = f.job.frame.id;
+  const bool exception = std::holds_alternative<modbus::ExceptionResponse>(reply.pdu);
+  record(f, start, end, exception ? ExchangeResult::Exception : ExchangeResult::Answered);
+  if (id != modbus::kBroadcastId) {
+    DeviceHealth& h = health_[id];
+    if (h.offline) events_.push_back({id, Block::Flags, false, true, end});
+    h = DeviceHealth{};
+  }
+  note_reply(f, reply, start, end);
+  if (const auto t = telemetry_.find(id);
+      f.internal && t != telemetry_.end() && t->second.pass.empty()) {
+    Telemetry& tel = t->second;
+    tel.due =
+        std::max(tel.due + tel.schedule.telemetry_period, end - tel.schedule.telemetry_period);
+  }
+  JobResult r;
+  r.reply = reply;
+  r.submitted = f.submitted;
+  r.started = start;
+  r.finished = end;
+  complete(f.job, std::move(r));
+}
+
+// Counts a failed exchange; returns true when the controller just went
+// offline (its queued jobs are failed by the caller, after the one on the wire).
+bool Scheduler::note_failure(uint8_t id, const std::string& why, TimePoint now) {
+  if (id == modbus::kBroadcastId) return false;
+  // Every controller that can go offline can be probed back, telemetry or not.
+  telemetry_.try_emplace(id, Telemetry{AxisSchedule{id, Duration{}}, now, {}});
+  DeviceHealth& h = health_[id];
+  ++h.consecutive_failures;
+  h.last_error = why;
+  if (h.offline) {
+    h.next_probe = now + config_.probe_interval;
+    return false;
+  }
+  if (h.consecutive_failures < config_.offline_after) return false;
+  h.offline = true;
+  h.offline_since = now;
+  h.next_probe = now + config_.probe_interval;
+  events_.push_back({id, Block::Flags, false, true, now});
+  return true;
+}
+
+void Scheduler::failed(const client::TransportError& error, TimePoint start, TimePoint end) {
+  if (!flight_) return;
+  Flight f = std::move(*flight_);
+  flight_.reset();
+  const uint8_t id = f.job.frame.id;
+  record(f, start, end, result_of(error.kind()));
+  if (const auto t = telemetry_.find(id); f.internal && t != telemetry_.end()) {
+    Telemetry& tel = t->second;
+    tel.pass.clear();  // the sample is lost; the next one comes at the next period
+    tel.due =
+        std::max(tel.due + tel.schedule.telemetry_period, end - tel.schedule.telemetry_period);
+  }
+  JobResult r;
+  r.error_kind = error.kind();
+  r.error = error.what();
+  r.submitted = f.submitted;
+  r.started = start;
+  r.finished = end;
+  if (!is_line_fault(error.kind())) {
+    r.failure = Failure::LineDown;
+    complete(f.job, std::move(r));
+    line_down(error.what(), end);
+    return;
+  }
+  const bool went_offline = note_failure(id, error.what(), end);
+  const bool offline = id != modbus::kBroadcastId && health_[id].offline;
+  if (!f.internal && f.job.attempts > 1 && !offline) {
+    --f.job.attempts;
+    queues_[index(f.job.priority)].push_front(Queued{f.id, std::move(f.job), f.submitted});
+    return;
+  }
+  r.failure = offline && f.job.attempts > 1 ? Failure::Offline : Failure::NoAnswer;
+  complete(f.job, std::move(r));
+  if (went_offline) {
+    const DeviceHealth& h = health_[id];
+    fail_queued(
+        id, Failure::Offline,
+        fmt::format("controller ID {} stopped answering ({} failed exchanges: {}); backed "
+                    "off, probed every {:.1f} s",
+                    id, h.consecutive_failures, h.last_error, to_seconds(config_.probe_interval)),
+        end);
+  }
+}
+
+void Scheduler::fail_queued(uint8_t id, Failure why, const std::string& text, TimePoint now) {
+  for (auto& q : queues_) {
+    for (auto it = q.begin(); it != q.end();) {
+      if (it->job.frame.id != id) {
+        ++it;
+        continue;
+      }
+      JobResult r;
+      r.failure = why;
+      r.error_kind = TransportErrorKind::Timeout;
+      r.error = text;
+      r.submitted = it->submitted;
+      r.started = r.finished = now;
+      complete(it->job, std::move(r));
+      it = q.erase(it);
+    }
+  }
+}
+
+void Scheduler::fail_all_queued(Failure why, const std::string& text, TimePoint now) {
+  for (auto& q : queues_) {
+    for (auto& x : q) {
+      JobResult r;
+      r.failure = why;
+      r.error_kind = TransportErrorKind::Port;
+      r.error = text;
+      r.submitted = x.submitted;
+      r.started = r.finished = now;
+      complete(x.job, std::move(r));
+    }
+    q.clear();
+  }
+  for (auto& [id, t] : telemetry_) t.pass.clear();
+}
+
+void Scheduler::line_down(const std::string& why, TimePoint now) {
+  line_down_ = why.empty() ? "the line is down" : why;
+  fail_all_queued(Failure::LineDown, line_down_, now);
+}
+
+void Scheduler::line_up(TimePoint now) {
+  line_down_.clear();
+  for (auto& [id, t] : telemetry_) t.due = now;
+}
+
+void Scheduler::shut_down(TimePoint now) {
+  shutting_down_ = true;
+  fail_all_queued(Failure::ShuttingDown, "lec serve is shutting down", now);
+}
+
+std::vector<PendingCompletion> Scheduler::take_completions() {
+  return std::exchange(completions_, {});
+}
+
+std::vector<TelemetryEvent> Scheduler::take_events() {
+  return std::exchange(events_, {});
+}
+
+DeviceHealth Scheduler::health(uint8_t id) const {
+  const auto h = health_.find(id);
+  return h == health_.end() ? DeviceHealth{} : h->second;
+}
+
+std::array<std::size_t, kPriorities> Scheduler::queue_depth() const {
+  std::array<std::size_t, kPriorities> d{};
+  for (std::size_t p = 0; p < kPriorities; ++p) d[p] = queues_[p].size();
+  return d;
+}
+
+LineStatsSnapshot Scheduler::stats(TimePoint now) const {
+  return stats_.snapshot(now, queue_depth());
+}
+
+}  // namespace lec6::serve

@@ -1,0 +1,308 @@
+// The line scheduler on a virtual clock: priorities, telemetry round-robin,
+// back-off of a dead controller, the cache, cancellation and shutdown. The
+// "line" here is the test: it answers each dispatch by hand.
+
+#include "lec6/serve/scheduler.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace lec6::serve {
+namespace {
+
+using namespace std::chrono_literals;
+using client::TransportError;
+using client::TransportErrorKind;
+using modbus::ReadBitsRequest;
+using modbus::ReadRegistersRequest;
+using ::testing::HasSubstr;
+
+const modbus::Request kReadState = ReadRegistersRequest{0x9000, 7};
+const TransportError kTimeout(TransportErrorKind::Timeout, "no reply from ID 9 within 65.0 ms");
+
+// A reply the way a controller would give it, with recognisable values.
+modbus::ResponseFrame answer(const Dispatch& d) {
+  if (const auto* r = std::get_if<ReadRegistersRequest>(&d.frame.pdu)) {
+    std::vector<uint16_t> v(r->count);
+    for (uint16_t i = 0; i < r->count; ++i) v[i] = static_cast<uint16_t>(d.frame.id * 100 + i);
+    return {d.frame.id, modbus::ReadRegistersResponse{v}};
+  }
+  if (const auto* b = std::get_if<ReadBitsRequest>(&d.frame.pdu)) {
+    modbus::Bytes packed((b->count + 7u) / 8u, 0);
+    if (b->function == modbus::FunctionCode::ReadInputs) packed[1] = 0x02;  // SVRE
+    return {d.frame.id, modbus::ReadBitsResponse{b->function, packed}};
+  }
+  if (const auto* c = std::get_if<modbus::WriteCoilRequest>(&d.frame.pdu)) {
+    return {d.frame.id, modbus::WriteCoilResponse{c->coil, c->value}};
+  }
+  return {d.frame.id, modbus::WriteMultipleResponse{}};
+}
+
+struct Harness {
+  explicit Harness(SchedulerConfig c = {}) : s(std::move(c), clock.now()) {}
+  VirtualClock clock{TimePoint{} + 1s};
+  Scheduler s;
+  std::vector<JobResult> results;
+
+  Job job(Priority p, uint8_t id, modbus::Request r = kReadState) {
+    Job j;
+    j.priority = p;
+    j.frame = {id, std::move(r)};
+    j.done = [this](const JobResult& res) { results.push_back(res); };
+    return j;
+  }
+  // Runs the next dispatch: answered by `id`s that are alive, 10 ms each.
+  std::optional<Dispatch> step(const std::vector<uint8_t>& dead = {}) {
+    auto d = s.next(clock.now());
+    if (!d) return d;
+    const TimePoint start = clock.now();
+    const bool is_dead = std::find(dead.begin(), dead.end(), d->frame.id) != dead.end();
+    clock.advance(is_dead ? 65ms : 10ms);
+    is_dead ? s.failed(kTimeout, start, clock.now()) : s.completed(answer(*d), start, clock.now());
+    for (auto& c : s.take_completions()) c.done(c.result);
+    return d;
+  }
+  // Runs the line for `d` of virtual time: dispatches, or jumps to the next wake-up.
+  std::vector<Dispatch> run_for(Duration d, const std::vector<uint8_t>& dead = {}) {
+    std::vector<Dispatch> out;
+    const TimePoint end = clock.now() + d;
+    while (clock.now() < end) {
+      if (auto x = step(dead)) {
+        out.push_back(*x);
+        continue;
+      }
+      const auto w = s.wake_at();
+      clock.set(w && *w > clock.now() && *w < end ? *w : end);
+    }
+    return out;
+  }
+};
+
+TEST(Scheduler, ServesByPriorityThenInOrder) {
+  Harness h;
+  h.s.submit(h.job(Priority::Background, 1), h.clock.now());
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  h.s.submit(h.job(Priority::Completion, 3), h.clock.now());
+  h.s.submit(h.job(Priority::Command, 4), h.clock.now());
+  h.s.submit(h.job(Priority::Emergency, 5, modbus::WriteCoilRequest{0x1B, modbus::kCoilOn}),
+             h.clock.now());
+  std::vector<int> order;
+  while (auto d = h.step()) order.push_back(d->frame.id);
+  EXPECT_EQ(order, (std::vector<int>{5, 2, 4, 3, 1}));
+  EXPECT_EQ(h.results.size(), 5u);
+}
+
+TEST(Scheduler, OneJobOnTheWireAtATime) {
+  Harness h;
+  h.s.submit(h.job(Priority::Command, 1), h.clock.now());
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  ASSERT_TRUE(h.s.next(h.clock.now()));
+  EXPECT_FALSE(h.s.next(h.clock.now()));  // until the first one is done
+}
+
+TEST(Scheduler, TelemetryIsRoundRobinAtTheConfiguredRate) {
+  SchedulerConfig c;
+  c.controls_period = 1h;  // only flags and state here
+  for (uint8_t id : {1, 2, 3}) c.axes.push_back({id, 100ms});
+  Harness h(c);
+  const auto sent = h.run_for(10s);
+  std::map<int, int> per_id;
+  for (const auto& d : sent) {
+    if (d.priority == Priority::Telemetry) ++per_id[d.frame.id];
+  }
+  // 10 Hz × 10 s × (flags + state) each, ± one pass; the first controls read once.
+  for (int id : {1, 2, 3}) EXPECT_NEAR(per_id[id], 200, 4) << id;
+}
+
+TEST(Scheduler, TelemetryThatCannotKeepUpStaysFair) {
+  SchedulerConfig c;
+  c.controls_period = 1h;
+  for (uint8_t id = 1; id <= 4; ++id) c.axes.push_back({id, 10ms});  // far beyond the line
+  Harness h(c);
+  const auto sent = h.run_for(8s);
+  std::map<int, int> per_id;
+  for (const auto& d : sent) per_id[d.frame.id] += d.priority == Priority::Telemetry;
+  const auto [lo, hi] = std::minmax_element(per_id.begin(), per_id.end(),
+                                            [](auto& a, auto& b) { return a.second < b.second; });
+  EXPECT_LE(hi->second - lo->second, 4);
+  EXPECT_GT(lo->second, 150);
+}
+
+TEST(Scheduler, CommandsGoBetweenTelemetryReads) {
+  SchedulerConfig c;
+  c.axes.push_back({1, 10ms});
+  Harness h(c);
+  h.run_for(100ms);
+  h.s.submit(h.job(Priority::Command, 1, modbus::WriteCoilRequest{0x19, modbus::kCoilOn}),
+             h.clock.now());
+  auto d = h.step();
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->priority, Priority::Command);
+}
+
+TEST(Scheduler, ADeadControllerIsBackedOffAndProbed) {
+  SchedulerConfig c;
+  c.offline_after = 3;
+  c.probe_interval = 2s;
+  c.controls_period = 1h;
+  c.axes = {{1, 100ms}, {9, 100ms}};
+  Harness h(c);
+  h.run_for(2s, {9});
+  EXPECT_TRUE(h.s.health(9).offline);
+  EXPECT_FALSE(h.s.health(1).offline);
+  // A client asking for it gets an answer at once.
+  h.s.submit(h.job(Priority::Command, 9), h.clock.now());
+  ASSERT_EQ(h.results.size(), 0u);
+  for (auto& x : h.s.take_completions()) x.done(x.result);
+  ASSERT_EQ(h.results.size(), 1u);
+  EXPECT_EQ(h.results[0].failure, Failure::Offline);
+  EXPECT_THAT(h.results[0].error, HasSubstr("controller ID 9 is not answering"));
+  // Over 20 s it costs one probe per interval.
+  const auto sent = h.run_for(20s, {9});
+  int probes = 0;
+  for (const auto& d : sent) probes += d.frame.id == 9;
+  EXPECT_GE(probes, 9);
+  EXPECT_LE(probes, 11);
+  // It comes back: online at the next probe.
+  h.run_for(2100ms);
+  EXPECT_FALSE(h.s.health(9).offline);
+}
+
+TEST(Scheduler, QueuedJobsForADeviceThatGoesOfflineFailAtOnce) {
+  SchedulerConfig c;
+  c.offline_after = 1;
+  Harness h(c);
+  h.s.submit(h.job(Priority::Command, 9), h.clock.now());
+  h.s.submit(h.job(Priority::Command, 9), h.clock.now());
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  h.step({9});
+  ASSERT_EQ(h.results.size(), 2u);
+  EXPECT_EQ(h.results[0].failure, Failure::NoAnswer);
+  EXPECT_EQ(h.results[1].failure, Failure::Offline);
+  h.step({9});
+  EXPECT_EQ(h.results.back().failure, Failure::None);  // ID 2 still served
+}
+
+TEST(Scheduler, ReadsRetryOnALineFaultAndStartsDoNot) {
+  Harness h;
+  Job read = h.job(Priority::Command, 5);
+  read.attempts = 3;
+  h.s.submit(std::move(read), h.clock.now());
+  h.step({5});
+  h.step({5});
+  EXPECT_TRUE(h.results.empty());
+  h.step();  // answered the third time
+  ASSERT_EQ(h.results.size(), 1u);
+  EXPECT_EQ(h.results[0].failure, Failure::None);
+  h.s.submit(h.job(Priority::Command, 6,
+                   modbus::WriteRegistersRequest::of(0x9100, std::vector<uint16_t>{0x0100})),
+             h.clock.now());
+  h.step({6});
+  EXPECT_EQ(h.results.back().failure, Failure::NoAnswer);
+}
+
+TEST(Scheduler, StateReadsAreServedFromAFreshCacheAndNeverAfterAWrite) {
+  SchedulerConfig c;
+  c.axes = {{1, 100ms}};
+  Harness h(c);
+  h.run_for(50ms);  // the first telemetry pass
+  Job cached = h.job(Priority::Command, 1);
+  cached.max_cache_age = 200ms;
+  h.s.submit(std::move(cached), h.clock.now());
+  for (auto& x : h.s.take_completions()) x.done(x.result);
+  ASSERT_EQ(h.results.size(), 1u);
+  EXPECT_TRUE(h.results[0].from_cache);
+  EXPECT_EQ(std::get<modbus::ReadRegistersResponse>(h.results[0].reply->pdu).values[2], 102);
+  // A part of the block: D9002 alone; X48–X4F (SVRE is X49).
+  Job part = h.job(Priority::Command, 1, ReadRegistersRequest{0x9002, 1});
+  part.max_cache_age = 200ms;
+  h.s.submit(std::move(part), h.clock.now());
+  Job bits =
+      h.job(Priority::Command, 1, ReadBitsRequest{modbus::FunctionCode::ReadInputs, 0x48, 8});
+  bits.max_cache_age = 200ms;
+  h.s.submit(std::move(bits), h.clock.now());
+  for (auto& x : h.s.take_completions()) x.done(x.result);
+  ASSERT_EQ(h.results.size(), 3u);
+  EXPECT_EQ(std::get<modbus::ReadRegistersResponse>(h.results[1].reply->pdu).values,
+            std::vector<uint16_t>{102});
+  EXPECT_EQ(std::get<modbus::ReadBitsResponse>(h.results[2].reply->pdu).packed,
+            modbus::Bytes{0x02});
+  // After a write to ID 1, the same read goes to the line.
+  h.s.submit(h.job(Priority::Command, 1, modbus::WriteCoilRequest{0x19, modbus::kCoilOn}),
+             h.clock.now());
+  h.step();
+  Job after = h.job(Priority::Command, 1);
+  after.max_cache_age = 200ms;
+  h.s.submit(std::move(after), h.clock.now());
+  for (auto& x : h.s.take_completions()) x.done(x.result);
+  EXPECT_EQ(h.results.size(), 4u);  // the write only: the read is queued
+  EXPECT_EQ(h.s.queue_depth()[index(Priority::Command)], 1u);
+}
+
+TEST(Scheduler, CancelledJobsNeverReachTheLine) {
+  Harness h;
+  const JobId a = h.s.submit(h.job(Priority::Command, 1), h.clock.now());
+  EXPECT_TRUE(h.s.cancel(a, h.clock.now()));
+  for (auto& x : h.s.take_completions()) x.done(x.result);
+  ASSERT_EQ(h.results.size(), 1u);
+  EXPECT_EQ(h.results[0].failure, Failure::Cancelled);
+  EXPECT_FALSE(h.s.next(h.clock.now()));
+}
+
+TEST(Scheduler, ShutdownAnswersEveryQueuedJob) {
+  Harness h;
+  h.s.submit(h.job(Priority::Command, 1), h.clock.now());
+  auto in_flight = h.s.next(h.clock.now());
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  h.s.submit(h.job(Priority::Telemetry, 3), h.clock.now());
+  h.s.shut_down(h.clock.now());
+  h.s.completed(answer(*in_flight), h.clock.now(), h.clock.now());  // the one on the wire ends
+  h.s.submit(h.job(Priority::Command, 4), h.clock.now());
+  for (auto& x : h.s.take_completions()) x.done(x.result);
+  ASSERT_EQ(h.results.size(), 4u);
+  int shut = 0, answered = 0;
+  for (const auto& r : h.results) {
+    shut += r.failure == Failure::ShuttingDown;
+    answered += r.failure == Failure::None;
+  }
+  EXPECT_EQ(shut, 3);
+  EXPECT_EQ(answered, 1);
+}
+
+TEST(Scheduler, APortThatGoesAwayTakesTheLineDownUntilItIsBack) {
+  Harness h;
+  h.s.submit(h.job(Priority::Command, 1), h.clock.now());
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  auto d = h.s.next(h.clock.now());
+  h.s.failed(TransportError(TransportErrorKind::Port, "/dev/ttyUSB0 went away"), h.clock.now(),
+             h.clock.now());
+  EXPECT_TRUE(h.s.is_line_down());
+  h.s.submit(h.job(Priority::Command, 3), h.clock.now());
+  for (auto& x : h.s.take_completions()) x.done(x.result);
+  ASSERT_EQ(h.results.size(), 3u);
+  for (const auto& r : h.results) EXPECT_EQ(r.failure, Failure::LineDown);
+  h.s.line_up(h.clock.now());
+  h.s.submit(h.job(Priority::Command, 4), h.clock.now());
+  EXPECT_TRUE(h.step());
+}
+
+TEST(Scheduler, UtilisationIsTheShareOfTheLineLimitUsed) {
+  SchedulerConfig c;
+  c.timing.baud = 38400;
+  Harness h(c);
+  const Duration limit = c.timing.transaction_limit(8, 19);
+  for (int i = 0; i < 100; ++i) {
+    h.s.submit(h.job(Priority::Command, 1), h.clock.now());
+    auto d = h.s.next(h.clock.now());
+    const TimePoint start = h.clock.now();
+    h.clock.advance(limit);
+    h.s.completed(answer(*d), start, h.clock.now());
+  }
+  const auto st = h.s.stats(h.clock.now());
+  EXPECT_NEAR(st.utilisation, 1.0, 0.01);
+  EXPECT_NEAR(st.transactions_per_s, 1.0 / to_seconds(limit), 1.0);
+  EXPECT_EQ(st.devices.at(1).answers, 100u);
+}
+
+}  // namespace
+}  // namespace lec6::serve
