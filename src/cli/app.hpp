@@ -14,6 +14,7 @@
 
 #include "lec6/client/actuator.hpp"
 #include "lec6/client/client.hpp"
+#include "lec6/error.hpp"
 
 namespace lec6::cli {
 
@@ -30,15 +31,15 @@ enum ExitCode : int {
 };
 
 // An argument the user got wrong, found after parsing (exit 2).
-class UsageError : public std::runtime_error {
+class UsageError : public InvalidArgument {
  public:
-  using std::runtime_error::runtime_error;
+  using InvalidArgument::InvalidArgument;
 };
 
 // A command that failed with a message and an exit code of its own.
-class CommandFailed : public std::runtime_error {
+class CommandFailed : public Error {
  public:
-  CommandFailed(int code, const std::string& what) : std::runtime_error(what), code_(code) {}
+  CommandFailed(int code, const std::string& what) : Error(what), code_(code) {}
   int code() const noexcept { return code_; }
 
  private:

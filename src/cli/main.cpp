@@ -118,7 +118,9 @@ int main(int argc, char** argv) {
     return fail(cli::kUsage, e.what());
   } catch (const client::InvalidRequest& e) {
     return fail(cli::kUsage, e.what());
-  } catch (const std::invalid_argument& e) {
+  } catch (const InvalidArgument& e) {  // a port spec, an option value, a configuration
+    return fail(cli::kUsage, e.what());
+  } catch (const std::invalid_argument& e) {  // a number the standard library could not convert
     return fail(cli::kUsage, e.what());
   } catch (const client::TransportError& e) {
     return fail(cli::kTransport, e.what());

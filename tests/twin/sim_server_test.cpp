@@ -20,6 +20,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "lec6/error.hpp"
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/sim/state_file.hpp"
 #include "lec6/transport/serial_link.hpp"
@@ -170,7 +171,7 @@ TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
   sim::LineConfig line;
   line.line.baud = 9600;
   line.line.silent_interval_k = 2;
-  line.line.delay_td = milliseconds(8);
+  line.line.delay_td = std::chrono::milliseconds(8);
   Running twin({1}, pty_only(), line);
   SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 9600});
   const Bytes query = echo(1, 0x1234);
@@ -317,7 +318,7 @@ TEST(SimServer, StopBeforeRunReturnsAtOnce) {
 
 TEST(SimServer, NeedsSomewhereToServe) {
   sim::Bus bus;
-  EXPECT_THROW(SimServer(bus, SimServerOptions{}), std::invalid_argument);
+  EXPECT_THROW(SimServer(bus, SimServerOptions{}), lec6::InvalidArgument);
 }
 
 TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
@@ -325,7 +326,7 @@ TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
   const fs::path state = dir.path() / "twin.state";
   SimServerOptions o = pty_only();
   o.state_file = state;
-  o.save_interval = milliseconds(50);
+  o.save_interval = std::chrono::milliseconds(50);
   auto twin = std::make_unique<Running>(std::vector<uint8_t>{1}, o);
   SerialLink link(twin->server().pty()->slave_path());
   std::vector<uint16_t> step(16, 0);

@@ -48,11 +48,11 @@ struct ClientOptions {
   int retries = 2;  // for Retry::Safe requests
   // For a Client made on a Link (Modbus RTU): the line and the controller's
   // settings, see RtuOptions. Ignored when the Client is given a Master.
-  unsigned silent_interval_k = 1;              // the controller's "Silent INT"
-  Duration delay_td = milliseconds(5);         // the controller's "Min Resp delay"
-  Duration timeout_margin = milliseconds(50);  // added to Tx
-  bool wait_for_silence = true;                // see RtuOptions
-  TraceSink trace{};                           // every frame, when set
+  unsigned silent_interval_k = 1;                           // the controller's "Silent INT"
+  Duration delay_td = std::chrono::milliseconds(5);         // the controller's "Min Resp delay"
+  Duration timeout_margin = std::chrono::milliseconds(50);  // added to Tx
+  bool wait_for_silence = true;                             // see RtuOptions
+  TraceSink trace{};                                        // every frame, when set
 };
 
 // Thread safety: one thread at a time (a Client owns its line while a call

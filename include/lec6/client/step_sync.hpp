@@ -20,6 +20,9 @@
 // failed, and which were not attempted. It does not throw for those; the
 // reads before any write (plan_restore, backup_steps) do throw (errors.hpp),
 // and then nothing was written.
+//
+// Thread safety: the functions use the Client they are given, from the calling thread; one at a
+// time per Client.
 
 #include <array>
 #include <cstddef>

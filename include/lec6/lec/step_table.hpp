@@ -62,6 +62,9 @@
 // accepted too. A blank step is written with "mode": "blank" and zeros
 // (0 and "0" are accepted for the mode as well). Errors name the step's index
 // in the array: "steps[4] (step 3): speed_mm_s ...". Unknown keys are errors.
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <array>
 #include <bitset>

@@ -16,6 +16,9 @@
 // Saving is atomic: a temporary file in the same directory is written and
 // fsync'ed, then renamed over the old one (and the directory fsync'ed), so a
 // crash leaves either the old or the new file, never a torn one.
+//
+// Thread safety: the functions share nothing; two saves of the same path at once race (the last
+// rename wins, neither file is torn).
 
 #include <cstdint>
 #include <filesystem>
