@@ -1,10 +1,12 @@
 // Writes the seed corpora: make_seeds TSV STEPS_DIR OUT_DIR creates
-// OUT_DIR/<harness>/<seed> for every harness of harness.hpp.
+// OUT_DIR/<harness>/<seed> for every harness of harness.hpp, and the http
+// harness's from seeds_http.hpp.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include "seeds.hpp"
+#include "seeds_http.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 4) {
@@ -24,6 +26,12 @@ int main(int argc, char** argv) {
       out.write(reinterpret_cast<const char*>(bytes.data()),
                 static_cast<std::streamsize>(bytes.size()));
     }
+  }
+  const std::filesystem::path http = std::filesystem::path(argv[3]) / "http";
+  std::filesystem::create_directories(http);
+  for (const auto& [name, text] : lec6::fuzz::http_seeds()) {
+    std::ofstream out(http / ("seed-" + name), std::ios::binary);
+    out.write(text.data(), static_cast<std::streamsize>(text.size()));
   }
   return 0;
 }

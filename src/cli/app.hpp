@@ -105,6 +105,7 @@ void add_line_commands(CLI::App& app, Session& session);  // ping, scan, decode,
 void add_demo_command(CLI::App& app, Session& session);   // demo
 void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/backup/restore/diff
 void add_sim_command(CLI::App& app);                      // sim (the twin program)
+void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
 
 // ---- output helpers -----------------------------------------------------------
 void print_json(const nlohmann::json& j);

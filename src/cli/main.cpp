@@ -104,6 +104,7 @@ int main(int argc, char** argv) {
   cli::add_demo_command(app, session);
   cli::add_step_commands(app, session);
   cli::add_sim_command(app);
+  cli::add_serve_command(app, options);
   install_signal_handlers();
 
   try {

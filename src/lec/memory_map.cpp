@@ -180,6 +180,8 @@ std::string explain_exception(modbus::ExceptionCode code) {
              "its area, or a coil value is not FF00h/0000h";
     case modbus::ExceptionCode::ServerDeviceFailure:
       return "04: the gateway failed while handling the request (see the lec serve log)";
+    case modbus::ExceptionCode::ServerBusy:
+      return "06: the gateway is busy (shutting down): try again later";
     case modbus::ExceptionCode::GatewayPathUnavailable:
       return "0A: gateway path unavailable — this unit ID is not configured on the gateway's lines";
     case modbus::ExceptionCode::GatewayTargetFailed:

@@ -75,6 +75,8 @@ std::string_view exception_name(ExceptionCode code) noexcept {
       return "outside access point range";
     case ExceptionCode::ServerDeviceFailure:
       return "server device failure";
+    case ExceptionCode::ServerBusy:
+      return "server device busy";
     case ExceptionCode::GatewayPathUnavailable:
       return "gateway path unavailable";
     case ExceptionCode::GatewayTargetFailed:

@@ -53,7 +53,7 @@ Expected<Response, Error> decode_exception(std::span<const uint8_t> pdu, Excepti
   const uint8_t base = pdu[0] & static_cast<uint8_t>(~kExceptionFlag);
   if (pdu.size() != 2) return wrong_length("exception", pdu.size(), 2);
   const uint8_t code = pdu[1];
-  const bool gateway_code = code == 0x04 || code == 0x0A || code == 0x0B;
+  const bool gateway_code = code == 0x04 || code == 0x06 || code == 0x0A || code == 0x0B;
   if (!is_controller_exception(code) && !(source == ExceptionSource::Gateway && gateway_code)) {
     return fail(ErrorKind::BadValue,
                 fmt::format("exception code {:02X}h is not one the {} sends", code,

@@ -11,6 +11,12 @@ std::optional<std::string> nearest(std::string_view word,
   std::optional<std::string> best;
   std::size_t best_distance = std::max<std::size_t>(2, word.size() / 3) + 1;
   for (std::string_view c : candidates) {
+    // "baudrate" for "baud", "telemetry" for "telemetry_hz": one is the other's start.
+    if (std::min(c.size(), word.size()) >= 3 && (c.starts_with(word) || word.starts_with(c))) {
+      return std::string(c);
+    }
+  }
+  for (std::string_view c : candidates) {
     // Levenshtein distance, one row at a time.
     std::vector<std::size_t> row(c.size() + 1);
     for (std::size_t j = 0; j <= c.size(); ++j) row[j] = j;

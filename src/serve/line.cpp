@@ -79,6 +79,10 @@ void Line::post(std::function<void()> task) {
   wake_.notify_all();
 }
 
+void Line::post_twin(std::function<void(sim::Bus*)> task) {
+  post([this, task = std::move(task)] { task(wire_.twin); });
+}
+
 void Line::add_observer(TelemetryObserver observer) {
   std::lock_guard lock(mutex_);
   observers_.push_back(std::move(observer));
@@ -173,6 +177,10 @@ bool Line::run_once() {
 
 void Line::loop() {
   for (;;) {
+    {
+      std::lock_guard lock(mutex_);
+      if (stopping_) return;  // after the transaction that was on the wire
+    }
     if (run_once()) continue;
     std::unique_lock lock(mutex_);
     if (stopping_) return;

@@ -32,6 +32,15 @@ ExchangeResult result_of(TransportErrorKind k) {
   }
 }
 
+// A read the scheduler makes itself (telemetry, probes, alarm history): no
+// client waits for it.
+Job internal_read(Priority p, uint8_t id, Block b) {
+  Job j;
+  j.priority = p;
+  j.frame = {id, block_request(b)};
+  return j;
+}
+
 bool is_line_fault(TransportErrorKind k) {
   return k == TransportErrorKind::Timeout || k == TransportErrorKind::Crc ||
          k == TransportErrorKind::Framing || k == TransportErrorKind::EchoMismatch ||
@@ -65,8 +74,8 @@ Scheduler::Scheduler(SchedulerConfig config, TimePoint now)
     health_[a.id];
     // Read each alarm history once at start, in the background.
     if (a.telemetry_period > Duration{}) {
-      queues_[index(Priority::Background)].push_back(Queued{
-          0, Job{Priority::Background, {a.id, block_request(Block::Alarms)}, {}, {}, 1}, now});
+      queues_[index(Priority::Background)].push_back(
+          Queued{0, internal_read(Priority::Background, a.id, Block::Alarms), now});
     }
   }
 }
@@ -112,13 +121,15 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     return id;
   }
   if (job.max_cache_age > Duration{}) {
-    if (auto hit = cache_.lookup(job.frame.id, job.frame.pdu, job.max_cache_age, now)) {
+    if (auto hit =
+            cache_.lookup(job.frame.id, job.frame.pdu, job.max_cache_age, now, job.not_before)) {
       stats_.cache_hit();
       stats_.latency(job.priority, Duration{});
       JobResult r;
-      r.reply = modbus::ResponseFrame{job.frame.id, std::move(*hit)};
+      r.reply = modbus::ResponseFrame{job.frame.id, std::move(hit->response)};
       r.from_cache = true;
-      r.submitted = r.started = r.finished = now;
+      r.submitted = r.finished = now;
+      r.started = hit->taken;
       complete(job, std::move(r));
       return id;
     }
@@ -159,8 +170,14 @@ std::optional<Dispatch> Scheduler::next(TimePoint now) {
     q.pop_front();
     return dispatch(std::move(front), false, now);
   }
-  if (auto d = next_telemetry(now)) return d;
+  // Background reads age: one that waited long enough goes before telemetry,
+  // so a line saturated by telemetry still reads its alarm histories.
   auto& background = queues_[index(Priority::Background)];
+  const bool aged =
+      !background.empty() && now - background.front().submitted >= config_.background_max_wait;
+  if (!aged) {
+    if (auto d = next_telemetry(now)) return d;
+  }
   while (!background.empty()) {
     Queued front = std::move(background.front());
     background.pop_front();
@@ -211,10 +228,8 @@ std::optional<Dispatch> Scheduler::next_telemetry(TimePoint now) {
   const Block b = pick->pass.front();
   pick->pass.erase(pick->pass.begin());
   const TimePoint submitted = health_[pick->schedule.id].offline ? now : std::min(pick->due, now);
-  return dispatch(
-      Queued{0, Job{Priority::Telemetry, {pick->schedule.id, block_request(b)}, {}, {}, 1},
-             submitted},
-      true, now);
+  return dispatch(Queued{0, internal_read(Priority::Telemetry, pick->schedule.id, b), submitted},
+                  true, now);
 }
 
 std::optional<TimePoint> Scheduler::wake_at() const {
@@ -252,7 +267,7 @@ void Scheduler::note_reply(const Flight& f, const modbus::ResponseFrame& reply, 
     // An alarm appeared: fetch its history entry in the background.
     if (after->alarm() && (!before || !before->alarm())) {
       queues_[index(Priority::Background)].push_back(
-          Queued{0, Job{Priority::Background, {id, block_request(Block::Alarms)}, {}, {}, 1}, end});
+          Queued{0, internal_read(Priority::Background, id, Block::Alarms), end});
     }
   }
   events_.push_back(e);

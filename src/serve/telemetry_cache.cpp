@@ -107,16 +107,18 @@ const CachedBlock* TelemetryCache::usable(const Axis& a, Block b) const {
   return &*slot;
 }
 
-std::optional<modbus::Response> TelemetryCache::lookup(uint8_t id, const modbus::Request& request,
-                                                       Duration max_age, TimePoint now) const {
+std::optional<TelemetryCache::Hit> TelemetryCache::lookup(uint8_t id,
+                                                          const modbus::Request& request,
+                                                          Duration max_age, TimePoint now,
+                                                          TimePoint not_before) const {
   const auto read = read_of(request);
   const auto axis = axes_.find(id);
   if (!read || axis == axes_.end() || max_age <= Duration{}) return std::nullopt;
   const Range* range = containing(*read);
   if (!range) return std::nullopt;
   const CachedBlock* block = usable(axis->second, range->block);
-  if (!block || now - block->taken > max_age) return std::nullopt;
-  return reply_of(*read, *range, *block);
+  if (!block || now - block->taken > max_age || block->taken < not_before) return std::nullopt;
+  return Hit{reply_of(*read, *range, *block), block->taken};
 }
 
 std::optional<Duration> TelemetryCache::age(uint8_t id, Block b, TimePoint now) const {

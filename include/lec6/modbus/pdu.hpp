@@ -43,6 +43,7 @@ enum class ExceptionCode : uint8_t {
   // Codes a controller never sends but a Modbus TCP gateway (`lec serve`) does,
   // per the Modbus application protocol specification §7.
   ServerDeviceFailure = 0x04,     // the gateway failed while handling the request
+  ServerBusy = 0x06,              // the gateway is shutting down: try again later
   GatewayPathUnavailable = 0x0A,  // no such unit behind the gateway
   GatewayTargetFailed = 0x0B,     // the unit did not answer
 };

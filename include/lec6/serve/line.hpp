@@ -26,6 +26,10 @@
 #include "lec6/client/master.hpp"
 #include "lec6/serve/scheduler.hpp"
 
+namespace lec6::sim {
+class Bus;
+}
+
 namespace lec6::serve {
 
 // What a line talks through. `keep` holds whatever the master needs alive
@@ -33,6 +37,7 @@ namespace lec6::serve {
 struct Wire {
   std::shared_ptr<void> keep;
   std::unique_ptr<client::Master> master;
+  sim::Bus* twin = nullptr;  // the in-process twin of a `port: sim` line
 };
 
 struct LineOptions {
@@ -65,6 +70,9 @@ class Line {
   // Runs `task` on the line's thread between two transactions (e.g. changes
   // to the in-process twin, which only that thread may touch).
   void post(std::function<void()> task);
+  // Runs `task` on the line's thread with its in-process twin (null when the
+  // line is not `sim`, or is down).
+  void post_twin(std::function<void(sim::Bus*)> task);
   void add_observer(TelemetryObserver observer);
 
   // One step without waiting: runs due tasks and at most one transaction.

@@ -66,6 +66,8 @@ struct JobResult {
   client::TransportErrorKind error_kind = client::TransportErrorKind::Timeout;
   std::string error;  // for failures, in the user's terms
   bool from_cache = false;
+  // started: when the exchange began (for a cache answer, when its block was
+  // read): what the answer shows is no older than this.
   TimePoint submitted{}, started{}, finished{};
 };
 
@@ -73,8 +75,10 @@ struct Job {
   Priority priority = Priority::Command;
   modbus::RequestFrame frame;
   std::function<void(const JobResult&)> done;  // called once, by the driver, outside its lock
-  // > 0: a read of a telemetry block may be answered from the cache if no older.
+  // > 0: a read of a telemetry block may be answered from the cache if no
+  // older, and taken no earlier than `not_before` (what the client last saw).
   Duration max_cache_age{};
+  TimePoint not_before{};
   // Exchanges to try on a line fault (timeout, CRC, framing); reads may retry, starts never.
   int attempts = 1;
 };
@@ -89,6 +93,7 @@ struct SchedulerConfig {
   unsigned offline_after = 3;                                 // consecutive failed exchanges
   Duration probe_interval = std::chrono::seconds(2);          // of an offline controller
   Duration controls_period = std::chrono::milliseconds(500);  // Y10–Y30 within telemetry
+  Duration background_max_wait = std::chrono::seconds(1);     // then it goes before telemetry
   modbus::LineTiming timing;                                  // for the utilisation figure
 };
 

@@ -58,9 +58,15 @@ class TelemetryCache {
   void invalidate_all(TimePoint at);
 
   // The reply to `request` from the cache, if a block covers it, is no older
-  // than `max_age` at `now`, and was taken after the last write.
-  std::optional<modbus::Response> lookup(uint8_t id, const modbus::Request& request,
-                                         Duration max_age, TimePoint now) const;
+  // than `max_age` at `now`, was taken after the last write, and not before
+  // `not_before` (a client must never see older data than it already saw:
+  // its flags from the line, then its state from an older cache, would lie).
+  struct Hit {
+    modbus::Response response;
+    TimePoint taken;
+  };
+  std::optional<Hit> lookup(uint8_t id, const modbus::Request& request, Duration max_age,
+                            TimePoint now, TimePoint not_before = TimePoint{}) const;
 
   // The age of a block (nullopt: never read, or invalidated).
   std::optional<Duration> age(uint8_t id, Block b, TimePoint now) const;

@@ -1,0 +1,80 @@
+#pragma once
+// `lec serve`: one process owns each configured line and lets every
+// front-end share it (Modbus TCP, RTU over TCP, HTTP, MQTT).
+//
+// Threads: one per line (serve::Line, the only one touching its wire), one
+// for the event loop (standalone Asio: listeners, connections, timers), and
+// one per running axis operation (operations block on their line's answers).
+//
+// Stopping (SIGTERM, SIGINT, stop()): listeners stop accepting, each line
+// finishes the transaction on the wire and fails its queued jobs (masters
+// get exception 06, HTTP clients 503), connections close once answered, and
+// run() returns 0.
+//
+// Thread safety: stop() from any thread (and from signal handlers through
+// the event loop); the rest from the thread that made the daemon.
+
+#include <asio.hpp>
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lec6/serve/config.hpp"
+#include "lec6/serve/line.hpp"
+#include "lec6/serve/log.hpp"
+
+namespace lec6::serve {
+
+class ModbusTcpServer;
+
+// An axis of the daemon, by name.
+struct AxisRef {
+  std::string name;
+  uint8_t id = 1;
+  Line* line = nullptr;
+  const LineConfig* line_config = nullptr;
+  const AxisConfig* config = nullptr;
+};
+
+class Daemon {
+ public:
+  // Opens every line (a line whose port cannot be opened starts down and
+  // keeps trying) and binds every listener (throws when one cannot bind).
+  Daemon(ServeConfig config, Log log);
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  // Serves until stop() or, with `handle_signals`, SIGTERM/SIGINT.
+  // Returns 0 after a clean stop.
+  int run(bool handle_signals = true);
+  void stop();
+
+  // What listens where: "line1 Modbus TCP tcp://127.0.0.1:1502", ...
+  std::vector<std::string> endpoints() const;
+  const ServeConfig& config() const noexcept { return config_; }
+  const std::vector<AxisRef>& axes() const noexcept { return axes_; }
+  const AxisRef* axis(std::string_view name) const;
+  Line* line(std::string_view name) const;
+  asio::io_context& io() noexcept { return io_; }
+
+ private:
+  void start_lines();
+  void start_listeners();
+  void begin_stop();
+
+  ServeConfig config_;
+  Log log_;
+  asio::io_context io_;
+  std::map<std::string, std::unique_ptr<Line>, std::less<>> lines_;
+  std::vector<AxisRef> axes_;
+  std::vector<std::unique_ptr<ModbusTcpServer>> modbus_;
+  asio::signal_set signals_;
+  // Keeps run() going until stop, whatever listens.
+  asio::executor_work_guard<asio::io_context::executor_type> work_;
+  bool stopping_ = false;
+};
+
+}  // namespace lec6::serve

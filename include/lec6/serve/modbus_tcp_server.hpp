@@ -1,0 +1,68 @@
+#pragma once
+// The Modbus TCP listener of one line (MBAP, per the Modbus Messaging on
+// TCP/IP Implementation Guide): unit id → controller ID, the transaction id
+// echoed, many connections, requests pipelined per connection (answered as
+// they complete; the transaction id matches them). What each request becomes
+// is gateway.hpp's rule.
+//
+// A connection that breaks the MBAP framing (protocol id ≠ 0, a lying
+// length) is closed, and only that one. A connection that closes with
+// requests queued cancels them; one on the wire completes and its reply is
+// dropped. A connection may have `kMaxOutstanding` requests queued; beyond
+// that its socket is not read until answers go out.
+//
+// Thread safety: constructed, stopped and destroyed on the io_context's
+// thread (or before it runs); line completions are posted to it.
+
+#include <asio.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <set>
+#include <string>
+
+#include "lec6/serve/config.hpp"
+#include "lec6/serve/gateway.hpp"
+#include "lec6/serve/line.hpp"
+#include "lec6/serve/log.hpp"
+
+namespace lec6::serve {
+
+class ModbusTcpServer {
+ public:
+  static constexpr std::size_t kMaxOutstanding = 32;
+  enum class Framing { Mbap, Rtu };  // Modbus TCP, or RTU frames over TCP
+
+  ModbusTcpServer(asio::io_context& io, const ListenerConfig& config, Framing framing, Line& line,
+                  GatewayPolicy policy, Log log);
+  ~ModbusTcpServer();
+  ModbusTcpServer(const ModbusTcpServer&) = delete;
+  ModbusTcpServer& operator=(const ModbusTcpServer&) = delete;
+
+  uint16_t port() const noexcept { return port_; }
+  // "tcp://127.0.0.1:1502" or "rtu+tcp://127.0.0.1:1503"
+  std::string url() const;
+  // Stops accepting; each connection closes once the answers it is owed
+  // are written (the line fails its queued jobs when it stops).
+  void shutdown();
+  // Stops accepting and closes every connection now.
+  void stop();
+
+  class Session;
+
+ private:
+  void accept();
+
+  asio::io_context& io_;
+  asio::ip::tcp::acceptor acceptor_;
+  Framing framing_;
+  Line& line_;
+  GatewayPolicy policy_;
+  Log log_;
+  std::string address_;
+  uint16_t port_ = 0;
+  std::set<std::shared_ptr<Session>> sessions_;
+  bool stopped_ = false;
+};
+
+}  // namespace lec6::serve

@@ -1,0 +1,136 @@
+// `lec serve`: the bus owner (src/serve/). Reads its config (or makes one
+// from the global options and --ids), prints where it listens, and runs until
+// SIGTERM or Ctrl-C.
+
+#include <fmt/chrono.h>
+
+#include <chrono>
+#include <mutex>
+
+#include "cli/app.hpp"
+#include "lec6/serve/daemon.hpp"
+
+namespace lec6::cli {
+namespace {
+
+struct ServeArgs {
+  std::string config;
+  std::string ids = "1";
+  double telemetry_hz = 10;
+  std::string modbus_tcp = "127.0.0.1:1502";
+  std::string rtu_tcp;
+  std::string http = "127.0.0.1:8080";
+  std::string token;
+  std::string sim_timing = "real";
+  bool check = false;
+};
+
+void log_line(serve::LogLevel level, std::string_view text) {
+  static std::mutex m;
+  std::lock_guard lock(m);
+  const auto now = std::chrono::system_clock::now();
+  const char* tag = level == serve::LogLevel::Warning ? "warning: "
+                    : level == serve::LogLevel::Error ? "error: "
+                                                      : "";
+  fmt::print(stderr, "{:%H:%M:%S} lec serve: {}{}\n",
+             std::chrono::floor<std::chrono::milliseconds>(now), tag, text);
+}
+
+serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
+  if (!a.config.empty()) {
+    if (!g.port.empty()) {
+      throw UsageError("give either --config FILE or --port with --ids, not both");
+    }
+    return serve::load_config(a.config);
+  }
+  serve::FlagConfig f;
+  f.port = g.port;
+  if (f.port.empty()) {
+    if (const char* env = std::getenv("LEC_PORT"); env && *env) f.port = env;
+  }
+  f.ids = a.ids;
+  f.baud = g.baud;
+  f.telemetry_hz = a.telemetry_hz;
+  f.modbus_tcp = a.modbus_tcp;
+  f.rtu_tcp = a.rtu_tcp;
+  f.http = a.http;
+  f.token = a.token;
+  f.fast_sim = a.sim_timing == "fast";
+  auto c = serve::config_from_flags(f);
+  auto& line = c.lines.front();
+  line.silent_interval = g.silent_interval_k;
+  line.delay_ms = g.delay_td_ms;
+  line.timeout_margin_ms = g.timeout_margin_ms;
+  line.retries = g.retries;
+  line.echo = g.echo;
+  line.rs485 = {g.rs485, g.rs485_rts_after_send, static_cast<uint32_t>(g.rs485_delay_before_ms),
+                static_cast<uint32_t>(g.rs485_delay_after_ms)};
+  return c;
+}
+
+void run_serve(const GlobalOptions& g, const ServeArgs& a) {
+  serve::ServeConfig config;
+  try {
+    config = make_config(g, a);
+  } catch (const serve::ConfigError& e) {
+    throw UsageError(e.what());
+  }
+  if (a.check) {
+    fmt::print(
+        "{}: OK ({} line{}, {} ax{})\n", config.source, config.lines.size(),
+        config.lines.size() == 1 ? "" : "s",
+        [&] {
+          std::size_t n = 0;
+          for (const auto& l : config.lines) n += l.axes.size();
+          return n;
+        }(),
+        "es");
+    return;
+  }
+  serve::Daemon daemon(std::move(config), log_line);
+  for (const auto& l : daemon.config().lines) {
+    std::string ids;
+    for (const auto& ax : l.axes)
+      ids += fmt::format("{}{}={}", ids.empty() ? "" : ", ", ax.name, ax.id);
+    const auto* line = daemon.line(l.name);
+    log_line(serve::LogLevel::Info,
+             fmt::format("line {} on {} ({} baud): {}", l.name, line->describe(), l.baud, ids));
+  }
+  std::string where;
+  for (const auto& e : daemon.endpoints()) where += (where.empty() ? "" : ", ") + e;
+  fmt::print("lec serve: ready on {}\n", where.empty() ? "(no listener)" : where);
+  std::fflush(stdout);
+  daemon.run(true);
+  log_line(serve::LogLevel::Info, "stopped");
+}
+
+}  // namespace
+
+void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
+  auto args = std::make_shared<ServeArgs>();
+  auto* cmd = app.add_subcommand(
+      "serve",
+      "Own the line(s) and share them: Modbus TCP, RTU over TCP, HTTP API (see docs/serve.md)");
+  cmd->add_option("--config,-c", args->config,
+                  "YAML config: lines, axes, listeners (docs/serve.md); or use --port and --ids");
+  cmd->add_option("--ids", args->ids, "Controller IDs on the line, e.g. 1-4 or 1,3,5")
+      ->capture_default_str();
+  cmd->add_option("--telemetry-hz", args->telemetry_hz, "State polling rate per axis")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1000.0));
+  cmd->add_option("--modbus-tcp", args->modbus_tcp,
+                  "Modbus TCP listener ADDRESS:PORT (empty: none)")
+      ->capture_default_str();
+  cmd->add_option("--rtu-tcp", args->rtu_tcp, "RTU-over-TCP listener ADDRESS:PORT (default: none)");
+  cmd->add_option("--http", args->http, "HTTP listener ADDRESS:PORT (empty: none)")
+      ->capture_default_str();
+  cmd->add_option("--token", args->token,
+                  "Token that write requests must carry when HTTP listens beyond loopback");
+  cmd->add_option("--sim-timing", args->sim_timing, "Timing of the built-in twin (--port sim)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"real", "fast"}));
+  cmd->add_flag("--check", args->check, "Check the config and exit");
+  cmd->callback([&globals, args] { run_serve(globals, *args); });
+}
+
+}  // namespace lec6::cli

@@ -1,0 +1,119 @@
+#include "lec6/serve/daemon.hpp"
+
+#include <fmt/format.h>
+
+#include "lec6/serve/modbus_tcp_server.hpp"
+#include "lec6/serve/wire.hpp"
+
+namespace lec6::serve {
+namespace {
+
+const SteadyClock kClock;
+
+GatewayPolicy policy_of(const LineConfig& line) {
+  GatewayPolicy p;
+  for (const auto& a : line.axes) p.units.insert(a.id);
+  p.allow_broadcast = line.allow_broadcast;
+  p.cache_max_age = line.cache_max_age();
+  p.read_retries = line.retries;
+  return p;
+}
+
+}  // namespace
+
+Daemon::Daemon(ServeConfig config, Log log)
+    : config_(std::move(config)),
+      log_(std::move(log)),
+      signals_(io_),
+      work_(asio::make_work_guard(io_)) {
+  start_lines();
+  start_listeners();
+}
+
+Daemon::~Daemon() {
+  for (auto& s : modbus_) s->stop();
+  for (auto& [name, line] : lines_) line->stop();
+}
+
+void Daemon::start_lines() {
+  for (const LineConfig& lc : config_.lines) {
+    LineOptions o;
+    o.name = lc.name;
+    o.port = lc.port;
+    o.scheduler = scheduler_config(lc);
+    auto line = std::make_unique<Line>(
+        o, [lc] { return open_wire(lc); }, kClock);
+    if (line->is_down()) {
+      log_(LogLevel::Warning,
+           fmt::format("line {} is down, retrying every second: {}", lc.name, line->down_reason()));
+    }
+    for (const AxisConfig& a : lc.axes) axes_.push_back(AxisRef{a.name, a.id, line.get(), &lc, &a});
+    line->start();
+    lines_.emplace(lc.name, std::move(line));
+  }
+}
+
+void Daemon::start_listeners() {
+  for (const LineConfig& lc : config_.lines) {
+    Line& line = *lines_.at(lc.name);
+    if (lc.modbus_tcp) {
+      modbus_.push_back(std::make_unique<ModbusTcpServer>(
+          io_, *lc.modbus_tcp, ModbusTcpServer::Framing::Mbap, line, policy_of(lc), log_));
+    }
+    if (lc.rtu_tcp) {
+      modbus_.push_back(std::make_unique<ModbusTcpServer>(
+          io_, *lc.rtu_tcp, ModbusTcpServer::Framing::Rtu, line, policy_of(lc), log_));
+    }
+  }
+}
+
+std::vector<std::string> Daemon::endpoints() const {
+  std::vector<std::string> out;
+  for (const auto& s : modbus_) out.push_back(s->url());
+  return out;
+}
+
+const AxisRef* Daemon::axis(std::string_view name) const {
+  for (const auto& a : axes_) {
+    if (a.name == name) return &a;
+  }
+  return nullptr;
+}
+
+Line* Daemon::line(std::string_view name) const {
+  const auto it = lines_.find(name);
+  return it == lines_.end() ? nullptr : it->second.get();
+}
+
+// On the event loop's thread. Lines stop after the listeners stop accepting,
+// so every queued job is answered (with an error) before connections close.
+void Daemon::begin_stop() {
+  if (stopping_) return;
+  stopping_ = true;
+  log_(LogLevel::Info, "stopping: finishing the transactions on the wire");
+  signals_.cancel();
+  for (auto& s : modbus_) s->shutdown();
+  for (auto& [name, line] : lines_) line->stop();
+  work_.reset();
+  // Connections close as their last answers are written; then run() returns.
+}
+
+int Daemon::run(bool handle_signals) {
+  if (handle_signals) {
+    signals_.add(SIGINT);
+    signals_.add(SIGTERM);
+    signals_.async_wait([this](const asio::error_code& ec, int signal) {
+      if (ec) return;
+      log_(LogLevel::Info, fmt::format("{} received", signal == SIGTERM ? "SIGTERM" : "SIGINT"));
+      begin_stop();
+    });
+  }
+  io_.run();
+  return 0;
+}
+
+void Daemon::stop() {
+  asio::post(io_, [this] { begin_stop(); });
+}
+
+}  // namespace lec6::serve

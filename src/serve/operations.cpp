@@ -1,0 +1,243 @@
+#include "lec6/serve/operations.hpp"
+
+#include <fmt/format.h>
+
+#include "lec6/client/step_sync.hpp"
+#include "lec6/lec/step_table.hpp"
+#include "lec6/serve/line_master.hpp"
+#include "op_results.hpp"
+
+namespace lec6::serve {
+
+struct Operations::Running {
+  Op op = Op::Move;
+  std::string source;
+  TimePoint since{};
+  bool jog_plus = true;
+  std::atomic<bool> cancel{false};
+  std::atomic<bool> stopped_by_other{false};
+  std::atomic<int64_t> lease_until{0};  // steady ns; 0: no lease
+  std::mutex tie_mutex;
+  std::function<bool()> tie;  // the stream a jog is tied to has closed
+
+  bool lease_expired(TimePoint now) const {
+    const int64_t until = lease_until.load();
+    return until != 0 && now.time_since_epoch().count() > until;
+  }
+  bool tie_closed() {
+    std::lock_guard lock(tie_mutex);
+    return tie && tie();
+  }
+};
+
+struct Operations::Slot {
+  std::shared_ptr<Running> motion;
+  std::optional<nlohmann::json> last;
+};
+
+namespace {
+
+const SteadyClock kClock;
+
+void renew(std::atomic<int64_t>& lease_until, Duration lease) {
+  lease_until = (kClock.now() + lease).time_since_epoch().count();
+}
+
+}  // namespace
+
+Operations::Operations(Log log) : log_(std::move(log)) {}
+
+Operations::~Operations() {
+  shutdown();
+}
+
+void Operations::add_observer(OpObserver observer) {
+  std::lock_guard lock(mutex_);
+  observers_.push_back(std::move(observer));
+}
+
+void Operations::notify(const std::string& axis, const nlohmann::json& event) {
+  std::vector<OpObserver> observers;
+  {
+    std::lock_guard lock(mutex_);
+    observers = observers_;
+  }
+  for (const auto& o : observers) o(axis, event);
+}
+
+void Operations::run(const AxisRef& axis, Command cmd, std::string source,
+                     std::function<void(OpResult)> done) {
+  std::optional<OpResult> at_once;
+  std::shared_ptr<Running> run;
+  {
+    std::lock_guard lock(mutex_);
+    Slot& slot = slots_[axis.name];
+    if (shutting_down_) {
+      at_once = refusal(503, "lec serve is shutting down");
+    } else if (cmd.op == Op::JogStop) {
+      if (slot.motion && slot.motion->op == Op::Jog) slot.motion->cancel = true;
+      at_once =
+          OpResult{200,
+                   {{"ok", true},
+                    {"op", "jog-stop"},
+                    {"message", slot.motion && slot.motion->op == Op::Jog ? "jog released"
+                                                                          : "no jog was running"}}};
+    } else if (is_motion(cmd.op) && slot.motion) {
+      Running& r = *slot.motion;
+      if (cmd.op == Op::Jog && r.op == Op::Jog && r.jog_plus == cmd.jog_plus &&
+          cmd.jog_lease > Duration{} && !r.cancel) {
+        renew(r.lease_until, cmd.jog_lease);
+        at_once = OpResult{200, {{"ok", true}, {"op", "jog"}, {"message", "jog lease renewed"}}};
+      } else {
+        at_once =
+            refusal(409, fmt::format("axis {} is busy: {} started {:.1f} s ago by {}; stop it "
+                                     "first (stop, or jog-stop for a jog)",
+                                     axis.name, op_name(r.op), to_seconds(kClock.now() - r.since),
+                                     r.source));
+      }
+    } else {
+      run = std::make_shared<Running>();
+      run->op = cmd.op;
+      run->source = source;
+      run->since = kClock.now();
+      run->jog_plus = cmd.jog_plus;
+      if (cmd.op == Op::Jog && cmd.jog_lease > Duration{}) renew(run->lease_until, cmd.jog_lease);
+      if (is_motion(cmd.op)) slot.motion = run;
+      const bool stop_like =
+          cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
+      if (stop_like && slot.motion && slot.motion != run) slot.motion->stopped_by_other = true;
+    }
+  }
+  if (at_once) return done(std::move(*at_once));
+  notify(axis.name, {{"event", "started"}, {"op", op_name(cmd.op)}, {"source", source}});
+  start_thread(axis, std::move(cmd), std::move(run), std::move(done));
+}
+
+void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
+                              std::function<void(OpResult)> done) {
+  {
+    std::lock_guard lock(active_mutex_);
+    ++active_;
+  }
+  std::thread([this, axis, cmd = std::move(cmd), run, done = std::move(done)] {
+    OpResult result;
+    try {
+      result = execute(axis, cmd, *run);
+    } catch (...) {
+      result = result_of(std::current_exception(), run->stopped_by_other);
+    }
+    finished(axis.name, run, result);
+    done(result);
+    std::lock_guard lock(active_mutex_);
+    if (--active_ == 0) idle_.notify_all();
+  }).detach();
+}
+
+void Operations::finished(const std::string& axis, const std::shared_ptr<Running>& run,
+                          const OpResult& result) {
+  {
+    std::lock_guard lock(mutex_);
+    Slot& slot = slots_[axis];
+    if (slot.motion == run) slot.motion.reset();
+    if (is_motion(run->op)) slot.last = result.body;
+  }
+  nlohmann::json event = result.body;
+  event["event"] = "finished";
+  event["status"] = result.status;
+  notify(axis, event);
+}
+
+void Operations::tie_jog(const std::string& axis, std::function<bool()> closed) {
+  std::lock_guard lock(mutex_);
+  const auto it = slots_.find(axis);
+  if (it == slots_.end() || !it->second.motion || it->second.motion->op != Op::Jog) return;
+  std::lock_guard tie(it->second.motion->tie_mutex);
+  it->second.motion->tie = std::move(closed);
+}
+
+std::optional<OpStatus> Operations::running(const std::string& axis) const {
+  std::lock_guard lock(mutex_);
+  const auto it = slots_.find(axis);
+  if (it == slots_.end() || !it->second.motion) return std::nullopt;
+  const Running& r = *it->second.motion;
+  return OpStatus{std::string(op_name(r.op)), r.source, to_seconds(kClock.now() - r.since)};
+}
+
+std::optional<nlohmann::json> Operations::last_result(const std::string& axis) const {
+  std::lock_guard lock(mutex_);
+  const auto it = slots_.find(axis);
+  return it == slots_.end() ? std::nullopt : it->second.last;
+}
+
+void Operations::shutdown() {
+  {
+    std::lock_guard lock(mutex_);
+    shutting_down_ = true;
+    for (auto& [name, slot] : slots_) {
+      if (slot.motion && slot.motion->op == Op::Jog) slot.motion->cancel = true;
+    }
+  }
+  // Jogs release JOG and wait for the axis to stop; moves end when their
+  // line answers "shutting down". Bounded: a dead line cannot hold us.
+  std::unique_lock lock(active_mutex_);
+  idle_.wait_for(lock, std::chrono::seconds(5), [this] { return active_ == 0; });
+}
+
+// ---- execution -----------------------------------------------------------------
+
+OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& run) {
+  const bool urgent = cmd.op == Op::Stop || cmd.op == Op::Reset || cmd.op == Op::Hold;
+  LineMaster master(*axis.line, urgent ? Priority::Emergency : Priority::Completion,
+                    urgent ? Priority::Emergency : Priority::Command);
+  client::ClientOptions co;
+  co.id = axis.id;
+  co.retries = axis.line_config->retries;
+  client::Client c(master, co);
+  client::Actuator act(c);
+  const TimePoint deadline = kClock.now() + cmd.timeout;
+  client::WaitOptions wait;
+  switch (cmd.op) {
+    case Op::Serial:
+      act.set_serial_mode(cmd.on);
+      return done_result(cmd.op,
+                         cmd.on ? "serial input mode (Y30 = 1)" : "parallel input mode (Y30 = 0)");
+    case Op::Servo:
+      cmd.on ? act.servo_on(kClock.now() + std::chrono::seconds(5))
+             : act.servo_off(kClock.now() + std::chrono::seconds(5));
+      return done_result(cmd.op, cmd.on ? "servo on (SVRE = 1)" : "servo off (SVRE = 0)");
+    case Op::Home:
+      return move_result(cmd.op, act.home(deadline, wait), run.stopped_by_other);
+    case Op::Move:
+      return move_result(cmd.op, act.move(cmd.move, deadline, wait), run.stopped_by_other);
+    case Op::RunStep:
+      return move_result(cmd.op, act.run_step(*cmd.step, deadline, wait), run.stopped_by_other);
+    case Op::Jog: {
+      const TimePoint until =
+          cmd.jog_duration > Duration{} ? kClock.now() + cmd.jog_duration : TimePoint::max();
+      wait.cancel = [&run] {
+        return run.cancel.load() || run.lease_expired(kClock.now()) || run.tie_closed();
+      };
+      const auto r = act.jog(cmd.jog_plus, until, kClock.now() + std::chrono::hours(24), wait);
+      return jog_result(r, run.lease_expired(kClock.now()), run.tie_closed());
+    }
+    case Op::Hold:
+      act.hold(cmd.on);
+      return done_result(cmd.op, cmd.on ? "HOLD = 1: the operation is suspended"
+                                        : "HOLD = 0: the operation resumes");
+    case Op::Stop:
+      act.stop();
+      return done_result(cmd.op, "stopped (RESET pulse: decelerating stop)");
+    case Op::Reset:
+      return reset_result(act.reset_alarms());
+    case Op::StepRead:
+      if (cmd.step) return step_read_result(*cmd.step, c.read_step(*cmd.step));
+      return table_result(client::backup_steps(c));
+    case Op::StepWrite:
+      return step_write(c, *cmd.step, cmd.fields);
+    case Op::JogStop:
+      break;
+  }
+  return refusal(400, "nothing to do");
+}
+
+}  // namespace lec6::serve

@@ -1,0 +1,122 @@
+// The serve config: a full example parses; every mistake names file, line,
+// key and rule; flags make the simple case.
+
+#include "lec6/serve/config.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace lec6::serve {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string error_of(const std::string& text) {
+  try {
+    parse_config(text, "lec6.yaml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(ServeConfig, AFullFileParses) {
+  const auto c = parse_config(R"(
+lines:
+  - name: press
+    port: sim
+    baud: 115200
+    silent_interval: 2
+    delay_ms: 3
+    sim: {timing: fast, workpiece_mm: 350}
+    axes:
+      - {id: 1, name: x, telemetry_hz: 20}
+      - {id: 2, name: y}
+    modbus_tcp: {listen: "127.0.0.1:15020", read_only: true}
+    rtu_tcp: {listen: ":15030"}
+http: {listen: "127.0.0.1:18080"}
+mqtt: {broker: "mqtt://127.0.0.1:1883", prefix: plant}
+)",
+                              "lec6.yaml");
+  ASSERT_EQ(c.lines.size(), 1u);
+  const auto& l = c.lines[0];
+  EXPECT_EQ(l.name, "press");
+  EXPECT_EQ(l.baud, 115200u);
+  EXPECT_TRUE(l.sim.fast);
+  EXPECT_EQ(l.sim.workpiece_mm, 350.0);
+  ASSERT_EQ(l.axes.size(), 2u);
+  EXPECT_EQ(l.axes[1].name, "y");
+  EXPECT_EQ(l.axes[1].telemetry_hz, 10);
+  EXPECT_TRUE(l.modbus_tcp->read_only);
+  EXPECT_EQ(l.rtu_tcp->listen.text(), "127.0.0.1:15030");
+  EXPECT_EQ(c.http->listener.listen.port, 18080);
+  EXPECT_EQ(c.mqtt->prefix, "plant");
+  EXPECT_EQ(c.find_axis("y")->axis->id, 2);
+  // Twice the slowest telemetry period (10 Hz).
+  EXPECT_EQ(l.cache_max_age(), std::chrono::milliseconds(200));
+}
+
+TEST(ServeConfig, MistakesNameTheFileTheLineAndTheRule) {
+  EXPECT_EQ(error_of("lines:\n  - port: sim\n    axes:\n      - {id: 300}\n"),
+            "lec6.yaml:4: lines[0].axes[0].id: 300 is not a controller ID (1 to 255, digest §2)");
+  EXPECT_EQ(error_of("lines:\n  - port: sim\n    baudrate: 9600\n    axes: [{id: 1}]\n"),
+            "lec6.yaml:3: lines[0].baudrate: unknown key: did you mean 'baud'?");
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    baud: 1200\n    axes: [{id: 1}]\n"),
+              HasSubstr("1200 is not a baud rate the controller has"));
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    axes: [{id: 1}, {id: 1}]\n"),
+              HasSubstr("ID 1 is already an axis of this line"));
+  EXPECT_THAT(error_of("lines:\n  - port: tcp://plc:502\n    axes: [{id: 1}]\n"),
+              HasSubstr("is Modbus TCP: a line is driven in Modbus RTU"));
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    axes: [{id: 1, name: 'a b'}]\n"),
+              HasSubstr("names are 1 to 64 letters"));
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    axes: [{id: 1, name: x}]\n"
+                       "  - port: sim\n    axes: [{id: 2, name: x}]\n"),
+              HasSubstr("an axis called 'x' already exists"));
+  EXPECT_THAT(error_of("lines: [\n"), HasSubstr("lec6.yaml:"));
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    axes: []\n"),
+              HasSubstr("a line needs a list of axes"));
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    axes: [{id: 1}]\n"
+                       "http: {listen: '0.0.0.0:8080'}\n"),
+              HasSubstr("reachable from other machines: set http.token"));
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    axes: [{id: 1}]\n    delay_ms: fast\n"),
+              HasSubstr("lines[0].delay_ms: 'fast' is not a number"));
+}
+
+TEST(ServeConfig, AMissingFileIsNamed) {
+  try {
+    load_config("/nonexistent/lec6.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cannot read the config file /nonexistent/lec6.yaml"));
+  }
+}
+
+TEST(ServeConfig, FlagsMakeTheSimpleCase) {
+  FlagConfig f;
+  f.port = "/dev/ttyUSB0";
+  f.ids = "1-3,7";
+  const auto c = config_from_flags(f);
+  ASSERT_EQ(c.lines[0].axes.size(), 4u);
+  EXPECT_EQ(c.lines[0].axes[3].name, "axis7");
+  EXPECT_EQ(c.lines[0].modbus_tcp->listen.text(), "127.0.0.1:1502");
+  EXPECT_EQ(c.http->listener.listen.text(), "127.0.0.1:8080");
+  EXPECT_THROW(parse_ids("0-3"), ConfigError);
+  EXPECT_THROW(parse_ids("4-2"), ConfigError);
+  EXPECT_THROW(parse_ids("x"), ConfigError);
+  f.http = "0.0.0.0:8080";
+  EXPECT_THROW(config_from_flags(f), ConfigError);  // no token
+  f.token = "s3cret";
+  EXPECT_NO_THROW(config_from_flags(f));
+}
+
+TEST(ServeConfig, Endpoints) {
+  EXPECT_TRUE(parse_endpoint("127.0.0.1:1502").loopback());
+  EXPECT_TRUE(parse_endpoint("[::1]:1502").loopback());
+  EXPECT_FALSE(parse_endpoint("0.0.0.0:1502").loopback());
+  EXPECT_EQ(parse_endpoint(":1502").address, "127.0.0.1");
+  EXPECT_THROW(parse_endpoint("1502"), ConfigError);
+  EXPECT_THROW(parse_endpoint("host:99999"), ConfigError);
+}
+
+}  // namespace
+}  // namespace lec6::serve
