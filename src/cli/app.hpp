@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "cli/json_output.hpp"
 #include "lec6/client/actuator.hpp"
 #include "lec6/client/client.hpp"
 #include "lec6/error.hpp"
@@ -106,12 +107,5 @@ void add_demo_command(CLI::App& app, Session& session);   // demo
 void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/backup/restore/diff
 void add_sim_command(CLI::App& app);                      // sim (the twin program)
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
-
-// ---- output helpers -----------------------------------------------------------
-void print_json(const nlohmann::json& j);
-// The JSON text, with millimetres from mm_json() as decimals with two places.
-std::string dump_json(const nlohmann::json& j, int indent = -1);
-// "150.00" for 15000 (0.01 mm), as a JSON number with two decimals.
-nlohmann::json mm_json(int64_t value_001mm);
 
 }  // namespace lec6::cli

@@ -14,8 +14,8 @@
 #include "cli/app.hpp"
 #include "lec6/modbus/timing.hpp"
 #include "lec6/sim/bus.hpp"
-#include "lec6/sim/state_file.hpp"
 #include "lec6/twin/sim_server.hpp"
+#include "lec6/twin/state_file_io.hpp"
 
 namespace lec6::cli {
 
@@ -232,7 +232,7 @@ void run_sim(const SimArgs& a) {
 
   std::optional<sim::EepromSet> saved;
   if (!a.state.empty()) {
-    auto loaded = sim::load_state_file(a.state);
+    auto loaded = twin::load_state_file(a.state);
     if (!loaded) throw CommandFailed(kFailure, fmt::format("--state: {}", loaded.error()));
     saved = std::move(*loaded);
   }

@@ -139,29 +139,4 @@ TimePoint Session::deadline_in(Duration d) {
   return client().clock().now() + d;
 }
 
-namespace {
-// nlohmann-json prints doubles in their shortest form (150.0); millimetres must
-// read 150.00. mm_json() leaves a marked string that print_json() turns back
-// into the bare decimal text, which is a valid JSON number.
-constexpr std::string_view kMmMark = "\u0001mm:";
-}  // namespace
-
-std::string dump_json(const nlohmann::json& j, int indent) {
-  std::string text = j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
-  const std::string mark = "\"\\u0001mm:";  // how dump() escapes kMmMark
-  for (auto at = text.find(mark); at != std::string::npos; at = text.find(mark, at)) {
-    const auto end = text.find('"', at + mark.size());
-    text.replace(at, end - at + 1, text.substr(at + mark.size(), end - at - mark.size()));
-  }
-  return text;
-}
-
-void print_json(const nlohmann::json& j) {
-  fmt::print("{}\n", dump_json(j, 2));
-}
-
-nlohmann::json mm_json(int64_t v) {
-  return std::string(kMmMark) + lec::format_mm(v);
-}
-
 }  // namespace lec6::cli

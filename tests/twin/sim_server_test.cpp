@@ -22,10 +22,10 @@
 
 #include "lec6/error.hpp"
 #include "lec6/modbus/pdu.hpp"
-#include "lec6/sim/state_file.hpp"
 #include "lec6/transport/serial_link.hpp"
 #include "lec6/transport/tcp_link.hpp"
 #include "lec6/twin/sim_server.hpp"
+#include "lec6/twin/state_file_io.hpp"
 
 namespace lec6::twin {
 using namespace transport;
@@ -341,7 +341,7 @@ TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
   while (!fs::exists(state) && kClock.now() < deadline) std::this_thread::sleep_for(5ms);
   ASSERT_TRUE(fs::exists(state));
   twin->stop();
-  auto loaded = sim::load_state_file(state);
+  auto loaded = load_state_file(state);
   ASSERT_TRUE(loaded.has_value()) << loaded.error();
   ASSERT_TRUE(loaded->has_value());
   const auto& e = (**loaded).at(1);

@@ -97,8 +97,10 @@ class Client {
   // Writes a whole step (validated first: a step is never left invalid).
   void write_step(unsigned step, const lec::StepData& data);
   // Writes registers [first, first + count) of a step record from `data`.
+  // Retry::Never when the caller decides what a lost reply means (a restore
+  // reads the step back instead of writing EEPROM twice).
   void write_step_registers(unsigned step, const lec::StepData& data, unsigned first,
-                            unsigned count);
+                            unsigned count, Retry retry = Retry::Safe);
   void write_direct(const lec::StepData& data);  // D9102–D9111, validated
   void write_direct_registers(const lec::StepData& data, unsigned first, unsigned count);
   // D9100 ← 0x0100. Never resent blindly when `relative` (INC): see start_direct().
