@@ -3,6 +3,7 @@ JOBS ?= $(shell nproc)
 BUILD ?= build
 ASAN_BUILD ?= build-asan
 FUZZ_BUILD ?= build-fuzz
+DEB_BUILD ?= build-deb
 FUZZ_SECONDS ?= 600
 FUZZ_SMOKE_SECONDS ?= 15
 SOAK_TRANSACTIONS ?= 10000
@@ -12,7 +13,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo
 # number of fuzz regression inputs replayed, the dependency check): run apart, verbose.
 SHOWN_TESTS ?= ^Soak\.|KeptRegressionInputsPass|^deps\.
 
-.PHONY: all deps check-deps build demo test test-fast test-asan test-fuzz fuzz-build bench fuzz soak format clean
+.PHONY: all deps check-deps build demo test test-fast test-asan test-fuzz fuzz-build bench fuzz soak deb format clean
 
 all: build
 
@@ -69,8 +70,17 @@ soak: build
 bench: build
 	bench/compare
 
+# The Debian package (CPack): a Release build without tests, packaged in $(DEB_BUILD)/.
+$(DEB_BUILD)/CMakeCache.txt: | deps
+	cmake -S . -B $(DEB_BUILD) -DCMAKE_BUILD_TYPE=Release -DLEC6_TESTS=OFF -DLEC6_BENCH=OFF
+
+deb: deps $(DEB_BUILD)/CMakeCache.txt
+	cmake --build $(DEB_BUILD) -j $(JOBS)
+	cd $(DEB_BUILD) && cpack -G DEB
+	@ls $(DEB_BUILD)/*.deb
+
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.hpp' '*.h' '*.c')
 
 clean:
-	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)
+	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD) $(DEB_BUILD)

@@ -221,7 +221,7 @@ int main(int argc, char** argv) {
     const uint64_t retries_before = c.stats().retries;
     const CpuSample cpu0 = twin_pid ? cpu_of(twin_pid) : CpuSample{};
     const TimePoint start = c.clock().now();
-    const TimePoint end = start + milliseconds(seconds * 1000.0);
+    const TimePoint end = start + to_duration(FractionalSeconds(seconds));
     TimePoint now = start;
     while (now < end) {
       moving = 0;

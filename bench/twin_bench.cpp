@@ -44,12 +44,12 @@ void start_long_moves(sim::Bus& bus, VirtualClock& clock) {
     c.write_coil(lec::Coil::SerialMode, true);
     c.write_coil(lec::Coil::SVON, true);
   }
-  clock.advance(milliseconds(200));  // SVRE
+  clock.advance(std::chrono::milliseconds(200));  // SVRE
   for (uint8_t id : ids) {
     c.set_id(id);
     c.write_coil(lec::Coil::SETUP, true);
   }
-  clock.advance(milliseconds(3000));  // homing from 10 mm at 20 mm/s
+  clock.advance(std::chrono::milliseconds(3000));  // homing from 10 mm at 20 mm/s
   lec::StepData d;
   d.movement_mode = lec::MovementMode::Absolute;
   d.speed_mm_s = 1;
@@ -65,7 +65,7 @@ void start_long_moves(sim::Bus& bus, VirtualClock& clock) {
     c.write_direct(d);
     c.write_direct_start(client::Retry::Never);
   }
-  clock.advance(milliseconds(100));
+  clock.advance(std::chrono::milliseconds(100));
   for (uint8_t id : ids) {
     c.set_id(id);
     if (!c.read_flags().busy()) throw std::runtime_error("a controller is not moving");

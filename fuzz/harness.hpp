@@ -196,7 +196,7 @@ inline void reply_one(const uint8_t* data, std::size_t size) {
           "response_length disagrees with a frame decode_response accepted");
     (void)lec::explain_response(*d, &*request);
   }
-  (void)lec::explain_bytes(stream, true);
+  (void)lec::explain_bytes(stream, lec::FrameRole::Reply);
   (void)modbus::response_length(stream);
 
   // The bare framer, byte by byte: every byte is either dropped, buffered or
@@ -233,14 +233,14 @@ inline void reply_one(const uint8_t* data, std::size_t size) {
   // The whole transaction, fed in chunks as a port delivers them.
   client::TransactionTiming timing;
   client::Transaction tx(*request, timing);
-  TimePoint t = TimePoint{} + milliseconds(1000);
+  TimePoint t = TimePoint{} + std::chrono::milliseconds(1000);
   tx.sent(t);
   Rng rng(ctl);
   std::size_t at = 0;
   while (at < stream.size() && tx.step() == client::Transaction::Step::Receive) {
     const std::size_t n =
         std::min<std::size_t>(stream.size() - at, 1 + rng.below(rng.below(4) == 0 ? 64 : 4));
-    t += milliseconds(0.1);
+    t += to_duration(FractionalMilliseconds(0.1));
     tx.received(stream.subspan(at, n), t);
     at += n;
   }
@@ -292,16 +292,17 @@ inline void request_one(const uint8_t* data, std::size_t size) {
       }
     }
   }
-  (void)lec::explain_bytes(stream, false);
+  (void)lec::explain_bytes(stream, lec::FrameRole::Request);
 
   // The controller's framer: frames are the stream cut in pieces, in order,
   // nothing lost but what overflowed, nothing longer than a frame can be.
   static constexpr uint32_t kBauds[] = {38400, 9600, 115200, 230400};
   modbus::LineTiming line{kBauds[ctl & 3]};
   const Duration ts = line.silent_interval();
-  modbus::DeviceFramer framer(ts, (ctl & 4) != 0);
+  modbus::DeviceFramer framer(
+      ts, (ctl & 4) != 0 ? modbus::FrameEnd::LengthOrSilence : modbus::FrameEnd::Silence);
   Rng rng(ctl);
-  TimePoint t = TimePoint{} + milliseconds(1000);
+  TimePoint t = TimePoint{} + std::chrono::milliseconds(1000);
   Bytes joined;
   auto take = [&](TimePoint now) {
     while (auto f = framer.poll(now)) {
@@ -324,7 +325,7 @@ inline void request_one(const uint8_t* data, std::size_t size) {
         t += ts;
         break;  // exactly Ts: ends the frame
       default:
-        t += ts + milliseconds(rng.below(5));
+        t += ts + std::chrono::milliseconds(rng.below(5));
         break;  // a pause
     }
     t += line.wire_time(n);
@@ -398,14 +399,16 @@ inline void twin_one(const uint8_t* data, std::size_t size) {
   if (setup & 2) config.workpiece_mm = 250.0;
   const Duration ts = line.line.silent_interval();
 
-  TimePoint t = TimePoint{} + milliseconds(1000);
+  TimePoint t = TimePoint{} + std::chrono::milliseconds(1000);
   sim::Bus bus(line);
   const std::vector<uint8_t> ids = {1, 2};
   for (uint8_t id : ids) bus.add(id, config, t);
 
   // A shadow of the bus's framer: the same bytes at the same times give the
   // same frames, so we know what the bus acted on.
-  modbus::DeviceFramer shadow(ts, line.timing == sim::Timing::Fast);
+  modbus::DeviceFramer shadow(ts, line.timing == sim::Timing::Fast
+                                      ? modbus::FrameEnd::LengthOrSilence
+                                      : modbus::FrameEnd::Silence);
   std::deque<modbus::Bytes> owed;  // frames that must be answered, in order
   std::vector<modbus::Bytes> since_snapshot;
   std::vector<detail::Snapshot> before;
@@ -475,29 +478,29 @@ inline void twin_one(const uint8_t* data, std::size_t size) {
       case 0:
         break;
       case 1:
-        t += milliseconds(2);
+        t += std::chrono::milliseconds(2);
         break;
       case 2:
-        t += milliseconds(20);
+        t += std::chrono::milliseconds(20);
         break;
       case 3:
-        t += milliseconds(200);
+        t += std::chrono::milliseconds(200);
         break;
       case 4:
-        t += milliseconds(2000);
+        t += std::chrono::milliseconds(2000);
         break;
       case 5:
-        t += milliseconds(30000);
+        t += std::chrono::milliseconds(30000);
         break;
       case 6: {
         settle(t);
         auto* c = bus.find(ids[head & 1]);
         c->set_estop(!c->status(t).estop(), t);
-        t += milliseconds(5);
+        t += std::chrono::milliseconds(5);
         break;
       }
       default:
-        t += milliseconds(1);
+        t += std::chrono::milliseconds(1);
         break;
     }
     settle(t);
@@ -508,8 +511,8 @@ inline void twin_one(const uint8_t* data, std::size_t size) {
     settle(t);
   }
   // Let every frame complete and every reply go out.
-  settle(t + milliseconds(100));
-  settle(t + milliseconds(60000));
+  settle(t + std::chrono::milliseconds(100));
+  settle(t + std::chrono::milliseconds(60000));
   check(owed.empty(), "the twin did not answer a frame it owes a reply");
 }
 

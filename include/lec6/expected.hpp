@@ -1,6 +1,8 @@
 #pragma once
 // A minimal value-or-error type. C++20 has no std::expected yet (C++23); this
 // keeps the same spelling so it can be swapped for std::expected later.
+//
+// Thread safety: as the values it holds.
 
 #include <cassert>
 #include <type_traits>

@@ -12,8 +12,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "cli/json_output.hpp"
 #include "lec6/client/actuator.hpp"
 #include "lec6/client/client.hpp"
+#include "lec6/error.hpp"
 
 namespace lec6::cli {
 
@@ -30,15 +32,15 @@ enum ExitCode : int {
 };
 
 // An argument the user got wrong, found after parsing (exit 2).
-class UsageError : public std::runtime_error {
+class UsageError : public InvalidArgument {
  public:
-  using std::runtime_error::runtime_error;
+  using InvalidArgument::InvalidArgument;
 };
 
 // A command that failed with a message and an exit code of its own.
-class CommandFailed : public std::runtime_error {
+class CommandFailed : public Error {
  public:
-  CommandFailed(int code, const std::string& what) : std::runtime_error(what), code_(code) {}
+  CommandFailed(int code, const std::string& what) : Error(what), code_(code) {}
   int code() const noexcept { return code_; }
 
  private:
@@ -105,12 +107,5 @@ void add_demo_command(CLI::App& app, Session& session);   // demo
 void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/backup/restore/diff
 void add_sim_command(CLI::App& app);                      // sim (the twin program)
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
-
-// ---- output helpers -----------------------------------------------------------
-void print_json(const nlohmann::json& j);
-// The JSON text, with millimetres from mm_json() as decimals with two places.
-std::string dump_json(const nlohmann::json& j, int indent = -1);
-// "150.00" for 15000 (0.01 mm), as a JSON number with two decimals.
-nlohmann::json mm_json(int64_t value_001mm);
 
 }  // namespace lec6::cli

@@ -29,7 +29,8 @@ void run_decode(const Session& s, const std::vector<std::string>& words, bool as
   const bool request_ok = modbus::decode_request(bytes).has_value();
   const bool reply_ok = modbus::decode_response(bytes).has_value();
   const bool reply = as_reply || (!request_ok && reply_ok);
-  const std::string text = lec::explain_bytes(bytes, reply);
+  const std::string text =
+      lec::explain_bytes(bytes, reply ? lec::FrameRole::Reply : lec::FrameRole::Request);
   if (s.json()) {
     print_json({{"hex", modbus::to_hex(bytes)},
                 {"kind", reply ? "reply" : "query"},
@@ -86,14 +87,14 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
   const Bytes reply =
       link ? exchange_bytes(c, *link, frame) : exchange_request(c, frame, s.port_description());
   const double ms = to_ms(c.clock().now() - start);
-  const std::string sent_text = lec::explain_bytes(frame, false);
+  const std::string sent_text = lec::explain_bytes(frame, lec::FrameRole::Request);
   std::string reply_text = "no reply";
   if (!reply.empty()) {
     // Explain the reply with the query's addresses when the query decodes.
     const auto query = modbus::decode_request(frame);
     const auto answer = modbus::decode_response(reply);
-    reply_text =
-        answer && query ? lec::explain_response(*answer, &*query) : lec::explain_bytes(reply, true);
+    reply_text = answer && query ? lec::explain_response(*answer, &*query)
+                                 : lec::explain_bytes(reply, lec::FrameRole::Reply);
   }
   if (s.json()) {
     print_json({{"sent", modbus::to_hex(frame)},
@@ -134,7 +135,7 @@ void run_ping(Session& s, const PingArgs& a) {
       if (!s.json()) fmt::print("ID {}: seq={} {}\n", s.options().id, seq, e.what());
     }
     if (seq + 1 != a.count && a.interval_s > 0) {
-      const TimePoint next = c.clock().now() + milliseconds(a.interval_s * 1000);
+      const TimePoint next = c.clock().now() + to_duration(FractionalSeconds(a.interval_s));
       while (c.clock().now() < next && !g_interrupted)
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }

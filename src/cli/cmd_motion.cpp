@@ -110,7 +110,7 @@ void run_move(Session& s, const MoveArgs& a) {
   const client::DirectMove m =
       by_step ? client::DirectMove{} : direct_move(a);  // validate before opening
   auto& axis = s.axis();
-  const auto deadline = s.deadline_in(milliseconds(a.timeout_s * 1000));
+  const auto deadline = s.deadline_in(to_duration(FractionalSeconds(a.timeout_s)));
   auto wait = s.wait_options(progress_printer(s));
   if (by_step) {
     report_move(s, axis.run_step(static_cast<unsigned>(a.step), deadline, wait),
@@ -145,7 +145,8 @@ void run_jog(Session& s, const std::string& dir, double seconds) {
   if (held && isatty(STDIN_FILENO)) {
     wait.cancel = [] { return g_interrupted.load() || stdin_has_input(); };
   }
-  const TimePoint until = held ? TimePoint::max() : s.deadline_in(milliseconds(seconds * 1000));
+  const TimePoint until =
+      held ? TimePoint::max() : s.deadline_in(to_duration(FractionalSeconds(seconds)));
   const auto r = axis.jog(dir == "+", until, s.deadline_in(std::chrono::hours(24)), wait);
   g_interrupted = false;  // Ctrl-C meant "release the jog"
   end_progress(s);
@@ -186,7 +187,7 @@ void add_motion_commands(CLI::App& app, Session& session) {
   servo->callback([&session, value, timeout_s] {
     const bool on = parse_on_off(*value, "servo");
     auto& axis = session.axis();
-    const auto deadline = session.deadline_in(milliseconds(*timeout_s * 1000));
+    const auto deadline = session.deadline_in(to_duration(FractionalSeconds(*timeout_s)));
     if (on) {
       axis.servo_on(deadline, session.wait_options());
     } else {
@@ -202,7 +203,7 @@ void add_motion_commands(CLI::App& app, Session& session) {
       ->capture_default_str();
   home->callback([&session, home_timeout] {
     auto& axis = session.axis();
-    const auto r = axis.home(session.deadline_in(milliseconds(*home_timeout * 1000)),
+    const auto r = axis.home(session.deadline_in(to_duration(FractionalSeconds(*home_timeout))),
                              session.wait_options(progress_printer(session)));
     end_progress(session);
     say(session,

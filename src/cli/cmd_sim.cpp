@@ -14,8 +14,8 @@
 #include "cli/app.hpp"
 #include "lec6/modbus/timing.hpp"
 #include "lec6/sim/bus.hpp"
-#include "lec6/sim/state_file.hpp"
 #include "lec6/twin/sim_server.hpp"
+#include "lec6/twin/state_file_io.hpp"
 
 namespace lec6::cli {
 
@@ -219,7 +219,7 @@ void run_sim(const SimArgs& a) {
   sim::LineConfig line;
   line.line.baud = a.baud;
   line.line.silent_interval_k = a.silent_interval_k;
-  line.line.delay_td = milliseconds(a.delay_ms);
+  line.line.delay_td = to_duration(FractionalMilliseconds(a.delay_ms));
   line.timing = a.timing == "fast" ? sim::Timing::Fast : sim::Timing::Real;
 
   sim::FaultConfig faults;
@@ -228,11 +228,11 @@ void run_sim(const SimArgs& a) {
   faults.corrupt = a.corrupt_rate;
   faults.garbage = a.garbage_rate;
   faults.delay = a.delay_rate_given ? a.delay_rate : (a.extra_delay_given ? 1.0 : 0.0);
-  faults.extra_delay = milliseconds(a.extra_delay_ms);
+  faults.extra_delay = to_duration(FractionalMilliseconds(a.extra_delay_ms));
 
   std::optional<sim::EepromSet> saved;
   if (!a.state.empty()) {
-    auto loaded = sim::load_state_file(a.state);
+    auto loaded = twin::load_state_file(a.state);
     if (!loaded) throw CommandFailed(kFailure, fmt::format("--state: {}", loaded.error()));
     saved = std::move(*loaded);
   }

@@ -87,7 +87,7 @@ void run_watch(Session& s, const WatchOptions& o) {
     std::fflush(stdout);
     if ((o.count && samples >= o.count) || (o.seconds > 0 && t >= o.seconds)) break;
     if (o.interval_ms > 0) {
-      const TimePoint next = c.clock().now() + milliseconds(o.interval_ms);
+      const TimePoint next = c.clock().now() + to_duration(FractionalMilliseconds(o.interval_ms));
       while (c.clock().now() < next && !g_interrupted)
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }

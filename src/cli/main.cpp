@@ -5,6 +5,7 @@
 #include "cli/app.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
+#include "lec6/version.hpp"
 
 namespace lec6::cli {
 std::atomic<bool> g_interrupted{false};
@@ -90,6 +91,8 @@ int main(int argc, char** argv) {
   CLI::App app{"lec: drive SMC LEC\u25A16 electric-actuator controllers over RS485 (Modbus RTU)",
                "lec"};
   app.footer(kExitCodes);
+  app.set_version_flag("--version", std::string("lec ") + LEC6_VERSION_STRING,
+                       "Print the version and exit");
   app.require_subcommand(1);
   app.fallthrough();
   cli::GlobalOptions options;
@@ -116,7 +119,9 @@ int main(int argc, char** argv) {
     return fail(cli::kUsage, e.what());
   } catch (const client::InvalidRequest& e) {
     return fail(cli::kUsage, e.what());
-  } catch (const std::invalid_argument& e) {
+  } catch (const InvalidArgument& e) {  // a port spec, an option value, a configuration
+    return fail(cli::kUsage, e.what());
+  } catch (const std::invalid_argument& e) {  // a number the standard library could not convert
     return fail(cli::kUsage, e.what());
   } catch (const client::TransportError& e) {
     return fail(cli::kTransport, e.what());

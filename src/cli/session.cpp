@@ -78,10 +78,11 @@ client::Client& Session::client(std::string_view default_port) {
       transport::ModbusTcpOptions mo;
       mo.line.baud = options_.baud;
       mo.line.silent_interval_k = options_.silent_interval_k;
-      mo.line.delay_td = milliseconds(options_.delay_td_ms);
+      mo.line.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
       // The gateway queues us behind other clients on its line: a second on
       // top of the serial reply window.
-      mo.timeout = std::chrono::seconds(1) + milliseconds(options_.timeout_margin_ms);
+      mo.timeout =
+          std::chrono::seconds(1) + to_duration(FractionalMilliseconds(options_.timeout_margin_ms));
       if (options_.trace) mo.trace = print_trace_event;
       impl->master = std::make_unique<transport::ModbusTcpMaster>(spec.host, spec.tcp_port, mo);
       break;
@@ -90,7 +91,7 @@ client::Client& Session::client(std::string_view default_port) {
       sim::LineConfig line;
       line.line.baud = options_.baud;
       line.line.silent_interval_k = options_.silent_interval_k;
-      line.line.delay_td = milliseconds(options_.delay_td_ms);
+      line.line.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
       impl->twin = std::make_unique<sim::Bus>(line);
       impl->twin->add(static_cast<uint8_t>(options_.id), sim::ActuatorConfig{}, impl->clock.now());
       impl->link = std::make_unique<twin::SimLink>(*impl->twin, impl->clock);
@@ -101,9 +102,9 @@ client::Client& Session::client(std::string_view default_port) {
   client::ClientOptions co;
   co.id = static_cast<uint8_t>(options_.id);
   co.retries = options_.retries;
-  co.timeout_margin = milliseconds(options_.timeout_margin_ms);
+  co.timeout_margin = to_duration(FractionalMilliseconds(options_.timeout_margin_ms));
   co.silent_interval_k = options_.silent_interval_k;
-  co.delay_td = milliseconds(options_.delay_td_ms);
+  co.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
   co.wait_for_silence = !options_.no_silence_wait;
   if (options_.trace) co.trace = print_trace_event;
   impl->client = impl->link ? std::make_unique<client::Client>(*impl->link, co)
@@ -136,31 +137,6 @@ client::WaitOptions Session::wait_options(
 
 TimePoint Session::deadline_in(Duration d) {
   return client().clock().now() + d;
-}
-
-namespace {
-// nlohmann-json prints doubles in their shortest form (150.0); millimetres must
-// read 150.00. mm_json() leaves a marked string that print_json() turns back
-// into the bare decimal text, which is a valid JSON number.
-constexpr std::string_view kMmMark = "\u0001mm:";
-}  // namespace
-
-std::string dump_json(const nlohmann::json& j, int indent) {
-  std::string text = j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
-  const std::string mark = "\"\\u0001mm:";  // how dump() escapes kMmMark
-  for (auto at = text.find(mark); at != std::string::npos; at = text.find(mark, at)) {
-    const auto end = text.find('"', at + mark.size());
-    text.replace(at, end - at + 1, text.substr(at + mark.size(), end - at - mark.size()));
-  }
-  return text;
-}
-
-void print_json(const nlohmann::json& j) {
-  fmt::print("{}\n", dump_json(j, 2));
-}
-
-nlohmann::json mm_json(int64_t v) {
-  return std::string(kMmMark) + lec::format_mm(v);
 }
 
 }  // namespace lec6::cli

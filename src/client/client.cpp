@@ -213,7 +213,7 @@ void Client::write_step(unsigned step, const lec::StepData& data) {
 }
 
 void Client::write_step_registers(unsigned step, const lec::StepData& data, unsigned first,
-                                  unsigned count) {
+                                  unsigned count, Retry retry) {
   check_step_number(step);
   check_record(data, step);
   if (first + count > lec::StepData::kRegisters || count == 0) {
@@ -221,7 +221,7 @@ void Client::write_step_registers(unsigned step, const lec::StepData& data, unsi
   }
   const auto regs = data.to_registers();
   write_registers(static_cast<uint16_t>(lec::step_address(step) + first),
-                  std::span(regs).subspan(first, count));
+                  std::span(regs).subspan(first, count), retry);
 }
 
 void Client::write_direct(const lec::StepData& data) {

@@ -2,18 +2,11 @@
 
 #include "lec6/client/step_sync.hpp"
 
-#include <fcntl.h>
 #include <fmt/format.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
-#include <fstream>
 #include <iterator>
 #include <set>
-#include <sstream>
 
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
@@ -71,31 +64,6 @@ std::string describe_readback(const lec::StepData& wrote, const lec::StepData& r
   return out;
 }
 
-// One FC10 of registers `range` of `want`, never resent by the client: the
-// caller decides what to do about a lost reply. The same checks as
-// Client::write_step_registers: a step is never written invalid.
-void write_once(Client& c, unsigned step, const lec::StepData& want, lec::RegisterRange range) {
-  if (step >= lec::StepTable::kSteps) {
-    throw InvalidRequest(fmt::format("step {} does not exist: steps are numbered 0 to 63", step));
-  }
-  if (!want.is_blank()) {
-    const auto issues = lec::validation_messages(want, step);
-    if (!issues.empty()) {
-      std::string all;
-      for (const auto& i : issues) all += (all.empty() ? "" : "; ") + i;
-      throw InvalidRequest(all);
-    }
-  }
-  if (range.last >= lec::StepData::kRegisters || range.first > range.last) {
-    throw InvalidRequest(
-        fmt::format("registers {}-{} are outside a step record", range.first, range.last));
-  }
-  const auto regs = want.to_registers();
-  c.write_registers(static_cast<uint16_t>(lec::step_address(step) + range.first),
-                    std::span<const uint16_t>(regs).subspan(range.first, range.count()),
-                    Retry::Never);
-}
-
 }  // namespace
 
 // ---- backup ------------------------------------------------------------------
@@ -108,63 +76,6 @@ lec::StepTable backup_steps(Client& c) {
   t.equipment_name = std::string(trim(c.read_name().text));
   t.controller_id = c.options().id;
   return t;
-}
-
-// ---- files -------------------------------------------------------------------
-
-Expected<lec::StepTable, lec::TableErrors> read_table_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return unexpected(
-        lec::TableErrors{fmt::format("cannot read {}: {}", path.string(), std::strerror(errno))});
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) {
-    return unexpected(lec::TableErrors{fmt::format("cannot read {}: read error", path.string())});
-  }
-  return lec::parse_table(text.str(), lec::table_format_for_path(path.string()));
-}
-
-Expected<void, std::string> write_table_file(const std::filesystem::path& path,
-                                             const lec::StepTable& table) {
-  const std::string text = lec::format_table(table, lec::table_format_for_path(path.string()));
-  const std::filesystem::path dir =
-      path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
-  std::string tmpl = (dir / ("." + path.filename().string() + ".tmp-XXXXXX")).string();
-  const int fd = ::mkstemp(tmpl.data());
-  auto os_error = [&](std::string_view what) {
-    return unexpected(fmt::format("cannot {} {}: {}", what, path.string(), std::strerror(errno)));
-  };
-  if (fd < 0) return os_error("write");
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      auto e = os_error("write");
-      ::close(fd);
-      ::unlink(tmpl.c_str());
-      return e;
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  // mkstemp makes the file 0600; a backup is an ordinary file.
-  const mode_t mask = ::umask(0);
-  ::umask(mask);
-  if (::fchmod(fd, 0666 & ~mask) != 0 || ::fsync(fd) != 0) {
-    auto e = os_error("write");
-    ::close(fd);
-    ::unlink(tmpl.c_str());
-    return e;
-  }
-  ::close(fd);
-  if (::rename(tmpl.c_str(), path.c_str()) != 0) {
-    auto e = os_error("write");
-    ::unlink(tmpl.c_str());
-    return e;
-  }
-  return {};
 }
 
 // ---- restore -----------------------------------------------------------------
@@ -296,7 +207,10 @@ RestoreReport apply_restore(Client& c, const RestorePlan& plan, const ApplyOptio
         bool confirmed = false;  // read back equal while recovering from a lost reply
         for (int attempt = 0;; ++attempt) {
           try {
-            write_once(c, change.step, change.want, range);
+            // One FC10, never resent by the client: a lost reply is settled by
+            // reading the step back, not by writing EEPROM twice.
+            c.write_step_registers(change.step, change.want, range.first, range.count(),
+                                   Retry::Never);
             break;
           } catch (const TransportError&) {
             // The reply was lost or garbled: the write may or may not have

@@ -176,8 +176,8 @@ std::string explain_response(const ResponseFrame& frame, const RequestFrame* req
   return std::visit(Visitor{who, request}, frame.pdu);
 }
 
-std::string explain_bytes(std::span<const uint8_t> adu, bool as_reply) {
-  if (as_reply) {
+std::string explain_bytes(std::span<const uint8_t> adu, FrameRole role) {
+  if (role == FrameRole::Reply) {
     auto r = decode_response(adu);
     return r ? explain_response(*r) : fmt::format("not a valid reply: {}", r.error().message);
   }

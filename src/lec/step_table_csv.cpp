@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <optional>
 
+#include "lec/csv_reader.hpp"
 #include "lec/step_table_internal.hpp"
 #include "lec6/lec/step_table.hpp"
 
@@ -21,7 +22,7 @@ constexpr std::string_view kBom = "\xEF\xBB\xBF";
 // A comment line as the writer puts it: quoted as one CSV field when it holds
 // a character a spreadsheet would split on or unquote.
 std::string comment_line(std::string_view text) {
-  if (text.find_first_of(",;\t\"") == std::string_view::npos) return std::string(text);
+  if (text.find_first_of(",;\t\"\r\n") == std::string_view::npos) return std::string(text);
   std::string out = "\"";
   for (char c : text) {
     out += c;
@@ -30,32 +31,15 @@ std::string comment_line(std::string_view text) {
   return out + "\"";
 }
 
-struct Line {
-  std::size_t number;  // 1-based
-  std::string_view text;
-};
-
-std::vector<Line> split_lines(std::string_view text) {
-  std::vector<Line> lines;
-  std::size_t number = 1;
-  while (!text.empty()) {
-    const auto nl = text.find('\n');
-    std::string_view line = text.substr(0, nl);
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    lines.push_back({number++, line});
-    if (nl == std::string_view::npos) break;
-    text.remove_prefix(nl + 1);
-  }
-  return lines;
+// A comment record: its first cell starts with '#'.
+bool is_comment(const csv::Record& r) {
+  if (r.cells.empty()) return false;
+  const std::string_view first = trim(r.cells.front());
+  return !first.empty() && first.front() == '#';
 }
 
-// Before the separator is known: does this line start with '#' or "#?
-bool looks_like_comment(std::string_view line) {
-  line = trim(line);
-  if (!line.empty() && line.front() == '"') line = trim(line.substr(1));
-  return !line.empty() && line.front() == '#';
-}
-
+// Separators from the header record's text: the first ';' outside quotes
+// wins, else a tab, else ','.
 char detect_separator(std::string_view header) {
   bool quoted = false;
   bool tab = false;
@@ -66,56 +50,6 @@ char detect_separator(std::string_view header) {
     if (c == '\t') tab = true;
   }
   return tab ? '\t' : ',';
-}
-
-bool is_blank_char(char c, char sep) {
-  return (c == ' ' || c == '\t') && c != sep;
-}
-
-// One line into cells, RFC 4180 quoting within the line, cells trimmed.
-Expected<std::vector<std::string>, std::string> split_cells(std::string_view line, char sep) {
-  std::vector<std::string> cells;
-  std::size_t i = 0;
-  while (true) {
-    while (i < line.size() && is_blank_char(line[i], sep)) ++i;
-    std::string cell;
-    if (i < line.size() && line[i] == '"') {
-      const std::size_t column = cells.size() + 1;
-      ++i;
-      bool closed = false;
-      while (i < line.size()) {
-        if (line[i] == '"') {
-          if (i + 1 < line.size() && line[i + 1] == '"') {
-            cell += '"';
-            i += 2;
-            continue;
-          }
-          ++i;
-          closed = true;
-          break;
-        }
-        cell += line[i++];
-      }
-      if (!closed) {
-        return unexpected(fmt::format(
-            "cell {} opens a quote that does not close on this line (quoted cells cannot span "
-            "lines)",
-            column));
-      }
-      while (i < line.size() && is_blank_char(line[i], sep)) ++i;
-      if (i < line.size() && line[i] != sep) {
-        return unexpected(fmt::format("cell {} has text after its closing quote", column));
-      }
-    } else {
-      const std::size_t end = std::min(line.find(sep, i), line.size());
-      cell = std::string(trim(line.substr(i, end - i)));
-      i = end;
-    }
-    cells.push_back(std::move(cell));
-    if (i >= line.size()) break;
-    ++i;  // the separator
-  }
-  return cells;
 }
 
 bool all_empty(const std::vector<std::string>& cells) {
@@ -227,18 +161,21 @@ Expected<StepTable, TableErrors> parse_csv(std::string_view text) {
         "the file is not UTF-8 text (UTF-16?): save it as CSV UTF-8 (comma or semicolon)"});
   }
   if (text.starts_with(kBom)) text.remove_prefix(kBom.size());
-  const std::vector<Line> lines = split_lines(text);
 
-  // The first line with content (not only separators) that is not a comment.
-  const auto header_it = std::find_if(lines.begin(), lines.end(), [](const Line& l) {
-    return l.text.find_first_not_of(" \t,;\"") != std::string_view::npos &&
-           !looks_like_comment(l.text);
+  // The header: the first record with content (not only separators) that is
+  // not a comment. Record boundaries depend on quotes, not on which separator
+  // is used, so any of them finds it; its text then tells the separator.
+  const std::vector<csv::Record> any = csv::read(text, ",;\t");
+  const auto header_it = std::find_if(any.begin(), any.end(), [](const csv::Record& r) {
+    return r.raw.find_first_not_of(" \t,;\"") != std::string_view::npos && !is_comment(r);
   });
-  if (header_it == lines.end()) {
+  if (header_it == any.end()) {
     return unexpected(TableErrors{"no header line: the file needs a header naming its columns (" +
                                   detail::known_columns() + ")"});
   }
-  const char sep = detect_separator(header_it->text);
+  const std::size_t header_line = header_it->line;
+  const char sep = detect_separator(header_it->raw);
+  const std::vector<csv::Record> records = csv::read(text, std::string_view(&sep, 1));
 
   std::optional<Columns> cols;
   std::optional<std::string> name;
@@ -246,14 +183,14 @@ Expected<StepTable, TableErrors> parse_csv(std::string_view text) {
   std::size_t name_line = 0, id_line = 0;
   detail::TableBuilder builder;
 
-  for (const Line& line : lines) {
-    if (trim(line.text).empty()) continue;
-    auto cells = split_cells(line.text, sep);
-    if (!cells) {
-      errors.push_back(fmt::format("line {}: {}", line.number, cells.error()));
-      if (!cols && line.number == header_it->number) return unexpected(std::move(errors));
+  for (const csv::Record& record : records) {
+    const std::size_t line = record.line;
+    if (!record.error.empty()) {
+      errors.push_back(fmt::format("line {}: {}", line, record.error));
+      if (!cols && line == header_line) return unexpected(std::move(errors));
       continue;
     }
+    const std::vector<std::string>* cells = &record.cells;
     if (all_empty(*cells)) continue;
 
     const std::string_view first = trim(cells->front());
@@ -267,23 +204,23 @@ Expected<StepTable, TableErrors> parse_csv(std::string_view text) {
         std::size_t& seen = key == "equipment_name" ? name_line : id_line;
         if (seen != 0) {
           errors.push_back(
-              fmt::format("line {}: {} is given again (first on line {})", line.number, key, seen));
+              fmt::format("line {}: {} is given again (first on line {})", line, key, seen));
           continue;
         }
-        seen = line.number;
+        seen = line;
         if (key == "equipment_name") {
           auto v = detail::parse_equipment_name(value);
           if (v) {
             name = *v;
           } else {
-            errors.push_back(fmt::format("line {}: {}", line.number, v.error()));
+            errors.push_back(fmt::format("line {}: {}", line, v.error()));
           }
         } else {
           auto v = detail::parse_controller_id(value);
           if (v) {
             id = *v;
           } else {
-            errors.push_back(fmt::format("line {}: {}", line.number, v.error()));
+            errors.push_back(fmt::format("line {}: {}", line, v.error()));
           }
         }
       }
@@ -291,7 +228,7 @@ Expected<StepTable, TableErrors> parse_csv(std::string_view text) {
     }
 
     if (!cols) {
-      cols = read_header(*cells, line.number, errors);
+      cols = read_header(*cells, line, errors);
       if (!cols->step) return unexpected(std::move(errors));
       continue;
     }
@@ -301,9 +238,9 @@ Expected<StepTable, TableErrors> parse_csv(std::string_view text) {
       return j < cells->size() ? std::optional<std::string>((*cells)[j]) : std::nullopt;
     };
     const auto step = detail::parse_step_number(cell(*cols->step).value_or(""));
-    const std::string where = step ? fmt::format("line {} (step {})", line.number, *step)
-                                   : fmt::format("line {}", line.number);
-    if (!step) errors.push_back(fmt::format("line {}: {}", line.number, step.error()));
+    const std::string where =
+        step ? fmt::format("line {} (step {})", line, *step) : fmt::format("line {}", line);
+    if (!step) errors.push_back(fmt::format("line {}: {}", line, step.error()));
     for (std::size_t j = cols->width; j < cells->size(); ++j) {
       if (!trim((*cells)[j]).empty()) {
         errors.push_back(fmt::format("{}: cell {} ('{}') is past the header's {} columns", where,
@@ -322,7 +259,7 @@ Expected<StepTable, TableErrors> parse_csv(std::string_view text) {
       if (cols->field[n]) sc.text[n] = cell(*cols->field[n]).value_or("");
     }
     const auto data = detail::parse_step_cells(sc, where, errors);
-    if (step) builder.add(*step, data, fmt::format("line {}", line.number), errors);
+    if (step) builder.add(*step, data, fmt::format("line {}", line), errors);
   }
 
   if (!cols) {

@@ -119,7 +119,7 @@ std::optional<T> opt_field(const Args& a, const char* key, lec::StepField f) {
 
 Duration timeout_of(const Args& a, double fallback_s) {
   const double s = a.has("timeout_s") ? number(a, "timeout_s", 0.1, 3600, "s") : fallback_s;
-  return milliseconds(s * 1000);
+  return to_duration(FractionalSeconds(s));
 }
 
 void parse_move(const Args& a, Command& c) {
@@ -164,8 +164,10 @@ void parse_jog(const Args& a, Command& c) {
   if (a.has("lease_ms") == a.has("duration_ms")) {
     bad("lease_ms", "give lease_ms (hold to run, renewed by repeating jog) or duration_ms");
   }
-  if (a.has("lease_ms")) c.jog_lease = milliseconds(number(a, "lease_ms", 50, 5000, "ms"));
-  if (a.has("duration_ms")) c.jog_duration = milliseconds(number(a, "duration_ms", 1, 60000, "ms"));
+  if (a.has("lease_ms"))
+    c.jog_lease = to_duration(FractionalMilliseconds(number(a, "lease_ms", 50, 5000, "ms")));
+  if (a.has("duration_ms"))
+    c.jog_duration = to_duration(FractionalMilliseconds(number(a, "duration_ms", 1, 60000, "ms")));
 }
 
 void parse_step_write(const Args& a, const json& args, Command& c) {

@@ -1,6 +1,7 @@
 // The serve config from YAML, with every mistake named by file, line and key.
 
 #include "lec6/serve/config.hpp"
+#include "lec6/error.hpp"
 
 #include <arpa/inet.h>
 #include <fmt/format.h>
@@ -73,7 +74,7 @@ void check_port(const Reader& r, const YAML::Node& n, const std::string& path,
                          "sim, or rtu+tcp://host:port",
                          port));
     }
-  } catch (const std::invalid_argument& e) {
+  } catch (const InvalidArgument& e) {
     r.fail(n, path, e.what());
   }
 }
@@ -243,14 +244,14 @@ std::string Endpoint::text() const {
 }
 
 Duration LineConfig::cache_max_age() const {
-  if (cache_max_age_ms) return milliseconds(*cache_max_age_ms);
+  if (cache_max_age_ms) return to_duration(FractionalMilliseconds(*cache_max_age_ms));
   double slowest_hz = 0;
   for (const auto& a : axes) {
     if (a.telemetry_hz > 0 && (slowest_hz == 0 || a.telemetry_hz < slowest_hz))
       slowest_hz = a.telemetry_hz;
   }
   const double ms = slowest_hz > 0 ? 2000.0 / slowest_hz : 100.0;
-  return milliseconds(std::max(ms, 100.0));
+  return to_duration(FractionalMilliseconds(std::max(ms, 100.0)));
 }
 
 std::optional<ServeConfig::Found> ServeConfig::find_axis(std::string_view name) const {

@@ -1,6 +1,7 @@
 #include "lec6/serve/wire.hpp"
 
 #include "lec6/client/rtu_master.hpp"
+#include "lec6/error.hpp"
 #include "lec6/transport/port_spec.hpp"
 #include "lec6/transport/serial_link.hpp"
 #include "lec6/transport/tcp_link.hpp"
@@ -12,8 +13,8 @@ namespace {
 client::RtuOptions rtu_options(const LineConfig& line, bool fast_twin) {
   client::RtuOptions o;
   o.silent_interval_k = line.silent_interval;
-  o.delay_td = milliseconds(line.delay_ms);
-  o.timeout_margin = milliseconds(line.timeout_margin_ms);
+  o.delay_td = to_duration(FractionalMilliseconds(line.delay_ms));
+  o.timeout_margin = to_duration(FractionalMilliseconds(line.timeout_margin_ms));
   // A fast twin frames by length: the Ts gap would only measure itself.
   o.wait_for_silence = line.silence_wait && !fast_twin;
   return o;
@@ -24,7 +25,7 @@ std::shared_ptr<SimWire> make_twin(const LineConfig& line) {
   sim::LineConfig lc;
   lc.line.baud = line.baud;
   lc.line.silent_interval_k = line.silent_interval;
-  lc.line.delay_td = milliseconds(line.delay_ms);
+  lc.line.delay_td = to_duration(FractionalMilliseconds(line.delay_ms));
   lc.timing = line.sim.fast ? sim::Timing::Fast : sim::Timing::Real;
   sim::FaultConfig faults;
   faults.drop = line.sim.drop_rate;
@@ -78,7 +79,7 @@ Wire open_wire(const LineConfig& line) {
       break;
     }
     case transport::PortKind::Tcp:
-      throw std::invalid_argument("a line is driven in Modbus RTU, not Modbus TCP: " + line.port);
+      throw InvalidArgument("a line is driven in Modbus RTU, not Modbus TCP: " + line.port);
   }
   const bool fast_twin = spec.kind == transport::PortKind::Sim && line.sim.fast;
   w.master = std::make_unique<client::RtuMaster>(*link, rtu_options(line, fast_twin));
@@ -88,14 +89,16 @@ Wire open_wire(const LineConfig& line) {
 SchedulerConfig scheduler_config(const LineConfig& line) {
   SchedulerConfig s;
   for (const auto& a : line.axes) {
-    const Duration period = a.telemetry_hz > 0 ? milliseconds(1000.0 / a.telemetry_hz) : Duration{};
+    const Duration period = a.telemetry_hz > 0
+                                ? to_duration(FractionalMilliseconds(1000.0 / a.telemetry_hz))
+                                : Duration{};
     s.axes.push_back({a.id, period});
   }
   s.offline_after = line.offline_after;
-  s.probe_interval = milliseconds(line.probe_interval_ms);
+  s.probe_interval = to_duration(FractionalMilliseconds(line.probe_interval_ms));
   s.timing.baud = line.baud;
   s.timing.silent_interval_k = line.silent_interval;
-  s.timing.delay_td = milliseconds(line.delay_ms);
+  s.timing.delay_td = to_duration(FractionalMilliseconds(line.delay_ms));
   return s;
 }
 

@@ -1,4 +1,5 @@
 #include "lec6/sim/bus.hpp"
+#include "lec6/error.hpp"
 
 #include <algorithm>
 #include <stdexcept>
@@ -12,7 +13,9 @@ Bus::Bus(const LineConfig& line, const FaultConfig& faults)
     : line_(line),
       faults_(faults),
       rng_(faults.seed),
-      framer_(line.line.silent_interval(), line.timing == Timing::Fast) {}
+      framer_(line.line.silent_interval(), line.timing == Timing::Fast
+                                               ? modbus::FrameEnd::LengthOrSilence
+                                               : modbus::FrameEnd::Silence) {}
 
 void Bus::set_faults(const FaultConfig& f) {
   faults_ = f;
@@ -21,10 +24,9 @@ void Bus::set_faults(const FaultConfig& f) {
 
 Controller& Bus::add(uint8_t id, const ActuatorConfig& config, TimePoint power_on,
                      const std::optional<Eeprom>& eeprom) {
-  if (id == modbus::kBroadcastId)
-    throw std::invalid_argument("controller ID 0 is the broadcast address");
+  if (id == modbus::kBroadcastId) throw InvalidArgument("controller ID 0 is the broadcast address");
   if (controllers_.count(id)) {
-    throw std::invalid_argument("controller ID " + std::to_string(id) + " is already on the bus");
+    throw InvalidArgument("controller ID " + std::to_string(id) + " is already on the bus");
   }
   auto c = std::make_unique<Controller>(config, power_on, eeprom);
   Controller& ref = *c;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "lec6/error.hpp"
 #include "lec6/sim/controller.hpp"
 #include "sim/controller_math.hpp"
 
@@ -57,7 +58,7 @@ Controller::Controller(const ActuatorConfig& config, TimePoint power_on,
   if (auto errors = validate(config_); !errors.empty()) {
     std::string all;
     for (const auto& m : errors) all += (all.empty() ? "" : "; ") + m;
-    throw std::invalid_argument("twin configuration: " + all);
+    throw InvalidArgument("twin configuration: " + all);
   }
   if (eeprom) {
     eeprom_ = *eeprom;

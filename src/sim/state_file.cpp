@@ -1,15 +1,8 @@
 #include "lec6/sim/state_file.hpp"
 
-#include <fcntl.h>
 #include <fmt/format.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
-#include <cerrno>
 #include <charconv>
-#include <cstring>
-#include <fstream>
-#include <sstream>
 #include <vector>
 
 namespace lec6::sim {
@@ -36,10 +29,6 @@ bool parse_num(std::string_view s, T& out, int base = 10) {
   if (s.empty()) return false;
   auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), out, base);
   return ec == std::errc() && p == s.data() + s.size();
-}
-
-std::string os_error(std::string_view what, const std::filesystem::path& p) {
-  return fmt::format("{} {}: {}", what, p.string(), std::strerror(errno));
 }
 
 }  // namespace
@@ -139,65 +128,6 @@ Expected<EepromSet, std::string> parse_state(std::string_view text) {
   if (current)
     return unexpected(std::string("state file ends inside a controller section (missing 'end')"));
   return set;
-}
-
-Expected<void, std::string> save_state_file(const std::filesystem::path& path,
-                                            const EepromSet& state) {
-  const std::string text = serialize_state(state);
-  const std::filesystem::path dir =
-      path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
-  std::string tmpl = (dir / (path.filename().string() + ".tmp-XXXXXX")).string();
-  const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0) return unexpected(os_error("cannot create a temporary file next to", path));
-  const std::filesystem::path tmp(tmpl);
-  auto abandon = [&](const std::string& why) {
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    return unexpected(why);
-  };
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return abandon(os_error("cannot write", tmp));
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  if (::fchmod(fd, 0644) != 0) return abandon(os_error("cannot set permissions of", tmp));
-  if (::fsync(fd) != 0) return abandon(os_error("cannot flush", tmp));
-  if (::close(fd) != 0) {
-    ::unlink(tmp.c_str());
-    return unexpected(os_error("cannot close", tmp));
-  }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string why = os_error("cannot rename the temporary file onto", path);
-    ::unlink(tmp.c_str());
-    return unexpected(why);
-  }
-  // Make the rename itself durable.
-  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
-  if (dfd >= 0) {
-    (void)::fsync(dfd);
-    ::close(dfd);
-  }
-  return {};
-}
-
-Expected<std::optional<EepromSet>, std::string> load_state_file(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    if (ec) return unexpected(fmt::format("cannot check {}: {}", path.string(), ec.message()));
-    return std::optional<EepromSet>{};
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return unexpected(os_error("cannot open", path));
-  std::ostringstream buf;
-  buf << in.rdbuf();
-  if (in.bad()) return unexpected(os_error("cannot read", path));
-  auto parsed = parse_state(buf.str());
-  if (!parsed) return unexpected(fmt::format("{}: {}", path.string(), parsed.error()));
-  return std::optional<EepromSet>(std::move(*parsed));
 }
 
 }  // namespace lec6::sim

@@ -1,4 +1,5 @@
 #include "lec6/transport/fd.hpp"
+#include "lec6/error.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -46,7 +47,7 @@ short poll_until(int fd, short events, TimePoint deadline, const Clock& clock) {
       continue;
     }
     if (errno == EINTR) continue;
-    throw std::system_error(errno, std::generic_category(), "poll");
+    throw SystemError(errno, "poll");
   }
 }
 
@@ -61,10 +62,10 @@ std::size_t write_all(int fd, std::span<const uint8_t> bytes, TimePoint deadline
       continue;
     }
     if (n < 0 && errno == EINTR) continue;
-    if (n < 0 && errno != EAGAIN) throw std::system_error(errno, std::generic_category(), "write");
+    if (n < 0 && errno != EAGAIN) throw SystemError(errno, "write");
     const short revents = poll_until(fd, POLLOUT, deadline, clock);
     if (revents == 0) return done;
-    if (revents & POLLNVAL) throw std::system_error(EBADF, std::generic_category(), "write");
+    if (revents & POLLNVAL) throw SystemError(EBADF, "write");
   }
   return done;
 }

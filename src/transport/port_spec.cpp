@@ -1,4 +1,5 @@
 #include "lec6/transport/port_spec.hpp"
+#include "lec6/error.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -22,7 +23,7 @@ constexpr std::string_view kExpected =
     "rtu+tcp://host:port (RTU over TCP), or sim";
 
 [[noreturn]] void bad(const std::string& message) {
-  throw std::invalid_argument(message);
+  throw InvalidArgument(message);
 }
 
 uint16_t parse_tcp_port(std::string_view digits, std::string_view text) {

@@ -2,6 +2,7 @@
 // low-latency ioctls. See the header for why this is our own code.
 
 #include "lec6/transport/serial_link.hpp"
+#include "lec6/error.hpp"
 
 #include <fcntl.h>
 #include <linux/serial.h>
@@ -39,7 +40,7 @@ speed_t speed_for(uint32_t baud) {
   for (const auto& entry : kBauds) {
     if (entry.baud == baud) return entry.speed;
   }
-  throw std::invalid_argument(fmt::format(
+  throw InvalidArgument(fmt::format(
       "unsupported baud {}: the LEC6 speaks 9600, 19200, 38400, 57600, 115200 or 230400", baud));
 }
 
@@ -242,7 +243,7 @@ void SerialLink::write(std::span<const uint8_t> bytes) {
   try {
     done = write_all(fd, bytes, deadline, clock_,
                      [fd](const uint8_t* p, std::size_t n) { return ::write(fd, p, n); });
-  } catch (const std::system_error& e) {
+  } catch (const SystemError& e) {
     fail("write", e.code().value());
   }
   if (done < bytes.size()) {
@@ -287,7 +288,7 @@ std::size_t SerialLink::read_some(std::span<uint8_t> buffer, TimePoint deadline)
     short revents = 0;
     try {
       revents = poll_until(fd, POLLIN, deadline, clock_);
-    } catch (const std::system_error& e) {
+    } catch (const SystemError& e) {
       fail("poll", e.code().value());
     }
     if (revents == 0) return 0;

@@ -1,4 +1,5 @@
 #include "lec6/transport/tcp_link.hpp"
+#include "lec6/error.hpp"
 
 #include <netdb.h>
 #include <netinet/in.h>
@@ -37,7 +38,7 @@ TcpLink::TcpLink(std::string host, uint16_t port, TcpOptions options)
     throw LinkError(LinkErrorKind::PortUnavailable,
                     fmt::format("cannot connect to {}: {}", url(), why));
   };
-  if (options_.baud == 0) throw std::invalid_argument("TcpLink: baud must not be 0");
+  if (options_.baud == 0) throw InvalidArgument("TcpLink: baud must not be 0");
 
   addrinfo hints{};
   hints.ai_family = AF_UNSPEC;
@@ -67,7 +68,7 @@ TcpLink::TcpLink(std::string host, uint16_t port, TcpOptions options)
         short revents = 0;
         try {
           revents = poll_until(fd.get(), POLLOUT, deadline, clock_);
-        } catch (const std::system_error& e) {
+        } catch (const SystemError& e) {
           unavailable(e.what());
         }
         if (revents == 0) {
@@ -116,7 +117,7 @@ void TcpLink::write(std::span<const uint8_t> bytes) {
     done = write_all(fd, bytes, deadline, clock_, [fd](const uint8_t* p, std::size_t n) {
       return ::send(fd, p, n, MSG_NOSIGNAL);
     });
-  } catch (const std::system_error& e) {
+  } catch (const SystemError& e) {
     fail("write", e.code().value());
   }
   if (done < bytes.size()) {
@@ -132,7 +133,7 @@ std::size_t TcpLink::read_some(std::span<uint8_t> buffer, TimePoint deadline) {
     short revents = 0;
     try {
       revents = poll_until(fd, POLLIN, deadline, clock_);
-    } catch (const std::system_error& e) {
+    } catch (const SystemError& e) {
       fail("poll", e.code().value());
     }
     if (revents == 0) return 0;

@@ -1,6 +1,7 @@
 // The twin's event loop. See the header for the timing rule.
 
 #include "lec6/twin/sim_server.hpp"
+#include "lec6/error.hpp"
 
 #include <poll.h>
 #include <sys/eventfd.h>
@@ -105,7 +106,9 @@ struct SimServer::Impl {
         options(o),
         saver(b, {o.state_file, o.save_interval, o.state_carry, o.warn}) {
     if (options.trace) {
-      mirror.emplace(bus.line().line.silent_interval(), !real, origin, options.trace);
+      mirror.emplace(bus.line().line.silent_interval(),
+                     real ? modbus::FrameEnd::Silence : modbus::FrameEnd::LengthOrSilence, origin,
+                     options.trace);
     }
   }
 
@@ -339,7 +342,7 @@ struct SimServer::Impl {
       const int r = ::ppoll(fds.data(), fds.size(), tp, nullptr);
       if (r < 0) {
         if (errno == EINTR) continue;
-        throw std::system_error(errno, std::generic_category(), "ppoll");
+        throw SystemError(errno, "ppoll");
       }
       if (r == 0) continue;
       bool stop = false;
@@ -371,10 +374,10 @@ struct SimServer::Impl {
 SimServer::SimServer(sim::Bus& bus, SimServerOptions options)
     : bus_(bus), options_(std::move(options)) {
   if (!options_.pty && !options_.tcp) {
-    throw std::invalid_argument("the twin needs somewhere to serve: a pty, TCP, or both");
+    throw InvalidArgument("the twin needs somewhere to serve: a pty, TCP, or both");
   }
   stop_fd_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
-  if (!stop_fd_) throw std::system_error(errno, std::generic_category(), "eventfd");
+  if (!stop_fd_) throw SystemError(errno, "eventfd");
   impl_ = std::make_unique<Impl>(*this, bus_, options_);
   if (options_.tcp) {
     listener_ = std::make_unique<transport::TcpListener>(options_.tcp->second, options_.tcp->first);

@@ -1,5 +1,7 @@
 #include "twin/state_saver.hpp"
 
+#include "lec6/twin/state_file_io.hpp"
+
 #include <algorithm>
 #include <system_error>
 
@@ -38,7 +40,7 @@ void StateSaver::writer_loop() {
     sim::EepromSet state = std::move(*pending_);
     pending_.reset();
     lock.unlock();
-    auto saved = sim::save_state_file(options_.path, state);
+    auto saved = save_state_file(options_.path, state);
     if (!saved) {
       ++failures_;
       if (options_.warn) options_.warn(saved.error());

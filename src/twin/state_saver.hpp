@@ -6,7 +6,7 @@
 // each turn; when the EEPROM has changed, a save is due at once the first
 // time, then at most every `save_interval`. A due save snapshots the EEPROM
 // on the loop's thread and hands the snapshot to a background thread, which
-// writes it atomically (sim::save_state_file). A snapshot not yet written is
+// writes it atomically (twin/state_file_io.hpp). A snapshot not yet written is
 // replaced by a newer one: the newest state wins, nothing queues up.
 //
 // Thread safety: every member except the counters is called from the loop's

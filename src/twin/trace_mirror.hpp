@@ -23,8 +23,8 @@ namespace lec6::twin {
 
 class TraceMirror {
  public:
-  // `fast`: frames complete on their predicted length as the bus's do in fast timing.
-  TraceMirror(Duration silent_interval, bool fast, TimePoint origin,
+  // `end` as the bus's framer has it (fast timing: LengthOrSilence).
+  TraceMirror(Duration silent_interval, modbus::FrameEnd end, TimePoint origin,
               std::function<void(const std::string&)> sink);
 
   // Bytes given to the bus at `t`; traces the queries they complete.

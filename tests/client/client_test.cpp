@@ -103,11 +103,11 @@ TEST(Client, SilentIdTimesOutAfterRetriesWithinTheDeadline) {
   EXPECT_EQ(f.client->stats().retries, 2u);
   EXPECT_EQ(f.sent.size(), 3u);
   const modbus::LineTiming t;
-  const Duration window = t.response_time(19) + milliseconds(50);
+  const Duration window = t.response_time(19) + std::chrono::milliseconds(50);
   const Duration per_try = t.wire_time(8) + window;
   // Before each retry the line stays quiet for a reply window (late replies).
   EXPECT_LE(f.clock.now() - start,
-            3 * (per_try + t.silent_interval()) + 2 * window + milliseconds(1));
+            3 * (per_try + t.silent_interval()) + 2 * window + std::chrono::milliseconds(1));
 }
 
 TEST(Client, CorruptedRepliesAreNeverAcceptedAndClassifiedAsCrc) {

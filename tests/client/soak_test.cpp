@@ -331,7 +331,7 @@ void expect_clean(const Report& r, bool strict_recovery) {
 }
 
 sim::FaultConfig faults(double corrupt, double drop, double garbage = 0, double delay = 0,
-                        Duration extra = milliseconds(50), uint64_t seed = 1) {
+                        Duration extra = std::chrono::milliseconds(50), uint64_t seed = 1) {
   sim::FaultConfig fc;
   fc.corrupt = corrupt;
   fc.drop = drop;
@@ -362,7 +362,7 @@ TEST(Soak, GarbageBeforeRepliesAcceptsNoWrongValue) {
 TEST(Soak, LateRepliesWithinTheMarginAcceptNoWrongValue) {
   // 30 ms late: inside the 50 ms margin over Tx, so the reply still counts.
   Soak s("2% corrupted + 1% dropped + 10% of replies 30 ms late",
-         faults(0.02, 0.01, 0, 0.10, milliseconds(30), 3));
+         faults(0.02, 0.01, 0, 0.10, std::chrono::milliseconds(30), 3));
   const auto r = s.run(soak_transactions());
   expect_clean(r, true);
   EXPECT_GT(r.twin.faults_delayed, 0u);
@@ -370,7 +370,7 @@ TEST(Soak, LateRepliesWithinTheMarginAcceptNoWrongValue) {
 
 TEST(Soak, EverythingAtOnceAcceptsNoWrongValue) {
   Soak s("5% corrupted + 3% dropped + 5% garbage + 5% 40 ms late",
-         faults(0.05, 0.03, 0.05, 0.05, milliseconds(40), 4));
+         faults(0.05, 0.03, 0.05, 0.05, std::chrono::milliseconds(40), 4));
   const auto r = s.run(soak_transactions());
   expect_clean(r, false);
 }
@@ -381,7 +381,7 @@ TEST(Soak, EverythingAtOnceAcceptsNoWrongValue) {
 // the client waits for a whole reply window of silence before the next query.
 TEST(Soak, RepliesLaterThanTheTimeoutAcceptNoWrongValue) {
   Soak s("2% of replies 100 ms late (beyond Tx + 50 ms margin)",
-         faults(0, 0, 0, 0.02, milliseconds(100), 5));
+         faults(0, 0, 0, 0.02, std::chrono::milliseconds(100), 5));
   const auto r = s.run(soak_transactions());
   expect_clean(r, false);
 }
@@ -400,7 +400,7 @@ TEST(Soak, ALateReplyIsNotTakenForTheNextRequestsReply) {
   ClientOptions o;
   o.retries = 0;
   Client c(*f.link, o);
-  f.bus.set_faults(faults(0, 0, 0, 1.0, milliseconds(100)));
+  f.bus.set_faults(faults(0, 0, 0, 1.0, std::chrono::milliseconds(100)));
   EXPECT_THROW(c.read_step(1), TransportError);  // timed out: the reply is on its way, late
   f.bus.set_faults({});
   // The line is clean again: the read must give step 2's record. (An error
@@ -479,7 +479,8 @@ TEST(BadInput, AWrongIdTimesOutWithAClearMessageAndNoHang) {
   // (a late reply must not be taken for the next one).
   const Duration window = t.response_time(19) + f.client->options().timeout_margin;
   const Duration attempt = t.silent_interval() + t.wire_time(8) + window;
-  EXPECT_LE(f.clock.now() - start, 3 * attempt + 2 * window + milliseconds(0.01));
+  EXPECT_LE(f.clock.now() - start,
+            3 * attempt + 2 * window + to_duration(FractionalMilliseconds(0.01)));
   EXPECT_EQ(f.client->stats().retries, 2u);
 }
 

@@ -17,6 +17,7 @@
 #include "lec6/client/errors.hpp"
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/modbus/crc.hpp"
+#include "lec6/transport/file.hpp"
 
 namespace lec6::client {
 namespace {
@@ -27,6 +28,18 @@ using lec::StepTable;
 using ::testing::AllOf;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
+
+// Tables in files, as `lec step` keeps them (cli/step_files.cpp).
+Expected<StepTable, lec::TableErrors> read_table_file(const std::filesystem::path& path) {
+  auto text = transport::read_file(path);
+  if (!text) return unexpected(lec::TableErrors{text.error()});
+  return lec::parse_table(*text, lec::table_format_for_path(path.string()));
+}
+Expected<void, std::string> write_table_file(const std::filesystem::path& path,
+                                             const StepTable& table) {
+  return transport::write_file_atomically(
+      path, lec::format_table(table, lec::table_format_for_path(path.string())));
+}
 
 StepData step(int32_t position_001mm, uint16_t speed = 500) {
   StepData s;
@@ -473,26 +486,6 @@ TEST_F(StepSync, BackupFilesRoundTripExactlyAlsoThroughASpreadsheet) {
   EXPECT_EQ(apply_restore(*f.client, plan_restore(*f.client, *parsed)).summary(),
             "0 steps written, 64 unchanged");
   EXPECT_EQ(writes_sent(f.sent), 0u);
-  std::filesystem::remove_all(dir);
-}
-
-TEST_F(StepSync, WriteTableFileReplacesAtomicallyAndReportsErrors) {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("lec6-step-sync-w-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  const auto path = dir / "steps.csv";
-  std::ofstream(path) << "old";
-  ASSERT_TRUE(write_table_file(path, backup_steps(*f.client)));
-  std::ifstream in(path);
-  std::string first;
-  std::getline(in, first);
-  EXPECT_EQ(first, "# equipment_name: " + twin().eeprom().name.text);
-  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir),
-                          std::filesystem::directory_iterator{}),
-            1);
-  const auto bad = write_table_file(dir / "no-such-dir" / "x.csv", backup_steps(*f.client));
-  ASSERT_FALSE(bad);
-  EXPECT_THAT(bad.error(), HasSubstr("no-such-dir/x.csv"));
   std::filesystem::remove_all(dir);
 }
 

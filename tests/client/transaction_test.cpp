@@ -14,7 +14,7 @@ const modbus::RequestFrame kReadPosition{1, modbus::ReadRegistersRequest{0x9000,
 const modbus::Bytes kReply = *from_hex("01 03 04 00 00 3A 98 E9 39");
 
 TransactionTiming timing() {
-  return TransactionTiming{modbus::LineTiming{}, milliseconds(50)};
+  return TransactionTiming{modbus::LineTiming{}, std::chrono::milliseconds(50)};
 }
 
 TEST(Transaction, SendsTheEncodedQueryThenWaitsUntilTxPlusMargin) {
@@ -31,13 +31,13 @@ TEST(Transaction, SendsTheEncodedQueryThenWaitsUntilTxPlusMargin) {
 TEST(Transaction, CompletesOnTheLastByteOfTheReply) {
   Transaction tx(kReadPosition, timing());
   tx.sent(TimePoint{});
-  tx.received(std::span(kReply).first(5), TimePoint{} + milliseconds(10));
+  tx.received(std::span(kReply).first(5), TimePoint{} + std::chrono::milliseconds(10));
   EXPECT_EQ(tx.step(), Transaction::Step::Receive);
-  tx.received(std::span(kReply).subspan(5), TimePoint{} + milliseconds(12));
+  tx.received(std::span(kReply).subspan(5), TimePoint{} + std::chrono::milliseconds(12));
   ASSERT_EQ(tx.step(), Transaction::Step::Done);
   EXPECT_EQ(std::get<modbus::ReadRegistersResponse>(tx.response().pdu).values,
             (std::vector<uint16_t>{0x0000, 0x3A98}));
-  EXPECT_EQ(tx.finished_at(), TimePoint{} + milliseconds(12));
+  EXPECT_EQ(tx.finished_at(), TimePoint{} + std::chrono::milliseconds(12));
 }
 
 TEST(Transaction, TimeoutIsClassifiedByWhatArrived) {
@@ -53,14 +53,14 @@ TEST(Transaction, TimeoutIsClassifiedByWhatArrived) {
     tx.sent(TimePoint{});
     auto corrupted = kReply;
     corrupted[4] ^= 0x01;
-    tx.received(corrupted, TimePoint{} + milliseconds(14));
+    tx.received(corrupted, TimePoint{} + std::chrono::milliseconds(14));
     tx.timed_out(tx.deadline());
     EXPECT_EQ(tx.error_kind(), TransportErrorKind::Crc);
   }
   {
     Transaction tx(kReadPosition, timing());
     tx.sent(TimePoint{});
-    tx.received(*from_hex("55 AA 55"), TimePoint{} + milliseconds(14));
+    tx.received(*from_hex("55 AA 55"), TimePoint{} + std::chrono::milliseconds(14));
     tx.timed_out(tx.deadline());
     EXPECT_EQ(tx.error_kind(), TransportErrorKind::Framing);
   }
@@ -69,7 +69,7 @@ TEST(Transaction, TimeoutIsClassifiedByWhatArrived) {
 TEST(Transaction, ExceptionReplyCompletesAtFiveBytes) {
   Transaction tx({1, modbus::WriteCoilRequest{0x19, modbus::kCoilOn}}, timing());
   tx.sent(TimePoint{});
-  tx.received(*from_hex("01 85 02 C3 51"), TimePoint{} + milliseconds(11));
+  tx.received(*from_hex("01 85 02 C3 51"), TimePoint{} + std::chrono::milliseconds(11));
   ASSERT_EQ(tx.step(), Transaction::Step::Done);
   EXPECT_EQ(std::get<modbus::ExceptionResponse>(tx.response().pdu).code,
             modbus::ExceptionCode::IllegalAddress);
@@ -80,7 +80,7 @@ TEST(Transaction, BroadcastWaitsTxAndIgnoresStrayBytes) {
   tx.sent(TimePoint{});
   EXPECT_NEAR(to_ms(tx.deadline() - TimePoint{}), to_ms(modbus::LineTiming{}.response_time(8)),
               0.001);  // Tx
-  tx.received(*from_hex("00 05 00 30 FF 00"), TimePoint{} + milliseconds(1));
+  tx.received(*from_hex("00 05 00 30 FF 00"), TimePoint{} + std::chrono::milliseconds(1));
   EXPECT_EQ(tx.step(), Transaction::Step::Receive);
   tx.timed_out(tx.deadline());
   EXPECT_EQ(tx.step(), Transaction::Step::Done);

@@ -346,18 +346,57 @@ TEST(StepTableCsv, RefusesUtf16) {
 }
 
 TEST(StepTableCsv, QuotingErrorsAndStrayCellsAreReported) {
+  // A quoted cell may span lines (RFC 4180), so a quote that never closes
+  // runs to the end of the file; it is reported on the line it opened.
   const std::string text = kHeader + "\n" +
-                           "0,abs,\"500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n" +
                            "1,abs,\"500\"x,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n" +
                            "2,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00,,,9\n" +
-                           "3,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00,,\n";
+                           "3,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00,,\n" +
+                           "4,abs,\"500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n" +
+                           "5,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n";
   auto t = parse_csv(text);
   ASSERT_FALSE(t);
   EXPECT_THAT(t.error(),
-              ElementsAre("line 2: cell 3 opens a quote that does not close on this line (quoted "
-                          "cells cannot span lines)",
-                          "line 3: cell 3 has text after its closing quote",
-                          "line 4 (step 2): cell 16 ('9') is past the header's 13 columns"));
+              ElementsAre("line 2: cell 3 has text after its closing quote",
+                          "line 3 (step 2): cell 16 ('9') is past the header's 13 columns",
+                          "line 5: cell 3 opens a quote (line 5) that does not close before the "
+                          "end of the file"));
+}
+
+TEST(StepTableCsv, AQuotedLineBreakInACommentIsPartOfTheComment) {
+  // As a spreadsheet saves a note typed over two lines in cell A1, with a
+  // separator in it: one quoted cell across two lines.
+  const std::string text =
+      "\"# note: backup before the new fixture,\nchecked by J.\"\n"
+      "# equipment_name: AXIS-1\n" +
+      kHeader + "\n" +
+      "0,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n"
+      "\"# note: a second\r\nmultiline comment\",,\n"
+      "1,abs,600,160.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n";
+  auto t = parse_csv(text);
+  ASSERT_TRUE(t) << testing::PrintToString(t.error());
+  EXPECT_EQ(t->equipment_name, "AXIS-1");
+  EXPECT_TRUE(t->covers(0));
+  EXPECT_TRUE(t->covers(1));
+  EXPECT_EQ(t->steps[1].speed_mm_s, 600);
+}
+
+TEST(StepTableCsv, ErrorsAfterAQuotedLineBreakNameTheRightLine) {
+  const std::string text = "\"# note: two\nlines\"\n" + kHeader + "\n" +
+                           "0,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n" +
+                           "1,abs,500,x,5000,5000,0,0,20,100,0.00,0.00,1.00\n";
+  auto t = parse_csv(text);
+  ASSERT_FALSE(t);
+  ASSERT_EQ(t.error().size(), 1u);
+  EXPECT_THAT(t.error()[0], testing::StartsWith("line 5 (step 1): position"));
+}
+
+TEST(StepTableCsv, AnEquipmentNameWithALineBreakIsRefused) {
+  const std::string text = "\"# equipment_name: AXIS\n1\"\n" + kHeader + "\n" +
+                           "0,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n";
+  auto t = parse_csv(text);
+  ASSERT_FALSE(t);
+  EXPECT_THAT(t.error()[0], testing::StartsWith("line 1: "));
 }
 
 TEST(StepTableCsv, CrLfAndBomAndTabSeparatorsInMemory) {

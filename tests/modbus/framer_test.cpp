@@ -82,7 +82,7 @@ TEST(ClientFramer, RandomStreamsNeverYieldAFrameWithABadCrc) {
 
 TEST(DeviceFramer, DelimitsFramesBySilentInterval) {
   LineTiming timing;  // 38400: Ts = 0.911 ms
-  DeviceFramer f(timing.silent_interval(), false);
+  DeviceFramer f(timing.silent_interval(), FrameEnd::Silence);
   TimePoint t{};
   const Duration byte = timing.char_time();
   for (uint8_t b : kReadPosition) {
@@ -100,7 +100,7 @@ TEST(DeviceFramer, DelimitsFramesBySilentInterval) {
 
 TEST(DeviceFramer, GapShorterThanTsContinuesTheFrame) {
   LineTiming timing;
-  DeviceFramer f(timing.silent_interval(), false);
+  DeviceFramer f(timing.silent_interval(), FrameEnd::Silence);
   const Duration almost = timing.silent_interval() - Duration(1000);
   f.feed(std::span(kReadPosition).first(3), TimePoint{});
   f.feed(std::span(kReadPosition).subspan(3), TimePoint{} + almost);
@@ -111,7 +111,7 @@ TEST(DeviceFramer, GapShorterThanTsContinuesTheFrame) {
 
 TEST(DeviceFramer, GapOfTsSplitsTwoFrames) {
   LineTiming timing;
-  DeviceFramer f(timing.silent_interval(), false);
+  DeviceFramer f(timing.silent_interval(), FrameEnd::Silence);
   f.feed(std::span(kReadPosition).first(3), TimePoint{});
   f.feed(std::span(kReadPosition).subspan(3), TimePoint{} + timing.silent_interval());
   auto first = f.poll(TimePoint{} + 3 * timing.silent_interval());
@@ -123,7 +123,7 @@ TEST(DeviceFramer, GapOfTsSplitsTwoFrames) {
 
 TEST(DeviceFramer, FastModeCompletesOnLengthWithValidCrc) {
   LineTiming timing;
-  DeviceFramer f(timing.silent_interval(), true);
+  DeviceFramer f(timing.silent_interval(), FrameEnd::LengthOrSilence);
   Bytes two = kReadPosition;
   two.insert(two.end(), kReadPosition.begin(), kReadPosition.end());
   f.feed(two, TimePoint{});
@@ -136,7 +136,7 @@ TEST(DeviceFramer, FastModeCompletesOnLengthWithValidCrc) {
 
 TEST(DeviceFramer, FastModeFallsBackToTsForFramesItCannotSize) {
   LineTiming timing;
-  DeviceFramer f(timing.silent_interval(), true);
+  DeviceFramer f(timing.silent_interval(), FrameEnd::LengthOrSilence);
   Bytes unknown{0x01, 0x06, 0x00, 0x01, 0x00, 0x03};
   append_crc(unknown);
   f.feed(unknown, TimePoint{});
@@ -145,10 +145,10 @@ TEST(DeviceFramer, FastModeFallsBackToTsForFramesItCannotSize) {
 }
 
 TEST(DeviceFramer, AnEndlessStreamIsBounded) {
-  DeviceFramer f(milliseconds(1), false);
+  DeviceFramer f(std::chrono::milliseconds(1), FrameEnd::Silence);
   Bytes junk(1000, 0x55);
   f.feed(junk, TimePoint{});
-  auto frame = f.poll(TimePoint{} + milliseconds(2));
+  auto frame = f.poll(TimePoint{} + std::chrono::milliseconds(2));
   ASSERT_TRUE(frame);
   EXPECT_EQ(frame->bytes.size(), kMaxAdu + 1);
   EXPECT_EQ(f.overflowed(), 1000 - kMaxAdu - 1);

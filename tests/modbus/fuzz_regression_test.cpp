@@ -128,13 +128,13 @@ modbus::Bytes hex(const char* text) {
 
 std::optional<sim::Reply> ask(sim::Bus& bus, const modbus::Bytes& q, TimePoint& t) {
   auto r = sim::transact(bus, q, t);
-  t += milliseconds(100);
+  t += std::chrono::milliseconds(100);
   return r;
 }
 
 TEST(BadFrames, TheTwinIgnoresBadCrcOtherIdsAndTruncatedFrames) {
   sim::Bus bus;
-  TimePoint t = TimePoint{} + milliseconds(1000);
+  TimePoint t = TimePoint{} + std::chrono::milliseconds(1000);
   bus.add(1, {}, t);
   const auto before = bus.find(1)->control();
   // Y30 ON with its CRC broken, to ID 2 (absent), cut short, with a byte too many.
@@ -153,7 +153,7 @@ TEST(BadFrames, TheTwinIgnoresBadCrcOtherIdsAndTruncatedFrames) {
 
 TEST(BadFrames, BroadcastReadsGetNoReplyAndChangeNothing) {
   sim::Bus bus;
-  TimePoint t = TimePoint{} + milliseconds(1000);
+  TimePoint t = TimePoint{} + std::chrono::milliseconds(1000);
   bus.add(1, {}, t);
   modbus::Bytes read_state = *modbus::encode_request({0, modbus::ReadRegistersRequest{0x9000, 7}});
   EXPECT_FALSE(ask(bus, read_state, t));
@@ -166,7 +166,7 @@ TEST(BadFrames, BroadcastReadsGetNoReplyAndChangeNothing) {
 
 TEST(BadFrames, OutOfRangeRequestsGetTheDigestsExceptionCodes) {
   sim::Bus bus;
-  TimePoint t = TimePoint{} + milliseconds(1000);
+  TimePoint t = TimePoint{} + std::chrono::milliseconds(1000);
   bus.add(1, {}, t);
   const sim::Eeprom eeprom = bus.find(1)->eeprom();
   auto code = [&](const char* body) {
@@ -201,7 +201,7 @@ TEST(BadFrames, TheClientRefusesWellFormedRepliesThatDoNotFitTheRequest) {
     modbus::append_crc(reply);
     client::Transaction tx(read_state, client::TransactionTiming{});
     tx.sent(TimePoint{});
-    tx.received(reply, TimePoint{} + milliseconds(10));
+    tx.received(reply, TimePoint{} + std::chrono::milliseconds(10));
     if (tx.step() == client::Transaction::Step::Receive) tx.timed_out(tx.deadline());
     return tx.step() == client::Transaction::Step::Done
                ? std::string("accepted")

@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "lec6/error.hpp"
 #include "lec6/lec/memory_map.hpp"
 
 namespace lec6::sim {
@@ -19,7 +20,7 @@ using lec::StepData;
 using modbus::ExceptionCode;
 
 Duration ms(double v) {
-  return milliseconds(v);
+  return to_duration(FractionalMilliseconds(v));
 }
 
 std::optional<ExceptionCode> exception_of(const modbus::Response& r) {
@@ -609,7 +610,7 @@ TEST(ActuatorConfig, ValidateRefusesNonsense) {
   c.equipment_name = "a name that is far too long";
   c.max_speed_mm_s = 0;
   EXPECT_EQ(validate(c).size(), 3u);
-  EXPECT_THROW(Controller(c, TimePoint{}), std::invalid_argument);
+  EXPECT_THROW(Controller(c, TimePoint{}), lec6::InvalidArgument);
 }
 
 TEST(ActuatorConfig, NegativeStrokeMinHomesToOrigin) {
@@ -621,15 +622,15 @@ TEST(ActuatorConfig, NegativeStrokeMinHomesToOrigin) {
     (void)c.handle(
         modbus::WriteCoilRequest{lec::address(coil), on ? modbus::kCoilOn : modbus::kCoilOff}, t);
   }
-  t += milliseconds(50);
+  t += std::chrono::milliseconds(50);
   (void)c.handle(modbus::WriteCoilRequest{lec::address(Coil::SETUP), modbus::kCoilOn}, t);
   // Passes through −2 mm (the min end) before returning to 0.
   bool below = false;
   for (int i = 1; i < 200; ++i) {
-    if (c.physical(t + milliseconds(5.0 * i)).position < -1.9) below = true;
+    if (c.physical(t + to_duration(FractionalMilliseconds(5.0 * i))).position < -1.9) below = true;
   }
   EXPECT_TRUE(below);
-  t += milliseconds(2000);
+  t += std::chrono::milliseconds(2000);
   EXPECT_EQ(c.status(t).bits, 0x0E00);
   EXPECT_EQ(c.state(t).position_001mm, 0);
 }

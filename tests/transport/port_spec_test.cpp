@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "lec6/error.hpp"
 #include "lec6/transport/port_spec.hpp"
 
 namespace lec6::transport {
@@ -56,7 +57,7 @@ TEST_P(RejectPortSpec, WithAMessage) {
   try {
     parse_port_spec(text);
     FAIL() << "accepted '" << text << "'";
-  } catch (const std::invalid_argument& e) {
+  } catch (const lec6::InvalidArgument& e) {
     EXPECT_EQ(std::string(e.what()), message);
   }
 }

@@ -21,6 +21,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "lec6/error.hpp"
 #include "lec6/transport/fd.hpp"
 #include "lec6/transport/port_spec.hpp"
 #include "lec6/transport/pty.hpp"
@@ -228,8 +229,8 @@ TEST(SerialLink, EchoThatDiffersIsABusCollision) {
 
 TEST(SerialLink, MissingEchoIsReportedAfterTheEchoTimeout) {
   Pty pty;
-  SerialLink link(pty.slave_path(),
-                  SerialOptions{.discard_echo = true, .echo_timeout = milliseconds(20)});
+  SerialLink link(pty.slave_path(), SerialOptions{.discard_echo = true,
+                                                  .echo_timeout = std::chrono::milliseconds(20)});
   const LinkError e = link_error([&] { link.write(kQuery); });
   EXPECT_EQ(e.kind(), LinkErrorKind::EchoMismatch);
   EXPECT_THAT(e.what(), AllOf(HasSubstr("echoed (nothing)"), HasSubstr("only 0 of 8")));
@@ -275,7 +276,7 @@ TEST(SerialLink, UnsupportedBaudIsRefusedBeforeOpening) {
   try {
     SerialLink link("/dev/does-not-matter", SerialOptions{.baud = 12345});
     FAIL() << "opened at 12345 baud";
-  } catch (const std::invalid_argument& e) {
+  } catch (const lec6::InvalidArgument& e) {
     EXPECT_THAT(e.what(), AllOf(HasSubstr("12345"), HasSubstr("38400"), HasSubstr("230400")));
   }
   EXPECT_FALSE(is_supported_baud(12345));

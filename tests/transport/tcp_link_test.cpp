@@ -183,7 +183,7 @@ TEST(TcpLink, ConnectIsBoundedByTheTimeout) {
   // connect gets no answer at all: the timeout must end it.
   TcpListener listener(0, "127.0.0.1", 0);
   std::vector<std::unique_ptr<TcpLink>> queued;
-  const TcpOptions options{.connect_timeout = milliseconds(200)};
+  const TcpOptions options{.connect_timeout = std::chrono::milliseconds(200)};
   std::optional<LinkError> error;
   Duration took{};
   for (int i = 0; i < 8 && !error; ++i) {
@@ -200,7 +200,7 @@ TEST(TcpLink, ConnectIsBoundedByTheTimeout) {
   EXPECT_EQ(std::string(error->what()),
             "cannot connect to tcp://127.0.0.1:" + std::to_string(listener.port()) +
                 ": no answer within 200 ms");
-  EXPECT_GE(took, milliseconds(200));
+  EXPECT_GE(took, std::chrono::milliseconds(200));
   EXPECT_LT(took, 2s);
 }
 

@@ -25,11 +25,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "lec6/error.hpp"
 #include "lec6/modbus/pdu.hpp"
-#include "lec6/sim/state_file.hpp"
 #include "lec6/transport/serial_link.hpp"
 #include "lec6/transport/tcp_link.hpp"
 #include "lec6/twin/sim_server.hpp"
+#include "lec6/twin/state_file_io.hpp"
 
 namespace lec6::twin {
 using namespace transport;
@@ -188,7 +189,7 @@ TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
   sim::LineConfig line;
   line.line.baud = 9600;
   line.line.silent_interval_k = 2;
-  line.line.delay_td = milliseconds(8);
+  line.line.delay_td = std::chrono::milliseconds(8);
   Running twin({1}, pty_only(), line);
   SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 9600});
   const Bytes query = echo(1, 0x1234);
@@ -348,7 +349,7 @@ TEST(SimServer, StopBeforeRunReturnsAtOnce) {
 
 TEST(SimServer, NeedsSomewhereToServe) {
   sim::Bus bus;
-  EXPECT_THROW(SimServer(bus, SimServerOptions{}), std::invalid_argument);
+  EXPECT_THROW(SimServer(bus, SimServerOptions{}), lec6::InvalidArgument);
 }
 
 TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
@@ -356,7 +357,7 @@ TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
   const fs::path state = dir.path() / "twin.state";
   SimServerOptions o = pty_only();
   o.state_file = state;
-  o.save_interval = milliseconds(50);
+  o.save_interval = std::chrono::milliseconds(50);
   auto twin = std::make_unique<Running>(std::vector<uint8_t>{1}, o);
   SerialLink link(twin->server().pty()->slave_path());
   std::vector<uint16_t> step(16, 0);
@@ -371,7 +372,7 @@ TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
   while (!fs::exists(state) && kClock.now() < deadline) std::this_thread::sleep_for(5ms);
   ASSERT_TRUE(fs::exists(state));
   twin->stop();
-  auto loaded = sim::load_state_file(state);
+  auto loaded = load_state_file(state);
   ASSERT_TRUE(loaded.has_value()) << loaded.error();
   ASSERT_TRUE(loaded->has_value());
   const auto& e = (**loaded).at(1);

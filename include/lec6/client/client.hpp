@@ -48,11 +48,11 @@ struct ClientOptions {
   int retries = 2;  // for Retry::Safe requests
   // For a Client made on a Link (Modbus RTU): the line and the controller's
   // settings, see RtuOptions. Ignored when the Client is given a Master.
-  unsigned silent_interval_k = 1;              // the controller's "Silent INT"
-  Duration delay_td = milliseconds(5);         // the controller's "Min Resp delay"
-  Duration timeout_margin = milliseconds(50);  // added to Tx
-  bool wait_for_silence = true;                // see RtuOptions
-  TraceSink trace{};                           // every frame, when set
+  unsigned silent_interval_k = 1;                           // the controller's "Silent INT"
+  Duration delay_td = std::chrono::milliseconds(5);         // the controller's "Min Resp delay"
+  Duration timeout_margin = std::chrono::milliseconds(50);  // added to Tx
+  bool wait_for_silence = true;                             // see RtuOptions
+  TraceSink trace{};                                        // every frame, when set
 };
 
 // Thread safety: one thread at a time (a Client owns its line while a call
@@ -97,8 +97,10 @@ class Client {
   // Writes a whole step (validated first: a step is never left invalid).
   void write_step(unsigned step, const lec::StepData& data);
   // Writes registers [first, first + count) of a step record from `data`.
+  // Retry::Never when the caller decides what a lost reply means (a restore
+  // reads the step back instead of writing EEPROM twice).
   void write_step_registers(unsigned step, const lec::StepData& data, unsigned first,
-                            unsigned count);
+                            unsigned count, Retry retry = Retry::Safe);
   void write_direct(const lec::StepData& data);  // D9102–D9111, validated
   void write_direct_registers(const lec::StepData& data, unsigned first, unsigned count);
   // D9100 ← 0x0100. Never resent blindly when `relative` (INC): see start_direct().

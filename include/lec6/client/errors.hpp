@@ -2,13 +2,16 @@
 // What can go wrong talking to a controller, kept apart by who is at fault:
 // the line (TransportError), the controller refusing a request
 // (ControllerException), the controller stopping with an alarm (AlarmError),
-// or an operation running past its deadline (DeadlineError).
+// or an operation running past its deadline (DeadlineError). All derive from
+// lec6::Error (lec6/error.hpp).
+//
+// Thread safety: exception objects are immutable; copies may be used from any thread.
 
 #include <cstdint>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "lec6/error.hpp"
 #include "lec6/modbus/pdu.hpp"
 
 namespace lec6::client {
@@ -25,10 +28,9 @@ enum class TransportErrorKind {
 
 std::string_view transport_error_name(TransportErrorKind k) noexcept;
 
-class TransportError : public std::runtime_error {
+class TransportError : public Error {
  public:
-  TransportError(TransportErrorKind kind, const std::string& what)
-      : std::runtime_error(what), kind_(kind) {}
+  TransportError(TransportErrorKind kind, const std::string& what) : Error(what), kind_(kind) {}
   TransportErrorKind kind() const noexcept { return kind_; }
 
  private:
@@ -36,10 +38,10 @@ class TransportError : public std::runtime_error {
 };
 
 // The controller answered with an exception reply (01/02/03).
-class ControllerException : public std::runtime_error {
+class ControllerException : public Error {
  public:
   ControllerException(modbus::ExceptionCode code, const std::string& what)
-      : std::runtime_error(what), code_(code) {}
+      : Error(what), code_(code) {}
   modbus::ExceptionCode code() const noexcept { return code_; }
 
  private:
@@ -47,10 +49,10 @@ class ControllerException : public std::runtime_error {
 };
 
 // The controller raised an alarm (X4F = 1) during an operation.
-class AlarmError : public std::runtime_error {
+class AlarmError : public Error {
  public:
   AlarmError(std::vector<uint8_t> codes, const std::string& what)
-      : std::runtime_error(what), codes_(std::move(codes)) {}
+      : Error(what), codes_(std::move(codes)) {}
   const std::vector<uint8_t>& codes() const noexcept { return codes_; }
 
  private:
@@ -58,22 +60,22 @@ class AlarmError : public std::runtime_error {
 };
 
 // An operation did not finish by its deadline (the controller kept answering).
-class DeadlineError : public std::runtime_error {
+class DeadlineError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  using Error::Error;
 };
 
 // The caller asked to stop (Ctrl-C); the axis was stopped before this was thrown.
-class Cancelled : public std::runtime_error {
+class Cancelled : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  using Error::Error;
 };
 
 // A request refused before anything was sent (value out of range, address
 // outside the map): nothing reached the controller.
-class InvalidRequest : public std::invalid_argument {
+class InvalidRequest : public InvalidArgument {
  public:
-  using std::invalid_argument::invalid_argument;
+  using InvalidArgument::InvalidArgument;
 };
 
 }  // namespace lec6::client

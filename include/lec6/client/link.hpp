@@ -2,14 +2,16 @@
 // The byte pipe a Client talks through. One small vtable, in the spirit of
 // libmodbus's backends: the transports (serial, TCP, in-process twin) live in
 // transport/ and implement it; the client never knows which one it has.
+//
+// Thread safety: a Link is used by one thread at a time (its Client's); LinkError as in error.hpp.
 
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <stdexcept>
 #include <string>
 
 #include "lec6/clock.hpp"
+#include "lec6/error.hpp"
 
 namespace lec6::client {
 
@@ -22,9 +24,9 @@ enum class LinkErrorKind {
   Io,               // any other operating-system error
 };
 
-class LinkError : public std::runtime_error {
+class LinkError : public Error {
  public:
-  LinkError(LinkErrorKind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}
+  LinkError(LinkErrorKind kind, const std::string& what) : Error(what), kind_(kind) {}
   LinkErrorKind kind() const noexcept { return kind_; }
 
  private:

@@ -15,9 +15,9 @@
 namespace lec6::client {
 
 struct RtuOptions {
-  unsigned silent_interval_k = 1;              // the controller's "Silent INT"
-  Duration delay_td = milliseconds(5);         // the controller's "Min Resp delay"
-  Duration timeout_margin = milliseconds(50);  // added to Tx
+  unsigned silent_interval_k = 1;                           // the controller's "Silent INT"
+  Duration delay_td = std::chrono::milliseconds(5);         // the controller's "Min Resp delay"
+  Duration timeout_margin = std::chrono::milliseconds(50);  // added to Tx
   // Wait for Ts of line silence before each query (manual §8.2: a controller
   // delimits frames by it). Keep it on for any real RS485 line. Off only for
   // peers that frame by length (a `--timing fast` twin, software benchmarks),

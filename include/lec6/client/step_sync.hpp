@@ -20,12 +20,17 @@
 // failed, and which were not attempted. It does not throw for those; the
 // reads before any write (plan_restore, backup_steps) do throw (errors.hpp),
 // and then nothing was written.
+//
+// Files are not this layer's: the table is text (lec/step_table.hpp) and
+// `lec step backup/restore` reads and writes it (cli/step_files.cpp).
+//
+// Thread safety: the functions use the Client they are given, from the calling thread; one at a
+// time per Client.
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <exception>
-#include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
@@ -45,19 +50,6 @@ using StepRecords = std::array<lec::StepData, lec::StepTable::kSteps>;
 // Every step (read_all_steps: 10 transactions), the equipment name (D000E)
 // and the client's controller ID. Writes nothing.
 lec::StepTable backup_steps(Client& c);
-
-// ---- files -------------------------------------------------------------------
-
-// Reads and parses a CSV or JSON table (by extension, table_format_for_path).
-// All or nothing: every error of the file, as parse_table reports them
-// ("line 5 (step 3): speed_mm_s ..."); a file that cannot be read is one
-// error naming the path and the cause.
-Expected<lec::StepTable, lec::TableErrors> read_table_file(const std::filesystem::path& path);
-
-// Writes the table as CSV or JSON (by extension), atomically: a temporary
-// file next to it, then renamed over it. The error names the path and cause.
-Expected<void, std::string> write_table_file(const std::filesystem::path& path,
-                                             const lec::StepTable& table);
 
 // ---- restore -----------------------------------------------------------------
 

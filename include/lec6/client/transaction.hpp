@@ -3,6 +3,8 @@
 // happened (sent, bytes arrived at t, time passed) and says what to do next
 // (send these bytes, wait for input until t, done, failed). The Client drives
 // it over a Link; tests drive it by hand on a virtual clock.
+//
+// Thread safety: a Transaction is used by one thread at a time.
 
 #include <cstdint>
 #include <optional>
@@ -19,7 +21,7 @@ namespace lec6::client {
 
 struct TransactionTiming {
   modbus::LineTiming line;
-  Duration margin = milliseconds(50);  // added to Tx for the reply timeout
+  Duration margin = std::chrono::milliseconds(50);  // added to Tx for the reply timeout
 };
 
 class Transaction {

@@ -2,6 +2,9 @@
 // Alarm history D0380–D03BF (manual §10.5): 16 groups of 8 one-byte codes,
 // group 0 the newest (the alarm being generated). Byte order inside a register
 // is high byte first, like every other value (docs/protocol-decisions.md).
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <array>
 #include <cstdint>

@@ -1,6 +1,9 @@
 #pragma once
 // Equipment name D000E–D0015: 16 bytes of ASCII, at most 14 characters,
 // NUL padded, first character in the high byte of D000E.
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <array>
 #include <cstdint>

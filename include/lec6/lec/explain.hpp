@@ -2,7 +2,11 @@
 // Frames explained in the manual's terms, one line each:
 //   01 05 00 19 FF 00 5D FD  →  "ID 1 write Y19 SVON = ON"
 // Used by `lec decode`, `--trace` and the twin's trace.
+//
+// Thread safety: pure functions.
 
+#include <cstdint>
+#include <span>
 #include <string>
 
 #include "lec6/modbus/pdu.hpp"
@@ -15,8 +19,11 @@ std::string explain_request(const modbus::RequestFrame& frame);
 std::string explain_response(const modbus::ResponseFrame& frame,
                              const modbus::RequestFrame* request = nullptr);
 
-// Decodes raw bytes as a request or a reply (whichever fits; a reply when
-// `as_reply`), and explains it; the error text when it does not decode.
-std::string explain_bytes(std::span<const uint8_t> adu, bool as_reply);
+// Which side of a transaction a frame is.
+enum class FrameRole : uint8_t { Request, Reply };
+
+// Decodes raw bytes as a request or a reply, as `role` says, and explains
+// it; the error text when it does not decode.
+std::string explain_bytes(std::span<const uint8_t> adu, FrameRole role);
 
 }  // namespace lec6::lec

@@ -1,6 +1,9 @@
 #pragma once
 // The internal flags (digest §4, manual §10.3): X40–X4F status inputs and the
 // Y coils the master drives.
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <array>
 #include <cstdint>

@@ -2,6 +2,8 @@
 // The LEC□6 memory map (digest §4) as data, and the controller's access rules
 // (digest §2–§3) as one function. The twin answers with it and the client
 // checks its own requests with it, so both sides share one definition.
+//
+// Thread safety: constant data and pure functions.
 
 #include <cstdint>
 #include <optional>

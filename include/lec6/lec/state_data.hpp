@@ -1,5 +1,8 @@
 #pragma once
 // State data D9000–D9006 (manual §10.1): where the actuator is and what it does.
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <array>
 #include <cstdint>

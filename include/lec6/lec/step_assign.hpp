@@ -17,6 +17,8 @@
 // - --from M starts from step M's record instead of the step's own; a blank
 //   step M is refused. With --from, no assignment is needed (a plain copy).
 // - All or nothing: on any error there is no result; every error is reported.
+//
+// Thread safety: pure functions.
 
 #include <optional>
 #include <span>

@@ -1,6 +1,9 @@
 #pragma once
 // Step data (manual §10.4) and direct-operation data (§10.2): the same
 // sixteen-register record. Units are in the member names.
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <array>
 #include <cstdint>

@@ -18,7 +18,7 @@
 //   (first cell starting with '#'). A spreadsheet shows each as one text cell
 //   in column A above the header and writes it back unchanged, so the file
 //   still opens and saves cleanly; the writer quotes the line as one CSV field
-//   when the name contains ',', ';' or '"'. Comment lines may appear anywhere
+//   when the name contains ',', ';', '"' or a line break. Comment lines may appear anywhere
 //   (so a step row can be commented out with '#'); ones without a known
 //   `key:` are ignored; a known key given twice is an error. The name is informational (D000E
 //   is read-only); leading/trailing spaces of it are not kept. controller_id 0
@@ -28,7 +28,9 @@
 // What parse_csv accepts (a spreadsheet round trip):
 // - a UTF-8 BOM; CRLF or LF line ends; empty lines and rows of only empty
 //   cells anywhere (skipped); spaces around cells;
-// - quoted cells ("150.00", "" for a quote); a quoted cell may not span lines;
+// - quoted cells ("150.00", "" for a quote), RFC 4180: a quoted cell may hold
+//   the separator and line breaks (a comment written over two lines in a
+//   spreadsheet cell); errors name the line its record starts on;
 // - the separator detected from the header line: ';' if it has one outside
 //   quotes, else a tab if it has one, else ','; decimal commas in lengths
 //   ("150,00", as parse_mm accepts);
@@ -62,6 +64,9 @@
 // accepted too. A blank step is written with "mode": "blank" and zeros
 // (0 and "0" are accepted for the mode as well). Errors name the step's index
 // in the array: "steps[4] (step 3): speed_mm_s ...". Unknown keys are errors.
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <array>
 #include <bitset>

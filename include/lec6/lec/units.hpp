@@ -1,6 +1,8 @@
 #pragma once
 // Lengths travel as integers in 0.01 mm; people type and read millimetres
 // with up to two decimals. These are the only conversions between the two.
+//
+// Thread safety: pure functions.
 
 #include <cstdint>
 #include <string>

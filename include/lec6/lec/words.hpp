@@ -1,6 +1,8 @@
 #pragma once
 // 32-bit values travel in two registers, high word first, two's complement
 // (digest §4). These are the only places that split and join them.
+//
+// Thread safety: pure functions.
 
 #include <cstdint>
 

@@ -1,6 +1,8 @@
 #pragma once
 // CRC-16/MODBUS (manual §11): reflected polynomial 0xA001, preset 0xFFFF,
 // appended to a frame low byte first.
+//
+// Thread safety: pure functions (the tables are built at compile time).
 
 #include <array>
 #include <cstddef>

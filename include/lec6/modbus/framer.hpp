@@ -1,6 +1,8 @@
 #pragma once
 // Framers, sans-I/O: they are fed bytes (with the time they arrived) and say
 // when a frame is complete. No reads, no sleeps, no clocks of their own.
+//
+// Thread safety: a framer is used by one thread at a time.
 
 #include <cstddef>
 #include <cstdint>
@@ -64,10 +66,16 @@ class ClientFramer {
 
 std::string_view discard_name(ClientFramer::Discard d) noexcept;
 
+// What ends a frame at the controller's side.
+enum class FrameEnd : uint8_t {
+  Silence,          // a gap ≥ Ts after the last byte (the manual's rule)
+  LengthOrSilence,  // also its predicted length with a valid CRC (the fast twin)
+};
+
 // The controller's side: frames are delimited by the silent interval Ts
-// (a gap ≥ Ts ends a frame), from the arrival times of the bytes. In `fast`
-// mode a frame also completes as soon as its predicted length is in with a
-// valid CRC (frames it cannot size still wait for Ts).
+// (a gap ≥ Ts ends a frame), from the arrival times of the bytes. With
+// FrameEnd::LengthOrSilence a frame also completes as soon as its predicted
+// length is in with a valid CRC (frames it cannot size still wait for Ts).
 class DeviceFramer {
  public:
   struct Frame {
@@ -75,8 +83,8 @@ class DeviceFramer {
     TimePoint end_of_query;  // arrival of the frame's last byte
   };
 
-  DeviceFramer(Duration silent_interval, bool complete_on_length)
-      : silent_interval_(silent_interval), complete_on_length_(complete_on_length) {}
+  DeviceFramer(Duration silent_interval, FrameEnd end)
+      : silent_interval_(silent_interval), complete_on_length_(end == FrameEnd::LengthOrSilence) {}
 
   // Bytes arrived at `t` (the arrival of the chunk's last byte).
   void feed(std::span<const uint8_t> bytes, TimePoint t);

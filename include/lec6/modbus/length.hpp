@@ -2,6 +2,8 @@
 // Frame-length prediction from a frame's first bytes. This is what lets the
 // client finish a read the moment the last byte is in, instead of waiting for
 // a silent interval to find the end.
+//
+// Thread safety: pure functions.
 
 #include <cstddef>
 #include <cstdint>

@@ -5,6 +5,8 @@
 // Encoding is strict (it refuses what the controller would refuse on counts);
 // decoding is structural (it accepts any frame whose shape is sound, so the
 // twin can answer a bad count with the controller's exception code).
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads.
 
 #include <cstddef>
 #include <cstdint>

@@ -1,5 +1,8 @@
 #pragma once
 // Line timing of digest §1 (manual §8.2–8.4). One character is 10 bits (8N1).
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <cstddef>
 #include <cstdint>
@@ -17,11 +20,11 @@ bool is_supported_baud(uint32_t baud) noexcept;
 struct LineTiming {
   uint32_t baud = kDefaultBaud;
   unsigned silent_interval_k = 1;  // controller parameter "Silent INT" (multiples of 3.5 chars)
-  Duration delay_td = milliseconds(5);  // controller parameter "Min Resp delay"
+  Duration delay_td = std::chrono::milliseconds(5);  // controller parameter "Min Resp delay"
 
   // The controller's internal processing time T0 (manual §8.4: 4 ms). The
   // manual's ×1.5 safety factor is the master's margin, applied in response_time().
-  static constexpr Duration kProcessing = milliseconds(4);
+  static constexpr Duration kProcessing = std::chrono::milliseconds(4);
   static constexpr double kProcessingSafetyFactor = 1.5;
 
   Duration char_time() const noexcept { return wire_time(1); }

@@ -13,17 +13,17 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "lec6/clock.hpp"
+#include "lec6/error.hpp"
 
 namespace lec6::serve {
 
-class ConfigError : public std::runtime_error {
+class ConfigError : public InvalidArgument {
  public:
-  using std::runtime_error::runtime_error;
+  using InvalidArgument::InvalidArgument;
 };
 
 struct Endpoint {

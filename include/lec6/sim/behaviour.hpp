@@ -5,6 +5,9 @@
 // default; `lec sim --help` prints them). The `behaviour` namespace holds the
 // fixed decisions ("assumed" in the digest, docs/protocol-decisions.md), each
 // citing the digest section it implements.
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <cstdint>
 #include <optional>
@@ -51,12 +54,12 @@ struct ActuatorConfig {
   // there and raises alarm 149 (positioning) / 97 (homing) after
   // `stall_alarm_delay`.
   std::optional<double> workpiece_mm;
-  Duration stall_alarm_delay = milliseconds(1000);
+  Duration stall_alarm_delay = std::chrono::milliseconds(1000);
   // The controller's W-AREA setting; X4D WAREA = 1 while the position is in
   // it. None by default (WAREA always 0), so power-on replies match the manual.
   std::optional<RangeMm> warea_mm;
   // Time from SVON ← 1 to SVRE = 1.
-  Duration svre_delay = milliseconds(50);
+  Duration svre_delay = std::chrono::milliseconds(50);
   // Thrust model (D9003, %): while moving, friction_thrust_pct plus
   // accel_thrust_pct × |acceleration| / max_accel_mm_s2; 0 at rest; capped by
   // the step's moving force while positioning, equal to the pushing force

@@ -29,6 +29,9 @@
 //       if (!d || *d > deadline) { clock.set(max(now, deadline)); return 0; }
 //       clock.set(max(now, *d));
 //     }
+//
+// Thread safety: none inside; a Bus and its Controllers are used by one thread at a time (lec sim:
+// its event loop's thread).
 
 #include <cstdint>
 #include <map>
@@ -56,7 +59,7 @@ struct FaultConfig {
   double garbage = 0.0;  // 1–garbage_max_bytes random bytes are sent right before the reply
   unsigned garbage_max_bytes = 4;
   double delay = 0.0;  // the reply starts `extra_delay` later than it should
-  Duration extra_delay = milliseconds(50);
+  Duration extra_delay = std::chrono::milliseconds(50);
   uint64_t seed = 1;
   bool any() const noexcept { return drop > 0 || corrupt > 0 || garbage > 0 || delay > 0; }
 };
@@ -86,7 +89,7 @@ class Bus {
 
   explicit Bus(const LineConfig& line = {}, const FaultConfig& faults = {});
 
-  // Adds controller `id` (1–255). Throws std::invalid_argument for ID 0 or a
+  // Adds controller `id` (1–255). Throws lec6::InvalidArgument for ID 0 or a
   // duplicate, and for a config that validate() refuses.
   Controller& add(uint8_t id, const ActuatorConfig& config = {}, TimePoint power_on = TimePoint{},
                   const std::optional<Eeprom>& eeprom = std::nullopt);
@@ -143,6 +146,6 @@ class Bus {
 // Returns that reply (its `end` is when the master has it), or nullopt
 // (broadcast, silence, a dropped reply). Any other reply due by then is discarded.
 std::optional<Reply> transact(Bus& bus, std::span<const uint8_t> query, TimePoint start,
-                              Duration timeout = milliseconds(1000));
+                              Duration timeout = std::chrono::milliseconds(1000));
 
 }  // namespace lec6::sim

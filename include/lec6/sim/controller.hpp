@@ -7,6 +7,8 @@
 // the carriage follows an analytic MotionProfile, and events (SVRE rising,
 // a move ending, the carriage meeting the workpiece) are found analytically
 // and applied in order by advance().
+//
+// Thread safety: none inside; a Controller is used by one thread at a time (its Bus's).
 
 #include <array>
 #include <cstdint>
@@ -46,7 +48,7 @@ class Controller {
  public:
   // Powers on at `power_on`. EEPROM contents come from `eeprom` when given
   // (a state file), else factory state (blank steps, empty history, the
-  // configured equipment name). Throws std::invalid_argument for a config
+  // configured equipment name). Throws lec6::InvalidArgument for a config
   // that validate() refuses.
   explicit Controller(const ActuatorConfig& config = {}, TimePoint power_on = TimePoint{},
                       const std::optional<Eeprom>& eeprom = std::nullopt);

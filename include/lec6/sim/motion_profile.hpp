@@ -5,6 +5,9 @@
 // so a virtual clock can jump straight to the instant something happens.
 //
 // Units: mm, mm/s, mm/s²; time on the library's TimePoint.
+//
+// Thread safety: value types and pure functions; const objects may be shared between threads,
+// writes need the caller's synchronisation.
 
 #include <optional>
 #include <vector>

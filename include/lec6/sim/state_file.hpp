@@ -13,12 +13,13 @@
 //   end
 //
 // Steps that are blank and never written, and empty alarm groups, are left out.
-// Saving is atomic: a temporary file in the same directory is written and
-// fsync'ed, then renamed over the old one (and the directory fsync'ed), so a
-// crash leaves either the old or the new file, never a torn one.
+// This is the text, sans-I/O; the file is read and written by
+// twin/state_file_io.hpp (atomically: a crash leaves the old or the new file).
+//
+// Thread safety: the functions share nothing; two saves of the same path at once race (the last
+// rename wins, neither file is torn).
 
 #include <cstdint>
-#include <filesystem>
 #include <map>
 #include <optional>
 #include <string>
@@ -33,13 +34,5 @@ using EepromSet = std::map<uint8_t, Eeprom>;  // by controller ID
 
 std::string serialize_state(const EepromSet& state);
 Expected<EepromSet, std::string> parse_state(std::string_view text);
-
-// Writes atomically (temp file + fsync + rename). The error names the path and the cause.
-Expected<void, std::string> save_state_file(const std::filesystem::path& path,
-                                            const EepromSet& state);
-
-// nullopt when the file does not exist (first start); an error when it
-// exists but cannot be read or parsed.
-Expected<std::optional<EepromSet>, std::string> load_state_file(const std::filesystem::path& path);
 
 }  // namespace lec6::sim

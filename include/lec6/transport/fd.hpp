@@ -2,6 +2,8 @@
 // Small POSIX helpers shared by the transports and by event loops that poll
 // their descriptors (the twin's server): an owning file descriptor, errno text,
 // and a deadline-bounded poll that never busy-waits.
+//
+// Thread safety: UniqueFd is used by one thread at a time; the functions share nothing.
 
 #include <poll.h>
 
@@ -47,7 +49,7 @@ std::string errno_text(int err);
 // Waits until `fd` reports one of `events` (or an error/hang-up condition), or
 // until `deadline` passes as read on `clock`. Returns the revents, or 0 once
 // the deadline has passed (never before it). A deadline already in the past
-// still checks the descriptor once. Retries on EINTR; throws std::system_error
+// still checks the descriptor once. Retries on EINTR; throws lec6::SystemError
 // if poll itself fails.
 short poll_until(int fd, short events, TimePoint deadline, const Clock& clock);
 
@@ -57,7 +59,7 @@ bool set_nonblocking(int fd, bool on = true);
 // Writes every byte to a non-blocking descriptor, waiting for POLLOUT up to
 // `deadline`. `put(data, size)` makes one attempt (write(2) or send(2)) and
 // returns its result. Returns how many bytes went out: fewer than asked means
-// the deadline passed. Errors other than EINTR/EAGAIN throw std::system_error
+// the deadline passed. Errors other than EINTR/EAGAIN throw lec6::SystemError
 // with the errno, for the caller to word.
 std::size_t write_all(int fd, std::span<const uint8_t> bytes, TimePoint deadline,
                       const Clock& clock,

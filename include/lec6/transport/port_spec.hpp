@@ -1,5 +1,7 @@
 #pragma once
 // What the user passes as --port, and the serial ports this machine has.
+//
+// Thread safety: pure functions (list_serial_ports reads /dev and /sys; it shares nothing).
 
 #include <cstdint>
 #include <filesystem>
@@ -38,7 +40,7 @@ struct PortSpec {
 //   sim
 // Spellings of other tools (rtu://, tcp+rtu://, modbus://, host:port) get a
 // hint naming the right form.
-// Throws std::invalid_argument with a message for the user, e.g.
+// Throws lec6::InvalidArgument with a message for the user, e.g.
 //   unknown port 'foo': expected a device path like /dev/ttyUSB0, tcp://host:port, or sim
 PortSpec parse_port_spec(std::string_view text);
 

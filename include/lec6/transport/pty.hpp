@@ -2,6 +2,9 @@
 // A pseudo-terminal pair for the digital twin: the twin serves the master
 // side, masters (lec, pymodbus, mbpoll, ...) open the slave path as if it were
 // a serial port.
+//
+// Thread safety: a Pty is used by one thread at a time; its descriptor may be polled from the
+// thread that serves it.
 
 #include <filesystem>
 #include <string>

@@ -8,6 +8,8 @@
 // loops or hidden read timeouts), local-echo control for 2-wire adapters, and
 // the low-latency / USB latency_timer knobs. Portable libraries hide or lack
 // all of these.
+//
+// Thread safety: one thread at a time.
 
 #include <cstddef>
 #include <cstdint>
@@ -45,7 +47,7 @@ struct SerialOptions {
   // difference is a bus collision (LinkError EchoMismatch).
   bool discard_echo = false;
   // How long, beyond the bytes' own wire time, write() waits for the echo.
-  Duration echo_timeout = milliseconds(50);
+  Duration echo_timeout = std::chrono::milliseconds(50);
   // Set ASYNC_LOW_LATENCY where the driver supports it (silently skipped where not).
   bool low_latency = true;
   // Refuse other openers while we hold the port (TIOCEXCL plus an flock, which
@@ -66,7 +68,7 @@ std::optional<std::string> check_latency_timer(std::string_view port,
 
 class SerialLink final : public client::Link {
  public:
-  // Opens and configures the port. Throws std::invalid_argument for an
+  // Opens and configures the port. Throws lec6::InvalidArgument for an
   // unsupported baud, LinkError PortUnavailable when the port cannot be opened
   // or configured as asked (message names the port).
   explicit SerialLink(std::string path, SerialOptions options = {});

@@ -1,6 +1,8 @@
 #pragma once
 // A listening TCP socket for the twin's server loop: the loop polls fd() for
 // POLLIN and calls accept(). Deliberately minimal: no threads, no loop.
+//
+// Thread safety: one thread at a time (the loop that polls it).
 
 #include <cstdint>
 #include <string>

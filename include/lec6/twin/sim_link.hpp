@@ -4,6 +4,8 @@
 // timing says, on whichever clock it is given:
 //  - a VirtualClock: waiting jumps the clock (tests run in no wall time);
 //  - the SteadyClock: waiting sleeps (a person watching sees real motion).
+//
+// Thread safety: one thread at a time, the same one that uses its Bus and clock.
 
 #include <deque>
 

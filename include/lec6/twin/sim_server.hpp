@@ -39,6 +39,9 @@
 // All sources (the pty and every TCP client) feed the one bus, as masters on
 // one RS485 line would; each reply goes back to the source whose bytes ended
 // the frame it answers (replies to a closed connection are dropped).
+//
+// Thread safety: run() on one thread; stop() from any thread or a signal handler; stats() is a racy
+// snapshot until run() returns. The Bus belongs to run()'s thread while it runs.
 
 #include <atomic>
 #include <cstdint>
@@ -69,7 +72,7 @@ struct SimServerOptions {
   // Saved (atomically, on a background thread so the loop never waits on the
   // disk) at most every `save_interval` while it changes, and when run() ends.
   std::filesystem::path state_file;
-  Duration save_interval = milliseconds(200);
+  Duration save_interval = std::chrono::milliseconds(200);
   // Controllers in the loaded state file that are not on this bus (a twin
   // started with fewer --ids): written back unchanged, so nothing is lost.
   sim::EepromSet state_carry;
@@ -102,7 +105,7 @@ class SimServer {
   };
 
   // Opens the pty and/or the listener (throws client::LinkError
-  // PortUnavailable, std::invalid_argument when neither is asked for). The
+  // PortUnavailable, lec6::InvalidArgument when neither is asked for). The
   // bus must outlive the server and is only touched by run()'s thread.
   SimServer(sim::Bus& bus, SimServerOptions options);
   ~SimServer();

@@ -1,3 +1,6 @@
+// The twin's state file: its text (sim/state_file.hpp) and the file on disk
+// (twin/state_file_io.hpp).
+
 #include "lec6/sim/state_file.hpp"
 
 #include <gtest/gtest.h>
@@ -8,11 +11,14 @@
 #include <fstream>
 
 #include "lec6/lec/memory_map.hpp"
+#include "lec6/twin/state_file_io.hpp"
 
 namespace lec6::sim {
 namespace {
 
 namespace fs = std::filesystem;
+using twin::load_state_file;  // the file on disk; its text is sim's
+using twin::save_state_file;
 
 Eeprom sample() {
   Eeprom e;

@@ -1,0 +1,88 @@
+// The one atomic file writer (step-table backups, the twin's state file).
+
+#include "lec6/transport/file.hpp"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace lec6::transport {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+class FileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fs::temp_directory_path() /
+          ("lec6-file-" + std::to_string(::getpid()) + "-" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  std::size_t entries() const {
+    return static_cast<std::size_t>(
+        std::distance(fs::directory_iterator(dir), fs::directory_iterator{}));
+  }
+  fs::path dir;
+};
+
+TEST_F(FileTest, ReplacesTheFileWithANewOneAndLeavesNoTemporary) {
+  const fs::path p = dir / "steps.csv";
+  std::ofstream(p) << "old";
+  struct stat before {};
+  ASSERT_EQ(::stat(p.c_str(), &before), 0);
+  std::ifstream old_reader(p);  // keeps the old file open
+  ASSERT_TRUE(write_file_atomically(p, "new\ncontents\n"));
+  struct stat after {};
+  ASSERT_EQ(::stat(p.c_str(), &after), 0);
+  EXPECT_NE(before.st_ino, after.st_ino);  // a new file renamed over it, not rewritten in place
+  std::string old_text;
+  std::getline(old_reader, old_text);
+  EXPECT_EQ(old_text, "old");
+  EXPECT_EQ(*read_file(p), "new\ncontents\n");
+  EXPECT_EQ(entries(), 1u);
+}
+
+TEST_F(FileTest, NewFilesGetTheUsualPermissions) {
+  const fs::path p = dir / "twin.state";
+  ASSERT_TRUE(write_file_atomically(p, "x"));
+  struct stat st {};
+  ASSERT_EQ(::stat(p.c_str(), &st), 0);
+  const mode_t mask = ::umask(022);  // this test is single-threaded
+  ::umask(mask);
+  EXPECT_EQ(st.st_mode & 0777, 0666 & ~mask);
+}
+
+TEST_F(FileTest, ErrorsNameThePathAndTheCauseAndChangeNothing) {
+  const auto bad = write_file_atomically(dir / "no-such-dir" / "x.csv", "x");
+  ASSERT_FALSE(bad);
+  EXPECT_THAT(bad.error(), HasSubstr("cannot write "));
+  EXPECT_THAT(bad.error(), HasSubstr("no-such-dir/x.csv: No such file or directory"));
+  EXPECT_EQ(entries(), 0u);
+
+  const auto missing = read_file(dir / "none.csv");
+  ASSERT_FALSE(missing);
+  EXPECT_THAT(missing.error(), HasSubstr("cannot read "));
+  EXPECT_THAT(missing.error(), HasSubstr("none.csv: No such file or directory"));
+}
+
+TEST_F(FileTest, AFileInTheCurrentDirectory) {
+  const fs::path cwd = fs::current_path();
+  fs::current_path(dir);
+  const auto w = write_file_atomically("plain.txt", "here");
+  fs::current_path(cwd);
+  ASSERT_TRUE(w) << w.error();
+  EXPECT_EQ(*read_file(dir / "plain.txt"), "here");
+}
+
+}  // namespace
+}  // namespace lec6::transport
