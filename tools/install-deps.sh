@@ -7,7 +7,7 @@ packages=(
   build-essential cmake pkg-config clang libclang-rt-14-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev libasio-dev
-  libmodbus-dev mbpoll python3 python3-pymodbus python3-serial
+  libmodbus-dev mbpoll python3 python3-pymodbus python3-serial libyaml-cpp-dev
 )
 
 missing=()

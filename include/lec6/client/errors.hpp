@@ -2,13 +2,18 @@
 // What can go wrong talking to a controller, kept apart by who is at fault:
 // the line (TransportError), the controller refusing a request
 // (ControllerException), the controller stopping with an alarm (AlarmError),
-// or an operation running past its deadline (DeadlineError).
+// an operation running past its deadline (DeadlineError), a start the
+// controller never acted on (MoveNotStarted), or the caller interrupting
+// (Cancelled). The ones a move can end with carry its MoveResult (outcome
+// and timeline), so a caller can print the move's one line.
 
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "lec6/client/move_result.hpp"
 #include "lec6/modbus/pdu.hpp"
 
 namespace lec6::client {
@@ -46,11 +51,25 @@ class ControllerException : public std::runtime_error {
   modbus::ExceptionCode code_;
 };
 
-// The controller raised an alarm (X4F = 1) during an operation.
-class AlarmError : public std::runtime_error {
+// What a move showed before it ended in one of the errors below; empty when
+// the error did not end a move (an alarm already active, an interrupted read).
+class WithMoveResult {
  public:
-  AlarmError(std::vector<uint8_t> codes, const std::string& what)
-      : std::runtime_error(what), codes_(std::move(codes)) {}
+  const std::optional<MoveResult>& move_result() const noexcept { return result_; }
+
+ protected:
+  explicit WithMoveResult(std::optional<MoveResult> r) : result_(std::move(r)) {}
+
+ private:
+  std::optional<MoveResult> result_;
+};
+
+// The controller raised an alarm (X4F = 1) during an operation.
+class AlarmError : public std::runtime_error, public WithMoveResult {
+ public:
+  AlarmError(std::vector<uint8_t> codes, const std::string& what,
+             std::optional<MoveResult> result = std::nullopt)
+      : std::runtime_error(what), WithMoveResult(std::move(result)), codes_(std::move(codes)) {}
   const std::vector<uint8_t>& codes() const noexcept { return codes_; }
 
  private:
@@ -58,15 +77,27 @@ class AlarmError : public std::runtime_error {
 };
 
 // An operation did not finish by its deadline (the controller kept answering).
-class DeadlineError : public std::runtime_error {
+class DeadlineError : public std::runtime_error, public WithMoveResult {
  public:
-  using std::runtime_error::runtime_error;
+  explicit DeadlineError(const std::string& what, std::optional<MoveResult> result = std::nullopt)
+      : std::runtime_error(what), WithMoveResult(std::move(result)) {}
 };
 
-// The caller asked to stop (Ctrl-C); the axis was stopped before this was thrown.
-class Cancelled : public std::runtime_error {
+// The caller asked to stop (Ctrl-C): a waiting move was stopped before this
+// was thrown; a wait on the line (Master) ended without a reply.
+class Cancelled : public std::runtime_error, public WithMoveResult {
  public:
-  using std::runtime_error::runtime_error;
+  explicit Cancelled(const std::string& what, std::optional<MoveResult> result = std::nullopt)
+      : std::runtime_error(what), WithMoveResult(std::move(result)) {}
+};
+
+// Nothing showed that the controller started a move within the start window
+// (client/completion.hpp): never taken for success. A stop (RESET pulse) was
+// sent before this was thrown, so a start processed late cannot run unattended.
+class MoveNotStarted : public std::runtime_error, public WithMoveResult {
+ public:
+  MoveNotStarted(const std::string& what, MoveResult result)
+      : std::runtime_error(what), WithMoveResult(std::move(result)) {}
 };
 
 // A request refused before anything was sent (value out of range, address
