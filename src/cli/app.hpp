@@ -82,6 +82,9 @@ class Session {
   client::Actuator& axis(std::string_view default_port = {});
   // Releases the port (the next client() opens it again).
   void close() noexcept;
+  // The command only writes, so `--id 0` (broadcast) can work; call before
+  // client(). Every other command refuses ID 0 before opening the port.
+  void allow_broadcast() noexcept { allow_broadcast_ = true; }
   const GlobalOptions& options() const noexcept { return options_; }
   bool json() const noexcept { return options_.json; }
   // What the port is, for messages ("/dev/ttyUSB0 @ 38400").
@@ -94,6 +97,7 @@ class Session {
  private:
   struct Impl;
   const GlobalOptions& options_;  // filled in by the parser after construction
+  bool allow_broadcast_ = false;
   std::unique_ptr<Impl> impl_;
 };
 
@@ -107,5 +111,6 @@ void add_demo_command(CLI::App& app, Session& session);   // demo
 void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/backup/restore/diff
 void add_sim_command(CLI::App& app);                      // sim (the twin program)
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
+void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
 
 }  // namespace lec6::cli

@@ -133,6 +133,9 @@ void run_ping(Session& s, const PingArgs& a) {
                    rtts.back());
     } catch (const client::TransportError& e) {
       if (!s.json()) fmt::print("ID {}: seq={} {}\n", s.options().id, seq, e.what());
+    } catch (const client::Cancelled&) {  // Ctrl-C during an echo: end with the statistics
+      --sent;
+      break;
     }
     if (seq + 1 != a.count && a.interval_s > 0) {
       const TimePoint next = c.clock().now() + to_duration(FractionalSeconds(a.interval_s));
@@ -213,6 +216,8 @@ std::vector<ScanResult> scan_ids(Session& s, const std::vector<int>& ids) {
           e.kind() == client::TransportErrorKind::Framing) {
         found.push_back({id, "", e.what()});
       }
+    } catch (const client::Cancelled&) {  // Ctrl-C: report what was found so far
+      break;
     }
   }
   return found;
@@ -299,9 +304,12 @@ void run_bench(Session& s, const BenchArgs& a) {
   std::vector<double> lat;
   lat.reserve(static_cast<std::size_t>(a.n));
   const TimePoint start = c.clock().now();
-  for (int i = 0; i < a.n && !g_interrupted; ++i) {
-    c.transact(request);
-    lat.push_back(to_ms(c.last_round_trip()));
+  try {
+    for (int i = 0; i < a.n && !g_interrupted; ++i) {
+      c.transact(request);
+      lat.push_back(to_ms(c.last_round_trip()));
+    }
+  } catch (const client::Cancelled&) {  // Ctrl-C mid-transaction: report what was measured
   }
   const double total_s = to_seconds(c.clock().now() - start);
   std::sort(lat.begin(), lat.end());

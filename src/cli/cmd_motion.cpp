@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include "cli/app.hpp"
+#include "cli/move_report.hpp"
 #include "cli/views.hpp"
 #include "lec6/lec/step_data.hpp"
 #include "lec6/lec/units.hpp"
@@ -38,26 +39,6 @@ int64_t field_value(StepField f, const std::string& text) {
   auto v = lec::parse_field(f, text);
   if (!v) throw UsageError(v.error());
   return *v;
-}
-
-void report_move(const Session& s, const client::MoveResult& r, std::string_view what) {
-  end_progress(s);
-  if (s.json()) {
-    auto j = state_json(r.state, r.flags, {});
-    j["in_position"] = r.in_position;
-    j["elapsed_s"] = to_seconds(r.elapsed);
-    print_json(j);
-  } else {
-    fmt::print("{} done in {:.2f} s: position {} mm, {}\n", what, to_seconds(r.elapsed),
-               lec::format_mm(r.state.position_001mm),
-               r.in_position ? "INP = 1 (in position)" : "INP = 0 (NOT in position)");
-  }
-  if (!r.in_position) {
-    throw CommandFailed(
-        kFailure, r.flags.busy() ? "the operation is still running"
-                                 : "BUSY fell without INP: the move ended outside its in-position "
-                                   "width (a push that missed the workpiece, or a stop)");
-  }
 }
 
 struct MoveArgs {
@@ -112,22 +93,22 @@ void run_move(Session& s, const MoveArgs& a) {
   auto& axis = s.axis();
   const auto deadline = s.deadline_in(to_duration(FractionalSeconds(a.timeout_s)));
   auto wait = s.wait_options(progress_printer(s));
-  if (by_step) {
-    report_move(s, axis.run_step(static_cast<unsigned>(a.step), deadline, wait),
-                fmt::format("Step {}", a.step));
-    return;
-  }
-  const auto r = axis.move(m, deadline, wait, a.no_wait);
   if (a.no_wait) {
+    axis.start(m);
+    const auto flags = s.client().read_flags();
+    const auto state = s.client().read_state();
     if (s.json()) {
-      print_json(state_json(r.state, r.flags, {}));
+      print_json(state_json(state, flags, {}));
     } else {
-      fmt::print("Started: target {} mm ({})\n", lec::format_mm(r.state.target_001mm),
-                 r.flags.describe());
+      fmt::print("Started: target {} mm ({})\n", lec::format_mm(state.target_001mm),
+                 flags.describe());
     }
     return;
   }
-  report_move(s, r, fmt::format("Move to {} mm{}", a.to, a.relative ? " (relative)" : ""));
+  with_move_report(s, [&] {
+    report_move(s, by_step ? axis.run_step(static_cast<unsigned>(a.step), deadline, wait)
+                           : axis.move(m, deadline, wait));
+  });
 }
 
 bool stdin_has_input() {
@@ -140,7 +121,8 @@ void run_jog(Session& s, const std::string& dir, double seconds) {
     throw UsageError(fmt::format("jog: direction must be + or -, got '{}'", dir));
   auto& axis = s.axis();
   const bool held = seconds <= 0;
-  if (held && !s.json()) fmt::print(stderr, "Jogging {}: press Enter or Ctrl-C to stop\n", dir);
+  if (held && !s.json())
+    fmt::print(stderr, "Jogging {}: press Enter to stop (Ctrl-C stops too, exit 130)\n", dir);
   auto wait = s.wait_options(progress_printer(s));
   if (held && isatty(STDIN_FILENO)) {
     wait.cancel = [] { return g_interrupted.load() || stdin_has_input(); };
@@ -148,7 +130,6 @@ void run_jog(Session& s, const std::string& dir, double seconds) {
   const TimePoint until =
       held ? TimePoint::max() : s.deadline_in(to_duration(FractionalSeconds(seconds)));
   const auto r = axis.jog(dir == "+", until, s.deadline_in(std::chrono::hours(24)), wait);
-  g_interrupted = false;  // Ctrl-C meant "release the jog"
   end_progress(s);
   if (s.json()) {
     print_json(state_json(r.state, r.flags, {}));
@@ -176,6 +157,7 @@ void add_motion_commands(CLI::App& app, Session& session) {
   serial->add_option("state", *value, "on|off")->required();
   serial->callback([&session, value] {
     const bool on = parse_on_off(*value, "serial");
+    session.allow_broadcast();  // a write only: `lec --id 0 serial on` reaches every controller
     session.axis().set_serial_mode(on);
     say(session, on ? "Serial input mode (Y30 = 1)" : "Parallel input mode (Y30 = 0)",
         {{"serial_mode", on}});
@@ -197,19 +179,16 @@ void add_motion_commands(CLI::App& app, Session& session) {
   });
 
   auto home_timeout = std::make_shared<double>(60.0);
-  auto* home =
-      app.add_subcommand("home", "Return to origin: SETUP, wait SETON and BUSY 0, SETUP off");
+  auto* home = app.add_subcommand(
+      "home", "Return to origin: SETUP, wait for the move to end (SETON, at 0), SETUP off");
   home->add_option("--timeout-s", *home_timeout, "Deadline for the return to origin")
       ->capture_default_str();
   home->callback([&session, home_timeout] {
     auto& axis = session.axis();
-    const auto r = axis.home(session.deadline_in(to_duration(FractionalSeconds(*home_timeout))),
-                             session.wait_options(progress_printer(session)));
-    end_progress(session);
-    say(session,
-        fmt::format("Homed in {:.2f} s: position {} mm, {}", to_seconds(r.elapsed),
-                    lec::format_mm(r.state.position_001mm), r.flags.describe()),
-        state_json(r.state, r.flags, {}));
+    with_move_report(session, [&] {
+      report_move(session, axis.home(session.deadline_in(to_duration(FractionalSeconds(*home_timeout))),
+                                     session.wait_options(progress_printer(session))));
+    });
   });
 
   auto a = std::make_shared<MoveArgs>();
@@ -244,6 +223,7 @@ void add_motion_commands(CLI::App& app, Session& session) {
   hold->add_option("state", *value, "on|off")->required();
   hold->callback([&session, value] {
     const bool on = parse_on_off(*value, "hold");
+    session.allow_broadcast();
     session.axis().hold(on);
     say(session, on ? "HOLD on: operation suspended" : "HOLD off: operation resumed",
         {{"hold", on}});
@@ -251,6 +231,7 @@ void add_motion_commands(CLI::App& app, Session& session) {
 
   app.add_subcommand("stop", "Decelerating stop of the running operation (RESET pulse)")
       ->callback([&session] {
+        session.allow_broadcast();
         session.axis().stop();
         say(session, "Stopped (decelerating stop)");
       });

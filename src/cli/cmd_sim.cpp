@@ -12,8 +12,10 @@
 #include <vector>
 
 #include "cli/app.hpp"
+#include "cli/sim_args.hpp"
 #include "lec6/modbus/timing.hpp"
 #include "lec6/sim/bus.hpp"
+#include "lec6/twin/field_profile.hpp"
 #include "lec6/twin/sim_server.hpp"
 #include "lec6/twin/state_file_io.hpp"
 
@@ -21,10 +23,17 @@ namespace lec6::cli {
 
 namespace {
 
+using sim_args::format_ids;
+using sim_args::parse_ids;
+using sim_args::parse_mm;
+using sim_args::parse_tcp;
+using sim_args::trim;
+
 struct SimArgs {
   std::string pty;
   std::string tcp;
   std::string ids = "1";
+  std::string profile;
   uint32_t baud = modbus::kDefaultBaud;
   std::string timing = "real";
   unsigned silent_interval_k = modbus::LineTiming{}.silent_interval_k;
@@ -35,6 +44,10 @@ struct SimArgs {
   double workpiece = 0.0;
   double initial_position = sim::ActuatorConfig{}.initial_position_mm;
   std::string name = sim::ActuatorConfig{}.equipment_name;
+  double busy_delay_ms = 0.0;
+  double busy_min_ms = 0.0;
+  bool target_update_late = false;
+  double noise_rate = 0.0;
   bool trace = false;
   uint64_t seed = sim::FaultConfig{}.seed;
   double drop_rate = 0.0;
@@ -42,103 +55,9 @@ struct SimArgs {
   double garbage_rate = 0.0;
   double delay_rate = 0.0;
   double extra_delay_ms = to_ms(sim::FaultConfig{}.extra_delay);
-  bool workpiece_given = false;
-  bool delay_rate_given = false;
-  bool extra_delay_given = false;
+  std::set<std::string> given;  // options on the command line: they override the profile
+  bool has(const std::string& option) const { return given.count(option) > 0; }
 };
-
-std::string trim(std::string s) {
-  const auto b = s.find_first_not_of(" \t");
-  const auto e = s.find_last_not_of(" \t");
-  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
-}
-
-unsigned parse_id(const std::string& text) {
-  std::size_t used = 0;
-  unsigned long v = 0;
-  try {
-    v = std::stoul(text, &used, 10);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (text.empty() || used != text.size() || v < 1 || v > 255) {
-    throw UsageError(fmt::format(
-        "--ids: '{}' is not a controller ID (1-255; 0 is the broadcast address)", text));
-  }
-  return static_cast<unsigned>(v);
-}
-
-// "1", "1,2,3", "1-16", "1-4,9": sorted, without duplicates.
-std::vector<uint8_t> parse_ids(const std::string& text) {
-  std::set<unsigned> ids;
-  std::size_t pos = 0;
-  while (pos <= text.size()) {
-    const std::size_t comma = text.find(',', pos);
-    const std::string item =
-        trim(text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos));
-    if (item.empty()) throw UsageError(fmt::format("--ids: empty item in '{}'", text));
-    if (const auto dash = item.find('-'); dash != std::string::npos) {
-      const unsigned lo = parse_id(trim(item.substr(0, dash)));
-      const unsigned hi = parse_id(trim(item.substr(dash + 1)));
-      if (lo > hi) throw UsageError(fmt::format("--ids: range '{}' runs backwards", item));
-      for (unsigned i = lo; i <= hi; ++i) ids.insert(i);
-    } else {
-      ids.insert(parse_id(item));
-    }
-    if (comma == std::string::npos) break;
-    pos = comma + 1;
-  }
-  return {ids.begin(), ids.end()};
-}
-
-// 1-16 / 1, 3, 5-7: for the ready line.
-std::string format_ids(const std::vector<uint8_t>& ids) {
-  std::string out;
-  for (std::size_t i = 0; i < ids.size();) {
-    std::size_t j = i;
-    while (j + 1 < ids.size() && ids[j + 1] == ids[j] + 1) ++j;
-    if (!out.empty()) out += ", ";
-    out += j > i ? fmt::format("{}-{}", ids[i], ids[j]) : fmt::format("{}", ids[i]);
-    i = j + 1;
-  }
-  return out;
-}
-
-double parse_mm(const std::string& option, const std::string& text) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (text.empty() || used != text.size() || !std::isfinite(v)) {
-    throw UsageError(fmt::format("{}: '{}' is not a number of mm", option, text));
-  }
-  return v;
-}
-
-std::pair<std::string, uint16_t> parse_tcp(const std::string& text) {
-  const auto colon = text.rfind(':');
-  std::string host = colon == std::string::npos ? std::string() : text.substr(0, colon);
-  const std::string port_text = colon == std::string::npos ? text : text.substr(colon + 1);
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']')
-    host = host.substr(1, host.size() - 2);
-  if (host.empty()) host = "127.0.0.1";
-  std::size_t used = 0;
-  unsigned long port = 0;
-  try {
-    port = std::stoul(port_text, &used, 10);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (port_text.empty() || used != port_text.size() || port > 65535) {
-    throw UsageError(fmt::format(
-        "--tcp: '{}' is not HOST:PORT (port 0-65535, 0 picks a free one; e.g. 127.0.0.1:5020)",
-        text));
-  }
-  return {host, static_cast<uint16_t>(port)};
-}
 
 // Signals end the loop: the handler only writes to the server's eventfd.
 std::atomic<twin::SimServer*> g_server{nullptr};
@@ -175,14 +94,19 @@ void inherit(const CLI::App& parent, const CLI::App& sim, const std::string& nam
   if (mine && theirs && mine->count() == 0 && theirs->count() > 0) value = theirs->as<T>();
 }
 
-void run_sim(const SimArgs& a) {
-  if (a.pty.empty() && a.tcp.empty()) {
-    throw UsageError("sim: give --pty PATH, --tcp HOST:PORT, or both");
+// The twin's settings: the profile's (or the defaults), then every option
+// given on the command line.
+twin::FieldProfile settings(const SimArgs& a) {
+  twin::FieldProfile p;
+  if (!a.profile.empty()) {
+    try {
+      p = twin::load_field_profile(a.profile);
+    } catch (const twin::ProfileError& e) {
+      throw UsageError(fmt::format("--profile: {}", e.what()));
+    }
   }
-  const std::vector<uint8_t> ids = parse_ids(a.ids);
-
-  sim::ActuatorConfig config;
-  if (!a.stroke.empty()) {
+  sim::ActuatorConfig& config = p.actuator;
+  if (a.has("--stroke")) {
     const auto colon = a.stroke.find(':');
     if (colon == std::string::npos) {
       throw UsageError(fmt::format("--stroke: '{}' is not MIN:MAX in mm (e.g. 0:400)", a.stroke));
@@ -197,38 +121,59 @@ void run_sim(const SimArgs& a) {
           a.stroke));
     }
   }
-  config.max_speed_mm_s = a.max_speed;
-  config.initial_position_mm = a.initial_position;
+  if (a.has("--max-speed")) config.max_speed_mm_s = a.max_speed;
+  if (a.has("--initial-position")) config.initial_position_mm = a.initial_position;
   if (!(config.initial_position_mm >= config.stroke_min_mm &&
         config.initial_position_mm <= config.stroke_max_mm)) {
     throw UsageError(fmt::format("--initial-position: {} mm is outside the stroke {}:{} mm",
                                  config.initial_position_mm, config.stroke_min_mm,
                                  config.stroke_max_mm));
   }
-  if (a.workpiece_given) config.workpiece_mm = a.workpiece;
-  if (auto n = lec::EquipmentName::make(a.name); !n) {
-    throw UsageError(fmt::format("--name: {}", n.error()));
+  if (a.has("--workpiece")) config.workpiece_mm = a.workpiece;
+  if (a.has("--name")) {
+    if (auto n = lec::EquipmentName::make(a.name); !n) {
+      throw UsageError(fmt::format("--name: {}", n.error()));
+    }
+    config.equipment_name = a.name;
   }
-  config.equipment_name = a.name;
+  if (a.has("--busy-delay-ms")) config.busy_delay = to_duration(FractionalMilliseconds(a.busy_delay_ms));
+  if (a.has("--busy-min-ms")) config.busy_min = to_duration(FractionalMilliseconds(a.busy_min_ms));
+  if (a.has("--target-update-late")) config.target_update_late = a.target_update_late;
   if (auto problems = sim::validate(config); !problems.empty()) {
     std::string all;
-    for (const auto& p : problems) all += (all.empty() ? "" : "; ") + p;
+    for (const auto& pr : problems) all += (all.empty() ? "" : "; ") + pr;
     throw UsageError("sim: " + all);
   }
 
-  sim::LineConfig line;
-  line.line.baud = a.baud;
-  line.line.silent_interval_k = a.silent_interval_k;
-  line.line.delay_td = to_duration(FractionalMilliseconds(a.delay_ms));
-  line.timing = a.timing == "fast" ? sim::Timing::Fast : sim::Timing::Real;
+  sim::LineConfig& line = p.line;
+  if (a.has("--baud")) line.line.baud = a.baud;
+  if (a.has("--silent-interval")) line.line.silent_interval_k = a.silent_interval_k;
+  if (a.has("--delay-ms")) line.line.delay_td = to_duration(FractionalMilliseconds(a.delay_ms));
+  if (a.has("--timing")) line.timing = a.timing == "fast" ? sim::Timing::Fast : sim::Timing::Real;
 
-  sim::FaultConfig faults;
-  faults.seed = a.seed;
-  faults.drop = a.drop_rate;
-  faults.corrupt = a.corrupt_rate;
-  faults.garbage = a.garbage_rate;
-  faults.delay = a.delay_rate_given ? a.delay_rate : (a.extra_delay_given ? 1.0 : 0.0);
-  faults.extra_delay = to_duration(FractionalMilliseconds(a.extra_delay_ms));
+  sim::FaultConfig& faults = p.faults;
+  if (a.has("--seed")) faults.seed = a.seed;
+  if (a.has("--drop-rate")) faults.drop = a.drop_rate;
+  if (a.has("--corrupt-rate")) faults.corrupt = a.corrupt_rate;
+  if (a.has("--garbage-rate")) faults.garbage = a.garbage_rate;
+  if (a.has("--delay-rate")) faults.delay = a.delay_rate;
+  if (a.has("--extra-delay-ms")) {
+    faults.extra_delay = to_duration(FractionalMilliseconds(a.extra_delay_ms));
+    if (!a.has("--delay-rate")) faults.delay = 1.0;  // a delay given alone applies to every reply
+  }
+  if (a.has("--noise-rate")) faults.noise_rate = a.noise_rate;
+  return p;
+}
+
+void run_sim(const SimArgs& a) {
+  if (a.pty.empty() && a.tcp.empty()) {
+    throw UsageError("sim: give --pty PATH, --tcp HOST:PORT, or both");
+  }
+  const std::vector<uint8_t> ids = parse_ids(a.ids);
+  const twin::FieldProfile p = settings(a);
+  const sim::ActuatorConfig& config = p.actuator;
+  const sim::LineConfig& line = p.line;
+  const sim::FaultConfig& faults = p.faults;
 
   std::optional<sim::EepromSet> saved;
   if (!a.state.empty()) {
@@ -269,8 +214,10 @@ void run_sim(const SimArgs& a) {
     ~Unregister() { g_server = nullptr; }
   } unregister;
 
-  print_line(stdout, fmt::format("lec sim: ready on {} (ids {}, timing {}, {} baud)",
-                                 server.endpoints(), format_ids(ids), a.timing, a.baud));
+  print_line(stdout,
+             fmt::format("lec sim: ready on {} (ids {}, timing {}, {} baud{})", server.endpoints(),
+                         format_ids(ids), line.timing == sim::Timing::Fast ? "fast" : "real",
+                         line.line.baud, p.name.empty() ? "" : ", profile " + p.name));
   server.run();
 }
 
@@ -287,7 +234,11 @@ void add_sim_command(CLI::App& app) {
       "Real timing: a reply is complete at end of query + Ts + 4 ms + Td + reply wire time "
       "(digest §1); fast timing: at once.\n"
       "Prints 'lec sim: ready on ...' once it answers; SIGINT/SIGTERM end it (state saved, link "
-      "removed).");
+      "removed).\n"
+      "Field quirks (--busy-delay-ms, --busy-min-ms, --target-update-late, --noise-rate) make the "
+      "twin as unkind as a real controller; profiles/field-quirks.yaml combines them all "
+      "(--profile FILE; options given here override the profile). Profile keys:\n" +
+      twin::field_profile_keys());
   sim->add_option("--pty", a->pty,
                   "Create a pseudo-terminal with a symlink at PATH for masters to open")
       ->type_name("PATH");
@@ -333,15 +284,35 @@ void add_sim_command(CLI::App& app) {
             return v > 0 && std::isfinite(v) ? std::string() : "must be > 0 mm/s (is " + text + ")";
           },
           "> 0"));
-  auto* workpiece = sim->add_option("--workpiece", a->workpiece,
-                                    "A workpiece at this position, mm, for pushing (default: none)")
-                        ->type_name("MM");
+  sim->add_option("--profile", a->profile,
+                  "Load the twin's settings from a YAML/JSON field profile (e.g. "
+                  "profiles/field-quirks.yaml); options given override it")
+      ->type_name("FILE");
+  sim->add_option("--workpiece", a->workpiece,
+                  "A workpiece at this position, mm, for pushing (default: none)")
+      ->type_name("MM");
   sim->add_option("--initial-position", a->initial_position,
                   "Where the carriage stands at power-on, mm (within the stroke)")
       ->type_name("MM")
       ->capture_default_str();
   sim->add_option("--name", a->name, "Equipment name at D000E (up to 14 ASCII characters)")
       ->capture_default_str();
+  sim->add_option("--busy-delay-ms", a->busy_delay_ms,
+                  "Field quirk: BUSY rises N ms after the controller took a start (DRIVE, D9100, "
+                  "SETUP); until then BUSY, INP and OUT0-5 keep their old values")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10000.0));
+  sim->add_option("--busy-min-ms", a->busy_min_ms,
+                  "Field quirk: the shortest BUSY pulse, for a move already at its target")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10000.0));
+  sim->add_flag("--target-update-late,!--no-target-update-late", a->target_update_late,
+                "Field quirk: D9004 target and D9006 step change only when BUSY rises");
+  sim->add_option("--noise-rate", a->noise_rate,
+                  "Field quirk: random bytes per second on the idle line (heard by every master "
+                  "and controller)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e9));
   sim->add_flag("--trace", a->trace, "Print every frame, decoded, with timestamps, on stderr");
   sim->add_option("--seed", a->seed, "Seed of the fault generator (runs are reproducible)")
       ->capture_default_str();
@@ -355,27 +326,32 @@ void add_sim_command(CLI::App& app) {
                   "Probability of 1-4 random bytes right before a reply")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
-  auto* delay_rate = sim->add_option("--delay-rate", a->delay_rate,
-                                     "Probability a reply starts --extra-delay-ms late "
-                                     "(default: 1 if --extra-delay-ms is given, else 0)")
-                         ->check(CLI::Range(0.0, 1.0));
-  auto* extra_delay =
-      sim->add_option("--extra-delay-ms", a->extra_delay_ms, "How late a delayed reply starts, ms")
-          ->capture_default_str()
-          ->check(CLI::Range(0.0, 60000.0));
+  sim->add_option("--delay-rate", a->delay_rate,
+                  "Probability a reply starts --extra-delay-ms late "
+                  "(default: 1 if --extra-delay-ms is given, else 0)")
+      ->check(CLI::Range(0.0, 1.0));
+  sim->add_option("--extra-delay-ms", a->extra_delay_ms, "How late a delayed reply starts, ms")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 60000.0));
 
-  sim->callback([a, &app, sim, workpiece, delay_rate, extra_delay] {
+  sim->callback([a, &app, sim] {
     inherit(app, *sim, "--baud", a->baud);
     inherit(app, *sim, "--silent-interval", a->silent_interval_k);
     if (const CLI::Option* d = app.get_option_no_throw("--delay-ms");
         d && d->count() > 0 && sim->get_option("--delay-ms")->count() == 0) {
       a->delay_ms = d->as<double>();
+      a->given.insert("--delay-ms");
     }
     if (const CLI::Option* t = app.get_option_no_throw("--trace"); t && t->count() > 0)
       a->trace = true;
-    a->workpiece_given = workpiece->count() > 0;
-    a->delay_rate_given = delay_rate->count() > 0;
-    a->extra_delay_given = extra_delay->count() > 0;
+    for (const CLI::Option* o : sim->get_options()) {
+      if (o->count() > 0) a->given.insert(o->get_name());
+    }
+    for (const char* parent : {"--baud", "--silent-interval"}) {
+      if (const CLI::Option* o = app.get_option_no_throw(parent); o && o->count() > 0)
+        a->given.insert(parent);
+    }
+    if (a->given.count("--no-target-update-late")) a->given.insert("--target-update-late");
     run_sim(*a);
   });
 }

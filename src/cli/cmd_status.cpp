@@ -65,8 +65,14 @@ void run_watch(Session& s, const WatchOptions& o) {
   const bool tty = isatty(fileno(stdout));
   int samples = 0;
   while (!g_interrupted) {
-    const auto state = c.read_state();
-    const auto flags = c.read_flags();
+    lec::StateData state;
+    lec::StatusFlags flags;
+    try {
+      state = c.read_state();
+      flags = c.read_flags();
+    } catch (const client::Cancelled&) {  // Ctrl-C mid-read: end as between samples
+      break;
+    }
     const double t = to_seconds(c.clock().now() - start);
     ++samples;
     if (csv) {

@@ -16,7 +16,9 @@ namespace {
 using namespace lec6;
 
 constexpr const char* kExitCodes = R"(Exit codes:
-  0  success
+  0  success (a move: reached its target, or pushed the workpiece)
+  1  a move ended without success: stopped (HOLD / stop / servo off / another master),
+     push missed, or the controller did not start it; any other failure
   2  usage error (bad arguments or values; nothing was sent)
   3  transport error (port missing or busy, timeout, CRC, framing)
   4  the controller answered with an exception (01/02/03)
@@ -51,9 +53,9 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
   app.add_option("--baud,-b", o.baud, "Line speed (9600 19200 38400 57600 115200 230400)")
       ->capture_default_str()
       ->check(CLI::IsMember({9600, 19200, 38400, 57600, 115200, 230400}));
-  app.add_option("--id", o.id, "Controller ID (1-255)")
+  app.add_option("--id", o.id, "Controller ID (1-255; 0 = broadcast, for writes only)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 255));
+      ->check(CLI::Range(0, 255));
   app.add_option("--timeout", o.timeout_margin_ms,
                  "Margin added to the manual's response time Tx, ms")
       ->capture_default_str()
@@ -105,6 +107,7 @@ int main(int argc, char** argv) {
   cli::add_step_commands(app, session);
   cli::add_sim_command(app);
   cli::add_serve_command(app, options);
+  cli::add_follow_command(app, session);
   install_signal_handlers();
 
   try {
@@ -135,6 +138,8 @@ int main(int argc, char** argv) {
     return fail(cli::kDeadline, e.what());
   } catch (const client::Cancelled& e) {
     return fail(cli::kInterrupted, e.what());
+  } catch (const client::MoveNotStarted& e) {
+    return fail(cli::kFailure, e.what());
   } catch (const cli::CommandFailed& e) {
     return fail(e.code(), e.what());
   } catch (const std::exception& e) {

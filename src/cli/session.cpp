@@ -50,6 +50,12 @@ std::string resolve_port(const GlobalOptions& o, std::string_view default_port) 
 
 client::Client& Session::client(std::string_view default_port) {
   if (impl_) return *impl_->client;
+  if (options_.id == modbus::kBroadcastId && !allow_broadcast_) {
+    throw UsageError(
+        "--id 0 is broadcast: controllers do not answer it, so this command, which reads from the "
+        "controller, cannot work; only writes can be broadcast: `lec --id 0 serial on|off`, "
+        "`lec --id 0 hold on|off`, `lec --id 0 stop`");
+  }
   auto impl = std::make_unique<Impl>();
   const std::string text = resolve_port(options_, default_port);
   const transport::PortSpec spec = transport::parse_port_spec(text);
@@ -107,6 +113,8 @@ client::Client& Session::client(std::string_view default_port) {
   co.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
   co.wait_for_silence = !options_.no_silence_wait;
   if (options_.trace) co.trace = print_trace_event;
+  // Ctrl-C ends every wait on the line at once (exit 130); stop requests still go out.
+  co.interrupted = [] { return g_interrupted.load(); };
   impl->client = impl->link ? std::make_unique<client::Client>(*impl->link, co)
                             : std::make_unique<client::Client>(*impl->master, co);
   impl->axis = std::make_unique<client::Actuator>(*impl->client);

@@ -1,7 +1,12 @@
-#include "lec6/client/actuator.hpp"
+// The operation sequences that prepare and hold an axis (serial mode, servo,
+// return to origin, jog, hold, stop, alarms) and the poll loop every move
+// ends in. Moves are in actuator_move.cpp; the rule that ends one is
+// completion.cpp.
 
 #include <fmt/format.h>
 
+#include "client/coil_reset.hpp"
+#include "lec6/client/actuator.hpp"
 #include "lec6/lec/units.hpp"
 
 namespace lec6::client {
@@ -16,59 +21,7 @@ std::string codes_text(const std::vector<uint8_t>& codes) {
   return out.empty() ? "no code in the history" : out;
 }
 
-// Clears a coil when leaving scope, whatever happened (SETUP after homing,
-// DRIVE after a step: the manual asks for it and field drivers always do it).
-class CoilReset {
- public:
-  CoilReset(Client& c, Coil coil) : client_(c), coil_(coil) {}
-  ~CoilReset() {
-    try {
-      client_.write_coil(coil_, false);
-    } catch (...) {  // the primary error is already on its way
-    }
-  }
-  CoilReset(const CoilReset&) = delete;
-  CoilReset& operator=(const CoilReset&) = delete;
-
- private:
-  Client& client_;
-  Coil coil_;
-};
-
 }  // namespace
-
-lec::StepData default_direct_data() {
-  lec::StepData d;
-  d.movement_mode = lec::MovementMode::Absolute;
-  d.speed_mm_s = 100;
-  d.acceleration_mm_s2 = 1000;
-  d.deceleration_mm_s2 = 1000;
-  d.pushing_force_pct = 0;
-  d.trigger_level_pct = 0;
-  d.pushing_speed_mm_s = 20;
-  d.moving_force_pct = 100;
-  d.in_position_001mm = 50;  // 0.50 mm
-  return d;
-}
-
-lec::StepData merge_direct(const lec::StepData& current, const DirectMove& m) {
-  lec::StepData d = lec::validate(current).empty() ? current : default_direct_data();
-  d.movement_mode = m.relative ? lec::MovementMode::Incremental : lec::MovementMode::Absolute;
-  if (m.position_001mm) d.position_001mm = *m.position_001mm;
-  if (m.speed_mm_s) d.speed_mm_s = *m.speed_mm_s;
-  if (m.acceleration_mm_s2) d.acceleration_mm_s2 = *m.acceleration_mm_s2;
-  if (m.deceleration_mm_s2) d.deceleration_mm_s2 = *m.deceleration_mm_s2;
-  if (m.moving_force_pct) d.moving_force_pct = *m.moving_force_pct;
-  if (m.in_position_001mm) d.in_position_001mm = *m.in_position_001mm;
-  if (m.area1_001mm) d.area1_001mm = *m.area1_001mm;
-  if (m.area2_001mm) d.area2_001mm = *m.area2_001mm;
-  if (m.pushing_speed_mm_s) d.pushing_speed_mm_s = *m.pushing_speed_mm_s;
-  // A move without --push is a positioning move, whatever the previous one was.
-  d.pushing_force_pct = m.pushing_force_pct.value_or(0);
-  d.trigger_level_pct =
-      m.trigger_level_pct.value_or(m.pushing_force_pct ? *m.pushing_force_pct : 0);
-  return d;
-}
 
 void Actuator::set_serial_mode(bool serial) {
   client_.write_coil(Coil::SerialMode, serial);
@@ -112,6 +65,19 @@ void Actuator::pulse(Coil coil) {
   client_.write_coil(coil, false);
 }
 
+// Everything a start needs, read before anything is written: serial mode
+// (issue 12: a refused start must not leave half-written data), no alarm,
+// the servo on, and the flags and state the completion rule compares with.
+Actuator::Before Actuator::ready_to_move(std::string_view what) {
+  const lec::ControlFlags controls = client_.read_controls();
+  require_serial_mode(controls);
+  Before b{controls, client_.read_flags(), client_.read_state()};
+  if (b.flags.alarm()) raise_alarm(b.flags, fmt::format("{} (alarm already active)", what));
+  if (!b.flags.svre())
+    throw InvalidRequest(fmt::format("{} needs the servo on (SVRE = 0): run `lec servo on`", what));
+  return b;
+}
+
 void Actuator::servo_on(TimePoint deadline, const WaitOptions& wait) {
   require_serial_mode(client_.read_controls());
   client_.write_coil(Coil::SVON, true);
@@ -139,136 +105,98 @@ void Actuator::servo_off(TimePoint deadline, const WaitOptions& wait) {
 }
 
 MoveResult Actuator::home(TimePoint deadline, const WaitOptions& wait) {
-  require_serial_mode(client_.read_controls());
-  const auto before = client_.read_flags();
-  if (!before.svre())
-    throw InvalidRequest("return to origin needs the servo on (SVRE = 0): run `lec servo on`");
-  if (before.alarm()) raise_alarm(before, "return to origin (alarm already active)");
-  CoilReset clear_setup(client_, Coil::SETUP);
+  const Before before = ready_to_move("return to origin");
+  // SETUP starts on a rising edge: make sure it is low first.
+  if (before.controls.test(Coil::SETUP)) client_.write_coil(Coil::SETUP, false);
+  detail::CoilReset clear_setup(client_, Coil::SETUP);
   client_.write_coil(Coil::SETUP, true);
-  const TimePoint start = client_.clock().now();
-  for (;;) {
-    // Flags first: the state read after them is at least as new.
-    const auto flags = client_.read_flags();
-    const auto state = client_.read_state();
-    const Duration elapsed = client_.clock().now() - start;
-    if (wait.progress) wait.progress({state, flags, elapsed});
-    if (flags.alarm()) raise_alarm(flags, "return to origin");
-    if (flags.seton() && !flags.busy()) return MoveResult{flags.inp(), state, flags, elapsed};
-    check_cancel(wait);
-    check_deadline(deadline, "return to origin");
-  }
+  MoveGoal goal;
+  goal.operation = Operation::Home;
+  goal.band_001mm = kPositionTolerance001mm;
+  return this->wait(
+      StartedMove{MoveStart{goal, before.flags, before.state, false, client_.clock().now()}},
+      deadline, wait);
 }
 
-MoveResult Actuator::wait_until_idle(std::optional<int32_t> target, TimePoint deadline,
+// Polls flags then state (flags first: the state is at least as new as the
+// flags it is judged with) until the completion rule has a result.
+MoveResult Actuator::poll_until_done(Completion& done, TimePoint started_at,
                                      const WaitOptions& wait) {
-  const TimePoint start = client_.clock().now();
-  bool seen_busy = false;
-  for (;;) {
-    const auto flags = client_.read_flags();
-    const auto state = client_.read_state();
-    const Duration elapsed = client_.clock().now() - start;
-    if (wait.progress) wait.progress({state, flags, elapsed});
-    if (flags.alarm()) raise_alarm(flags, "the move");
-    if (flags.busy()) {
-      seen_busy = true;
-    } else if (seen_busy || !target || state.target_001mm == *target) {
-      // BUSY fell (or the move was over before the first poll, which the
-      // target shows): completion. INP now tells success (digest §5).
-      return MoveResult{flags.inp(), state, flags, elapsed};
+  try {
+    for (;;) {
+      const TimePoint began = client_.clock().now();
+      const auto flags = client_.read_flags();
+      const TimePoint at = client_.clock().now();
+      const auto state = client_.read_state();
+      if (wait.progress) wait.progress({state, flags, at - started_at});
+      if (auto r = done.feed({flags, state, at})) return *r;
+      if (wait.cancel && wait.cancel()) stop_after_interrupt(done.interrupted());
+      if (wait.poll_interval > Duration::zero()) client_.idle_until(began + wait.poll_interval);
     }
-    check_cancel(wait);
-    check_deadline(deadline, "the move");
+  } catch (const Cancelled& e) {
+    if (e.move_result()) throw;
+    stop_after_interrupt(done.interrupted());  // Ctrl-C reached the line's wait
   }
 }
 
-MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptions& wait) {
-  const auto controls = client_.read_controls();
-  require_serial_mode(controls);
-  const auto data = client_.read_step(step);
-  if (data.is_blank()) {
-    throw InvalidRequest(fmt::format(
-        "step {} is blank (not registered): set it first with `lec step set {} ...`", step, step));
+// Ctrl-C or cancel(): stop the axis (the line lets stop requests through,
+// see client/interrupt.hpp), then report how far it got.
+void Actuator::stop_after_interrupt(const MoveResult& r) {
+  try {
+    stop();
+  } catch (const TransportError& e) {
+    throw TransportError(e.kind(), fmt::format("interrupted, and the stop (RESET pulse) could not "
+                                               "be sent: {}; the axis may still be moving",
+                                               e.what()));
   }
-  std::optional<int32_t> target;
-  if (data.movement_mode == lec::MovementMode::Absolute && !data.is_pushing())
-    target = data.position_001mm;
-  // DRIVE starts on a rising edge: make sure it is low first.
-  if (controls.test(Coil::DRIVE)) client_.write_coil(Coil::DRIVE, false);
-  client_.select_step(step);
-  CoilReset clear_drive(client_, Coil::DRIVE);
-  // Writing DRIVE = 1 again after a lost reply is harmless: it is a level,
-  // and a repeat makes no new edge. So even INC steps cannot start twice.
-  client_.write_coil(Coil::DRIVE, true);
-  return wait_until_idle(target, deadline, wait);
+  throw Cancelled(fmt::format("interrupted: the axis was stopped (decelerating stop) at {} mm",
+                              lec::format_mm(r.state.position_001mm)),
+                  r);
 }
 
-MoveResult Actuator::move(const DirectMove& m, TimePoint deadline, const WaitOptions& wait,
-                          bool no_wait) {
-  const auto current = client_.read_direct();
-  const lec::StepData want = merge_direct(current, m);
-  const auto issues = lec::validation_messages(want, std::nullopt);
-  if (!issues.empty()) throw InvalidRequest(issues.front());
-
-  // Only the registers that change are written (one contiguous range).
-  const auto have_regs = current.to_registers();
-  const auto want_regs = want.to_registers();
-  unsigned first = lec::StepData::kRegisters, last = 0;
-  for (unsigned i = 0; i < lec::StepData::kRegisters; ++i) {
-    if (have_regs[i] != want_regs[i]) first = std::min(first, i), last = i;
-  }
-  if (first < lec::StepData::kRegisters)
-    client_.write_direct_registers(want, first, last - first + 1);
-
-  const bool relative = want.movement_mode == lec::MovementMode::Incremental;
-  std::optional<int32_t> target;
-  if (!relative && !want.is_pushing()) target = want.position_001mm;
-  if (relative) {
-    // An INC start is never resent blindly: a repeat would move twice. After a
-    // lost reply, the target position tells whether the controller started.
-    const auto before = client_.read_state();
-    const int32_t expected = before.target_001mm + want.position_001mm;
-    try {
-      client_.write_direct_start(Retry::Never);
-    } catch (const TransportError& e) {
-      if (e.kind() == TransportErrorKind::Port || e.kind() == TransportErrorKind::EchoMismatch)
-        throw;
-      const auto after = client_.read_state();
-      if (after.target_001mm != expected) client_.write_direct_start(Retry::Never);
+// Turns the ends that are not results into their exceptions.
+MoveResult Actuator::conclude(MoveResult r, std::string_view what) {
+  switch (r.outcome) {
+    case MoveOutcome::Alarm:
+      r.alarm_codes = active_alarms(r.flags);
+      throw AlarmError(r.alarm_codes, fmt::format("{}: {}", what, r.describe()), r);
+    case MoveOutcome::Deadline: {
+      std::string held;
+      if (client_.read_controls().test(Coil::HOLD)) held = " (HOLD is on: the operation is suspended)";
+      throw DeadlineError(fmt::format("{} did not finish in time: {}{}", what, r.describe(), held),
+                          r);
     }
-    if (!want.is_pushing()) target = expected;
-  } else {
-    client_.write_direct_start(Retry::Safe);
+    case MoveOutcome::NotStarted:
+      // A start processed late must not run with nobody watching it.
+      stop();
+      throw MoveNotStarted(fmt::format("{}: {}", what, r.describe()), r);
+    default:
+      return r;
   }
-  if (no_wait) {
-    const auto flags = client_.read_flags();
-    return MoveResult{flags.inp(), client_.read_state(), flags, {}};
-  }
-  return wait_until_idle(target, deadline, wait);
 }
 
 MoveResult Actuator::jog(bool plus, TimePoint until, TimePoint deadline, const WaitOptions& wait) {
   require_serial_mode(client_.read_controls());
   const Coil coil = plus ? Coil::JOG_PLUS : Coil::JOG_MINUS;
-  CoilReset release(client_, coil);
+  detail::CoilReset release(client_, coil);
   client_.write_coil(coil, true);
   const TimePoint start = client_.clock().now();
-  while (client_.clock().now() < until && !(wait.cancel && wait.cancel())) {
-    const auto flags = client_.read_flags();
-    const auto state = client_.read_state();
-    if (wait.progress) wait.progress({state, flags, client_.clock().now() - start});
-    if (flags.alarm()) raise_alarm(flags, "jog");
+  try {
+    while (client_.clock().now() < until && !(wait.cancel && wait.cancel())) {
+      const auto flags = client_.read_flags();
+      const auto state = client_.read_state();
+      if (wait.progress) wait.progress({state, flags, client_.clock().now() - start});
+      if (flags.alarm()) raise_alarm(flags, "jog");
+    }
+  } catch (const Cancelled&) {
+    client_.write_coil(coil, false);  // Ctrl-C on the line: release, then report it
+    throw Cancelled("interrupted: the jog was released (decelerating stop)");
   }
   client_.write_coil(coil, false);
-  // Wait for the deceleration to finish: speed 0 and BUSY low.
-  for (;;) {
-    const auto flags = client_.read_flags();
-    const auto state = client_.read_state();
-    if (!flags.busy() && state.speed_mm_s == 0) {
-      return MoveResult{flags.inp(), state, flags, client_.clock().now() - start};
-    }
-    check_deadline(deadline, "jog (stopping)");
-  }
+  MoveGoal goal;
+  goal.operation = Operation::Jog;
+  Completion done(MoveStart{goal, {}, {}, true, start}, deadline, wait.completion);
+  return conclude(poll_until_done(done, start, WaitOptions{wait.progress, {}, {}, {}}), "jog");
 }
 
 void Actuator::hold(bool on) {

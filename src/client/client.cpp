@@ -50,6 +50,7 @@ RtuOptions rtu_options(const ClientOptions& o) {
   r.timeout_margin = o.timeout_margin;
   r.wait_for_silence = o.wait_for_silence;
   r.trace = o.trace;
+  r.interrupted = o.interrupted;
   return r;
 }
 
@@ -80,6 +81,11 @@ Response Client::transact(const Request& request, Retry retry, std::optional<uin
                                      refusal->reason));
   }
   const RequestFrame frame{id.value_or(options_.id), request};
+  if (frame.id == kBroadcastId && !is_write(request)) {
+    throw InvalidRequest(
+        "ID 0 is broadcast: controllers do not answer it, so a read cannot work; only writes can "
+        "be broadcast (e.g. `lec --id 0 serial on`, `lec --id 0 hold on`, `lec --id 0 stop`)");
+  }
   const int attempts = retry == Retry::Safe ? 1 + std::max(0, options_.retries) : 1;
   for (int attempt = 1;; ++attempt) {
     try {

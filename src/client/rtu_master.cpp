@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 
+#include "lec6/client/interrupt.hpp"
 #include "lec6/lec/explain.hpp"
 
 namespace lec6::client {
@@ -22,6 +23,7 @@ RtuMaster::RtuMaster(Link& link, RtuOptions options) : link_(link), options_(std
   timing_.line.silent_interval_k = options_.silent_interval_k;
   timing_.line.delay_td = options_.delay_td;
   timing_.margin = options_.timeout_margin;
+  line_busy_until_ = link_.clock().now();  // listen for Ts before the first query too
 }
 
 void RtuMaster::trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
@@ -35,24 +37,25 @@ void RtuMaster::trace(bool outgoing, TimePoint at, std::span<const uint8_t> byte
 
 // The manual's frame delimiter works both ways: the controller must see Ts of
 // silence before our query, so anything still arriving (a late reply, noise)
-// is drained until the line has been quiet for Ts. After a failed transaction
-// the line must stay quiet for a whole reply window: a reply later than our
+// is drained until the line has been quiet for Ts — also before the first
+// query, since the master cannot know what the line was doing before it
+// listened. After a failed transaction the next query also waits until a
+// whole reply window has passed since the failure: a reply later than our
 // timeout would otherwise land in the next transaction, and Modbus RTU has no
-// transaction ID to tell it from a fresh reply of the same shape.
+// transaction ID to tell it from a fresh reply of the same shape. (Only Ts
+// of silence is asked after the last byte: idle-line noise must not turn
+// that hold into a wait for a silence that never comes.)
 // The wait is bounded: a line that never goes quiet (noise, a second master)
 // fails within a transaction timeout instead of hanging.
-void RtuMaster::wait_for_silence() {
-  const Duration quiet =
-      std::max(options_.wait_for_silence ? timing_.line.silent_interval() : Duration{},
-               guard_after_failure_);
-  guard_after_failure_ = Duration{};
+void RtuMaster::wait_for_silence(bool interruptible) {
+  const Duration quiet = options_.wait_for_silence ? timing_.line.silent_interval() : Duration{};
   const TimePoint began = link_.clock().now();
-  const TimePoint give_up =
-      began + quiet + timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
+  const TimePoint give_up = std::max(began, hold_until_) + quiet +
+                            timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
   std::array<uint8_t, 256> sink{};
   for (;;) {
     const TimePoint now = link_.clock().now();
-    const TimePoint quiet_at = line_busy_until_ + quiet;
+    const TimePoint quiet_at = std::max(line_busy_until_ + quiet, hold_until_);
     if (now >= quiet_at) break;
     if (now >= give_up) {
       throw TransportError(
@@ -61,7 +64,8 @@ void RtuMaster::wait_for_silence() {
                       "noise on the line, or another master talking",
                       to_ms(quiet), to_ms(give_up - began)));
     }
-    const std::size_t n = link_.read_some(sink, std::min(quiet_at, give_up));
+    check_interrupt(interruptible, "waiting for the line to fall silent; nothing was sent");
+    const std::size_t n = read_some(sink, std::min(quiet_at, give_up), interruptible);
     if (n > 0) {
       stats_.bytes_discarded += n;
       line_busy_until_ = link_.clock().now();
@@ -70,17 +74,54 @@ void RtuMaster::wait_for_silence() {
   link_.discard_input();
 }
 
+void RtuMaster::check_interrupt(bool interruptible, std::string_view during) {
+  if (interruptible && options_.interrupted()) {
+    throw Cancelled(fmt::format("interrupted while {}", during));
+  }
+}
+
+std::size_t RtuMaster::read_some(std::span<uint8_t> buffer, TimePoint deadline,
+                                 bool interruptible) {
+  if (interruptible) deadline = std::min(deadline, link_.clock().now() + kInterruptCheck);
+  return link_.read_some(buffer, deadline);
+}
+
+void RtuMaster::idle_until(TimePoint t) {
+  std::array<uint8_t, 256> sink{};
+  try {
+    while (link_.clock().now() < t) {
+      check_interrupt(static_cast<bool>(options_.interrupted), "waiting between polls");
+      const std::size_t n = read_some(sink, t, static_cast<bool>(options_.interrupted));
+      if (n > 0) {
+        stats_.bytes_discarded += n;
+        line_busy_until_ = link_.clock().now();
+      }
+    }
+  } catch (const LinkError& e) {
+    throw TransportError(kind_of(e.kind()), e.what());
+  }
+}
+
 modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
   Transaction tx(frame, timing_);
   std::array<uint8_t, modbus::kMaxAdu * 2> buffer{};
+  const bool interruptible =
+      static_cast<bool>(options_.interrupted) && !stops_or_releases(frame.pdu);
   try {
-    wait_for_silence();
+    check_interrupt(interruptible, "about to send; nothing was sent");
+    wait_for_silence(interruptible);
     const TimePoint start = link_.clock().now();
     link_.write(tx.bytes());
     tx.sent(link_.clock().now());
     trace(true, start, tx.bytes(), frame, nullptr);
     while (tx.step() == Transaction::Step::Receive) {
-      const std::size_t n = link_.read_some(buffer, tx.deadline());
+      if (interruptible && options_.interrupted()) {
+        line_busy_until_ = link_.clock().now();
+        hold_until_ = link_.clock().now() + (tx.deadline() - tx.sent_at());  // its reply may come
+        throw Cancelled("interrupted while waiting for the reply: the request was sent and may "
+                        "have been carried out");
+      }
+      const std::size_t n = read_some(buffer, tx.deadline(), interruptible);
       const TimePoint now = link_.clock().now();
       if (n > 0) {
         tx.received(std::span(buffer.data(), n), now);
@@ -92,7 +133,7 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
     ++stats_.transactions;
     stats_.bytes_discarded += tx.discarded();
     if (tx.step() == Transaction::Step::Failed) {
-      guard_after_failure_ = tx.deadline() - tx.sent_at();
+      hold_until_ = link_.clock().now() + (tx.deadline() - tx.sent_at());
       switch (tx.error_kind()) {
         case TransportErrorKind::Timeout:
           ++stats_.timeouts;
@@ -114,7 +155,8 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
     return reply;
   } catch (const LinkError& e) {
     line_busy_until_ = link_.clock().now();
-    guard_after_failure_ = timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
+    hold_until_ =
+        link_.clock().now() + timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
     throw TransportError(kind_of(e.kind()), e.what());
   }
 }

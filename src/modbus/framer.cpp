@@ -105,8 +105,12 @@ std::string_view discard_name(ClientFramer::Discard d) noexcept {
 
 void DeviceFramer::close_frame() {
   if (buffer_.empty()) return;
-  ready_.push_back(Frame{std::move(buffer_), last_byte_});
+  const bool too_long = length_ > kMaxAdu;
+  const bool dropped = length_ > buffer_.size();
+  const bool long_ok = too_long && (dropped ? overflow_crc_ : crc16(buffer_)) == 0;
+  ready_.push_back(Frame{std::move(buffer_), last_byte_, length_, long_ok});
   buffer_.clear();
+  length_ = 0;
 }
 
 void DeviceFramer::try_complete_on_length() {
@@ -116,7 +120,9 @@ void DeviceFramer::try_complete_on_length() {
     if (!crc_ok(std::span<const uint8_t>(buffer_.data(), len.bytes))) return;
     Bytes rest(buffer_.begin() + static_cast<std::ptrdiff_t>(len.bytes), buffer_.end());
     buffer_.resize(len.bytes);
+    length_ = len.bytes;
     close_frame();
+    length_ = rest.size();
     buffer_ = std::move(rest);
   }
 }
@@ -125,9 +131,16 @@ void DeviceFramer::feed(std::span<const uint8_t> bytes, TimePoint t) {
   if (!buffer_.empty() && t - last_byte_ >= silent_interval_) close_frame();
   // No legal frame is longer than kMaxAdu; keep one byte beyond so the frame
   // still fails as too long, and drop the rest instead of growing without bound.
+  // A running CRC over what is dropped still tells whether the whole frame
+  // was sound (digest §3: data > 256 B gets exception 03, not silence).
   const std::size_t room = kMaxAdu + 1 > buffer_.size() ? kMaxAdu + 1 - buffer_.size() : 0;
   const std::size_t take = std::min(room, bytes.size());
   buffer_.insert(buffer_.end(), bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(take));
+  if (take < bytes.size()) {
+    if (length_ + take == buffer_.size()) overflow_crc_ = crc16(buffer_);  // first overflow
+    overflow_crc_ = crc16_update(overflow_crc_, bytes.subspan(take));
+  }
+  length_ += bytes.size();
   overflowed_ += bytes.size() - take;
   last_byte_ = t;
   if (complete_on_length_) try_complete_on_length();

@@ -9,17 +9,25 @@
 
 namespace lec6::sim {
 
+namespace {
+// The noise generator's seed differs from the fault generator's.
+constexpr uint64_t kNoiseSalt = 0x6E6F697365ULL;  // "noise"
+}  // namespace
+
 Bus::Bus(const LineConfig& line, const FaultConfig& faults)
     : line_(line),
       faults_(faults),
       rng_(faults.seed),
       framer_(line.line.silent_interval(), line.timing == Timing::Fast
                                                ? modbus::FrameEnd::LengthOrSilence
-                                               : modbus::FrameEnd::Silence) {}
+                                               : modbus::FrameEnd::Silence),
+      noise_rng_(faults.seed ^ kNoiseSalt) {}
 
 void Bus::set_faults(const FaultConfig& f) {
   faults_ = f;
   rng_.seed(f.seed);
+  noise_rng_.seed(f.seed ^ kNoiseSalt);
+  next_noise_.reset();
 }
 
 Controller& Bus::add(uint8_t id, const ActuatorConfig& config, TimePoint power_on,
@@ -63,13 +71,68 @@ std::vector<uint8_t> Bus::ids() const {
 }
 
 void Bus::receive(std::span<const uint8_t> bytes, TimePoint arrival) {
-  framer_.feed(bytes, arrival);
+  if (noisy() && !bytes.empty()) {
+    // Byte by byte at the instants they arrived: a noise byte just before
+    // the query joins its frame when it is within Ts of the *first* byte.
+    // While the master transmits there is no idle-line noise.
+    const Duration c = line_.line.char_time();
+    const TimePoint first = arrival - c * static_cast<int64_t>(bytes.size() - 1);
+    advance(first - c);
+    skip_noise(arrival);
+    for (std::size_t i = 0; i < bytes.size(); ++i)
+      framer_.feed(bytes.subspan(i, 1), first + c * static_cast<int64_t>(i));
+  } else {
+    framer_.feed(bytes, arrival);
+  }
   advance(arrival);
 }
 
 void Bus::advance(TimePoint now) {
-  while (auto frame = framer_.poll(now)) act_on(*frame);
+  if (noisy()) {
+    // In time order: a frame that completes before a noise byte acts first,
+    // so its reply keeps that noise off the line.
+    for (;;) {
+      const auto due = framer_.deadline();
+      const TimePoint step = due && *due < now ? *due : now;
+      make_noise(step);
+      while (auto frame = framer_.poll(step)) act_on(*frame);
+      if (step >= now) break;
+    }
+  } else {
+    while (auto frame = framer_.poll(now)) act_on(*frame);
+  }
   for (auto& [id, c] : controllers_) c->advance(now);
+}
+
+// ---- idle-line noise -------------------------------------------------------------
+
+void Bus::draw_noise_after(TimePoint t) {
+  const double gap_s = std::exponential_distribution<double>(faults_.noise_rate)(noise_rng_);
+  const Duration gap(static_cast<int64_t>(std::min(gap_s, 3600.0) * 1e9));
+  next_noise_ = t + gap + line_.line.char_time();
+}
+
+void Bus::make_noise(TimePoint until) {
+  if (!next_noise_) draw_noise_after(until);
+  while (*next_noise_ <= until) {
+    const TimePoint end = *next_noise_;
+    const TimePoint start = end - line_.line.char_time();
+    draw_noise_after(end);
+    // Idle-line noise only: not while one of our replies is on the wire.
+    const bool on_reply = std::any_of(pending_.begin(), pending_.end(), [&](const Reply& r) {
+      return !r.noise && r.start < end && start < r.end;
+    });
+    if (on_reply || (start < line_free_ && last_reply_start_ < end)) continue;
+    const uint8_t b = static_cast<uint8_t>(std::uniform_int_distribution<unsigned>(0, 255)(noise_rng_));
+    ++stats_.noise_bytes;
+    framer_.feed(std::span<const uint8_t>(&b, 1), end);  // the controllers hear it too
+    queue(Reply{modbus::kBroadcastId, start, end, {b}, true});
+  }
+}
+
+void Bus::skip_noise(TimePoint until) {
+  if (!next_noise_) draw_noise_after(until);
+  while (*next_noise_ <= until) draw_noise_after(*next_noise_);
 }
 
 void Bus::act_on(const modbus::DeviceFramer::Frame& frame) {
@@ -84,8 +147,9 @@ void Bus::act_on(const modbus::DeviceFramer::Frame& frame) {
       real ? frame.end_of_query + ts + modbus::LineTiming::kProcessing + line_.line.delay_td
            : act_at;
 
+  if (frame.length > modbus::kMaxAdu) return answer_too_long(frame, reply_start);
   const modbus::Bytes& bytes = frame.bytes;
-  if (bytes.size() < 4 || bytes.size() > modbus::kMaxAdu || !modbus::crc_ok(bytes)) {
+  if (bytes.size() < 4 || !modbus::crc_ok(bytes)) {
     ++stats_.bad_frames;  // garbled: no reply, no effect
     return;
   }
@@ -132,6 +196,33 @@ void Bus::act_on(const modbus::DeviceFramer::Frame& frame) {
   schedule(id, modbus::encode_response({id, std::move(reply)}), reply_start);
 }
 
+// More than 256 data bytes (digest §3): a sound frame (its CRC over all of
+// its bytes holds) to a controller here gets exception 03 — 01 first when the
+// function is unknown, as the digest's order of checks says. A garbled one
+// gets silence, as any bad frame; a broadcast is not executed.
+void Bus::answer_too_long(const modbus::DeviceFramer::Frame& frame, TimePoint reply_start) {
+  if (!frame.long_crc_ok) {
+    ++stats_.bad_frames;
+    return;
+  }
+  const uint8_t id = frame.bytes[0];
+  const uint8_t fc = frame.bytes[1];
+  if (id == modbus::kBroadcastId) return;
+  Controller* target = find(id);
+  if (!target) {
+    ++stats_.other_ids;
+    return;
+  }
+  ++stats_.long_frames;
+  ++stats_.exceptions;
+  const auto code = modbus::is_known_function(fc) ? modbus::ExceptionCode::IllegalAccessRange
+                                                  : modbus::ExceptionCode::IllegalFunction;
+  schedule(id,
+           modbus::encode_response(
+               {id, modbus::ExceptionResponse{static_cast<modbus::FunctionCode>(fc), fc, code}}),
+           reply_start);
+}
+
 void Bus::schedule(uint8_t id, modbus::Bytes bytes, TimePoint start) {
   ++stats_.replies;
   auto chance = [&](double p) {
@@ -167,7 +258,12 @@ void Bus::schedule(uint8_t id, modbus::Bytes bytes, TimePoint start) {
   const Duration wire =
       line_.timing == Timing::Fast ? Duration{0} : line_.line.wire_time(bytes.size());
   Reply r{id, start, start + wire, std::move(bytes)};
+  last_reply_start_ = r.start;
   line_free_ = r.end;
+  queue(std::move(r));
+}
+
+void Bus::queue(Reply r) {
   auto pos = std::upper_bound(pending_.begin(), pending_.end(), r.start,
                               [](TimePoint t, const Reply& x) { return t < x.start; });
   pending_.insert(pos, std::move(r));
@@ -185,6 +281,7 @@ std::vector<Reply> Bus::take_replies(TimePoint now) {
 std::optional<TimePoint> Bus::next_deadline() const {
   std::optional<TimePoint> d = framer_.deadline();
   if (!pending_.empty() && (!d || pending_.front().start < *d)) d = pending_.front().start;
+  if (noisy() && next_noise_ && (!d || *next_noise_ < *d)) d = next_noise_;
   return d;
 }
 
@@ -204,8 +301,11 @@ std::optional<Reply> transact(Bus& bus, std::span<const uint8_t> query, TimePoin
   TimePoint now = end_of_query;
   for (;;) {
     bus.advance(now);
-    if (auto rs = bus.take_replies(now); !rs.empty()) {
-      Reply r = std::move(rs.front());
+    auto rs = bus.take_replies(now);
+    // Idle-line noise is not an answer (a master's framer drops it).
+    if (auto it = std::find_if(rs.begin(), rs.end(), [](const Reply& x) { return !x.noise; });
+        it != rs.end()) {
+      Reply r = std::move(*it);
       bus.advance(r.end);
       return r;
     }

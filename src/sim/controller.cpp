@@ -45,6 +45,10 @@ std::vector<std::string> validate(const ActuatorConfig& c) {
     e.push_back("workpiece position must be finite");
   if (c.svre_delay < Duration::zero()) e.push_back("SVRE delay must be ≥ 0");
   if (c.stall_alarm_delay < Duration::zero()) e.push_back("stall alarm delay must be ≥ 0");
+  if (c.busy_delay < Duration::zero() || c.busy_delay > std::chrono::seconds(10))
+    e.push_back("BUSY delay must be 0 to 10 s");
+  if (c.busy_min < Duration::zero() || c.busy_min > std::chrono::seconds(10))
+    e.push_back("shortest BUSY pulse must be 0 to 10 s");
   if (!(c.friction_thrust_pct >= 0.0) || !(c.accel_thrust_pct >= 0.0)) {
     e.push_back("thrust model shares must be ≥ 0");
   }
@@ -104,7 +108,9 @@ std::optional<Controller::Event> Controller::next_pending() const {
   auto consider = [&](TimePoint at, EventKind kind) {
     if (!best || at < best->at) best = Event{at, kind};
   };
-  // Order of consideration breaks ties: SVRE, contact, phase end, stall alarm.
+  // Order of consideration breaks ties: SVRE, contact, phase end, stall
+  // alarm, BUSY hold end, pending start (a move ending as a retarget begins
+  // lets BUSY fall first).
   if (svre_at_) consider(*svre_at_, EventKind::Svre);
   if (auto c = contact_time(now_)) consider(*c, EventKind::Contact);
   switch (op_.kind) {
@@ -120,6 +126,8 @@ std::optional<Controller::Event> Controller::next_pending() const {
     case OpKind::None:
       break;
   }
+  if (busy_hold_) consider(std::max(busy_hold_->until, now_), EventKind::BusyMinEnd);
+  if (pending_) consider(std::max(pending_->at, now_), EventKind::StartDue);
   return best;
 }
 
@@ -148,6 +156,18 @@ void Controller::fire(const Event& e) {
     case EventKind::StallAlarm:
       raise_alarm(op_.stall_alarm);
       return;
+    case EventKind::StartDue: {
+      const PendingStart start = *pending_;
+      pending_.reset();
+      begin(start);
+      return;
+    }
+    case EventKind::BusyMinEnd: {
+      const bool inp = busy_hold_->inp;
+      drop_busy();
+      inp_ = inp;
+      return;
+    }
     case EventKind::Contact: {
       // The carriage stops dead against the workpiece.
       profile_ = MotionProfile::hold(now_, *config_.workpiece_mm);
@@ -163,9 +183,7 @@ void Controller::fire(const Event& e) {
             pressing_ = true;
             pressing_force_ = op_.move.pushing_force;
             // Thrust = pushing force ≥ trigger level (validated at start): INP at once.
-            inp_ = pressing_force_ >= op_.move.trigger_level;
-            busy_ = false;
-            op_ = Op{};
+            complete(pressing_force_ >= op_.move.trigger_level);
           } else {
             op_.kind = OpKind::Stalled;
             op_.stall_alarm = lec::alarm::kPositioningTimeout;
@@ -199,11 +217,9 @@ void Controller::fire(const Event& e) {
       profile_ = MotionProfile::hold(now_, 0.0);
       offset_mm_ = 0.0;
       seton_ = true;
-      inp_ = true;
-      busy_ = false;
       target_001mm_ = 0;
       area_mm_.reset();
-      op_ = Op{};
+      complete(true);
       return;
     case OpKind::Move:
       if (op_.phase == MovePhase::Approach && op_.move.pushing) {
@@ -213,9 +229,7 @@ void Controller::fire(const Event& e) {
       }
       // Positioning: the profile ends on the target, within any in-position width.
       // Pushing phase ended without meeting the workpiece: pushing missed, INP 0.
-      inp_ = op_.phase == MovePhase::Approach;
-      busy_ = false;
-      op_ = Op{};
+      complete(op_.phase == MovePhase::Approach);
       return;
     case OpKind::Jog:
     case OpKind::JogStop:

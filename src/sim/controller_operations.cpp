@@ -69,7 +69,7 @@ void Controller::cancel_op(double deceleration) {
   const Kinematics k = kin();
   profile_ = MotionProfile::stop(now_, k.position, k.velocity, deceleration);
   op_ = Op{};
-  busy_ = false;
+  drop_busy();
   inp_ = false;
   pressing_ = false;
 }
@@ -77,10 +77,11 @@ void Controller::cancel_op(double deceleration) {
 void Controller::servo_off() {
   svre_ = false;
   svre_at_.reset();
+  cancel_pending();
   // Servo released: the carriage stops where it is (no coasting modelled).
   profile_ = MotionProfile::hold(now_, kin().position);
   op_ = Op{};
-  busy_ = false;
+  drop_busy();
   inp_ = false;
   pressing_ = false;
 }
@@ -92,10 +93,11 @@ void Controller::raise_alarm(uint8_t code) {
   g.codes[0] = code;
   eeprom_.alarms.push(g);
   ++eeprom_generation_;
+  cancel_pending();
   if (op_.kind != OpKind::None) {
     cancel_op(dec);
   } else {
-    busy_ = false;
+    drop_busy();
     inp_ = false;
     pressing_ = false;
   }
@@ -106,8 +108,12 @@ void Controller::reset() {
     if (lec::alarm_resettable(*alarm_) || !svre_) alarm_.reset();
     return;
   }
+  cancel_pending();
   if (op_.kind != OpKind::None) {
     cancel_op(current_decel());
+  } else if (busy_hold_) {
+    drop_busy();
+    inp_ = false;
   } else if (pressing_) {
     pressing_ = false;
     inp_ = false;
@@ -141,26 +147,41 @@ void Controller::start_homing() {
   op_ = Op{};
   op_.kind = OpKind::Homing;
   op_.held = control_.test(Coil::HOLD);
-  busy_ = true;
+  begin_busy();
   inp_ = false;
   pressing_ = false;
   plan_phase();
 }
 
-void Controller::start_record(const lec::StepData& data, bool is_step, uint8_t step_no) {
-  if (alarm_) return;  // motion refused until RESET
-  if (!svre_) return raise_alarm(lec::alarm::kServoOff);
-  if (is_step && data.is_blank()) return raise_alarm(lec::alarm::kStepNotRegistered);
-  if (!lec::validate(data).empty()) return raise_alarm(lec::alarm::kInvalidData);
+// Why a start of `data` towards `target` is refused now (digest §6, first
+// failing check wins): the alarm to raise, or 0 when an alarm is already
+// present (ignored). nullopt: accepted.
+std::optional<uint8_t> Controller::refusal(const lec::StepData& data, bool is_step,
+                                           int64_t target) const {
+  if (alarm_) return 0;  // motion refused until RESET
+  if (!svre_) return lec::alarm::kServoOff;
+  if (is_step && data.is_blank()) return lec::alarm::kStepNotRegistered;
+  if (!lec::validate(data).empty()) return lec::alarm::kInvalidData;
   const bool absolute = data.movement_mode == lec::MovementMode::Absolute;
-  if (absolute && !seton_) return raise_alarm(lec::alarm::kNotHomed);
-  const int64_t target = absolute ? data.position_001mm : target_001mm_ + data.position_001mm;
+  if (absolute && !seton_) return lec::alarm::kNotHomed;
   const double target_phys = static_cast<double>(target) / 100.0 + offset_mm_;
-  const uint8_t beyond = is_step ? lec::alarm::kStepBeyondStroke : lec::alarm::kDirectBeyondStroke;
   if (target != clamp_i32(target) || target_phys < config_.stroke_min_mm - kEps ||
       target_phys > config_.stroke_max_mm + kEps) {
-    return raise_alarm(beyond);
+    return is_step ? lec::alarm::kStepBeyondStroke : lec::alarm::kDirectBeyondStroke;
   }
+  return std::nullopt;
+}
+
+void Controller::start_record(const lec::StepData& data, bool is_step, uint8_t step_no,
+                              int64_t base_target) {
+  const bool absolute = data.movement_mode == lec::MovementMode::Absolute;
+  const int64_t target = absolute ? data.position_001mm : base_target + data.position_001mm;
+  if (const auto code = refusal(data, is_step, target)) {
+    if (!records_.empty() && !records_.back().busy_rose) records_.back().refused_alarm = *code;
+    if (*code != 0) raise_alarm(*code);
+    return;
+  }
+  const double target_phys = static_cast<double>(target) / 100.0 + offset_mm_;
 
   MoveSpec m;
   const double max_v = config_.max_speed_mm_s;
@@ -188,7 +209,7 @@ void Controller::start_record(const lec::StepData& data, bool is_step, uint8_t s
   op_.phase = MovePhase::Approach;
   op_.move = m;
   op_.held = control_.test(Coil::HOLD);
-  busy_ = true;
+  begin_busy();
   inp_ = false;
   pressing_ = false;
   out_ = step_no;
@@ -221,6 +242,7 @@ void Controller::update_jog() {
   op_.kind = OpKind::Jog;
   op_.jog_dir = dir;
   op_.held = control_.test(Coil::HOLD);
+  busy_hold_.reset();
   busy_ = true;
   inp_ = false;
   pressing_ = false;
@@ -245,10 +267,10 @@ void Controller::write_control(const ControlWrite& write) {
   if (rose(Coil::RESET)) reset();
   if (rose(Coil::HOLD)) hold_on();
   if (fell(Coil::HOLD)) hold_off();
-  if (rose(Coil::SETUP)) start_homing();
+  if (rose(Coil::SETUP)) take_start(PendingStart{true, {}, false, 0, target_001mm_, {}});
   if (rose(Coil::DRIVE)) {
     const uint8_t n = control_.selected_step();
-    start_record(eeprom_.steps[n], true, n);
+    take_start(PendingStart{false, eeprom_.steps[n], true, n, target_001mm_, {}});
   }
   if (was(Coil::JOG_MINUS) != is(Coil::JOG_MINUS) || was(Coil::JOG_PLUS) != is(Coil::JOG_PLUS)) {
     update_jog();
@@ -272,7 +294,8 @@ void Controller::write_direct_data(std::size_t index, uint16_t value) {
 }
 
 void Controller::start_direct() {
-  start_record(lec::StepData::from_registers(std::span<const uint16_t>(direct_)), false, 0);
+  take_start(PendingStart{false, lec::StepData::from_registers(std::span<const uint16_t>(direct_)),
+                          false, 0, target_001mm_, {}});
 }
 
 void Controller::write_steps(const std::map<unsigned, lec::StepData>& steps) {

@@ -36,6 +36,7 @@ using transport::UniqueFd;
 
 constexpr int kPtySource = 0;
 constexpr int kNoSource = -1;
+constexpr int kEverySource = -2;  // idle-line noise: every master hears it
 
 timespec to_timespec(Duration d) {
   if (d < Duration::zero()) d = Duration::zero();
@@ -163,6 +164,10 @@ struct SimServer::Impl {
 
   void collect(TimePoint now) {
     for (sim::Reply& r : bus.take_replies(now)) {
+      if (r.noise) {  // not an answer: no owner to account for
+        outbox.push_back(Outgoing{real ? r.end : r.start, kEverySource, 0, std::move(r.bytes)});
+        continue;
+      }
       int owner = kNoSource;
       if (!owners.empty()) {
         owner = owners.front();
@@ -181,6 +186,10 @@ struct SimServer::Impl {
     while (!outbox.empty() && outbox.front().at <= now) {
       Outgoing o = std::move(outbox.front());
       outbox.pop_front();
+      if (o.owner == kEverySource) {
+        spread(o.bytes);
+        continue;
+      }
       const bool ok = deliver(o);
       const int64_t late = (clock.now() - o.at).count();
       late_total_ns += late;
@@ -219,6 +228,15 @@ struct SimServer::Impl {
     return true;
   }
 
+  // Noise goes to every master, best effort (not traced, not counted as replies).
+  void spread(const modbus::Bytes& bytes) {
+    if (self.pty_) {
+      [[maybe_unused]] const ssize_t n = ::write(self.pty_->master_fd(), bytes.data(), bytes.size());
+    }
+    for (auto& [source, c] : connections) c.pending.insert(c.pending.end(), bytes.begin(), bytes.end());
+    for (auto it = connections.begin(); it != connections.end();) send_pending((it++)->first);
+  }
+
   // Sends what a connection has pending; closes it on error.
   void send_pending(int source) {
     auto it = connections.find(source);
@@ -243,8 +261,9 @@ struct SimServer::Impl {
   void step(TimePoint now) {
     advance(now);
     collect(now);
-    // The last moments before a write instant: spin, the timer would be late.
-    if (!outbox.empty() && outbox.front().at > now &&
+    // The last moments before a reply's instant: spin, the timer would be late
+    // (noise needs no such precision).
+    if (!outbox.empty() && outbox.front().owner != kEverySource && outbox.front().at > now &&
         outbox.front().at - now <= options.spin_before_write) {
       const TimePoint at = outbox.front().at;
       while ((now = clock.now()) < at) cpu_relax();
@@ -255,7 +274,10 @@ struct SimServer::Impl {
 
   std::optional<TimePoint> deadline() const {
     std::optional<TimePoint> d = bus.next_deadline();
-    if (!outbox.empty()) min_into(d, outbox.front().at - options.spin_before_write);
+    if (!outbox.empty()) {
+      const bool noise = outbox.front().owner == kEverySource;
+      min_into(d, outbox.front().at - (noise ? Duration{} : options.spin_before_write));
+    }
     min_into(d, saver.due());
     return d;
   }

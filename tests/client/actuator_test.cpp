@@ -47,6 +47,10 @@ TEST(Actuator, MoveBeyondTheStrokeRaisesTheAlarmWithItsMeaning) {
     EXPECT_THAT(e.codes(), ::testing::ElementsAre(lec::alarm::kDirectBeyondStroke));
     EXPECT_THAT(e.what(), HasSubstr("beyond the stroke"));
     EXPECT_THAT(e.what(), HasSubstr("lec reset"));
+    ASSERT_TRUE(e.move_result());
+    EXPECT_EQ(e.move_result()->outcome, MoveOutcome::Alarm);
+    EXPECT_THAT(e.move_result()->alarm_codes,
+                ::testing::ElementsAre(lec::alarm::kDirectBeyondStroke));
   }
   EXPECT_EQ(f.client->read_state().position_001mm, 0);  // nothing moved
   EXPECT_TRUE(f.axis->reset_alarms().empty());
@@ -68,7 +72,13 @@ TEST(Actuator, CancelStopsTheAxisBeforeReturning) {
   int polls = 0;
   WaitOptions w;
   w.cancel = [&] { return ++polls > 5; };
-  EXPECT_THROW(f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)), w), Cancelled);
+  try {
+    f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)), w);
+    FAIL();
+  } catch (const Cancelled& e) {
+    ASSERT_TRUE(e.move_result());
+    EXPECT_EQ(e.move_result()->stop_cause, StopCause::Interrupted);
+  }
   const auto flags = f.client->read_flags();
   EXPECT_FALSE(flags.busy());
   const auto pos = f.client->read_state().position_001mm;
@@ -95,6 +105,12 @@ TEST(Actuator, ProgressReportsMotion) {
   w.progress = [&](const Progress& p) { positions.push_back(p.state.position_001mm); };
   auto r = f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)), w);
   EXPECT_TRUE(r.in_position);
+  EXPECT_EQ(r.outcome, MoveOutcome::Reached);
+  EXPECT_EQ(r.describe().substr(0, 42), "reached 200.00 mm (INP, within ±0.50 mm) ");
+  ASSERT_TRUE(r.timeline.busy_up && r.timeline.busy_down && r.timeline.inp);
+  EXPECT_LT(*r.timeline.busy_up, *r.timeline.busy_down);
+  EXPECT_EQ(*r.timeline.inp, *r.timeline.busy_down);
+  EXPECT_EQ(r.elapsed, *r.timeline.busy_down);
   ASSERT_GT(positions.size(), 5u);
   EXPECT_TRUE(std::is_sorted(positions.begin(), positions.end()));
   EXPECT_EQ(positions.back(), 20000);
@@ -121,6 +137,135 @@ TEST(Actuator, MergeKeepsControllerDataAndDefaultsWhenBlank) {
   auto held = default_direct_data();
   held.speed_mm_s = 321;
   EXPECT_EQ(merge_direct(held, m).speed_mm_s, 321);
+}
+
+bool is_write_frame(const modbus::Bytes& b) {
+  return b.size() > 1 && (b[1] == 0x05 || b[1] == 0x0F || b[1] == 0x10);
+}
+
+TEST(Actuator, MoveChecksSerialModeBeforeWritingAnything) {
+  SimFixture f;  // power-on: parallel input mode
+  DirectMove m;
+  m.position_001mm = 10000;
+  try {
+    f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(5)));
+    FAIL();
+  } catch (const InvalidRequest& e) {
+    EXPECT_THAT(e.what(), HasSubstr("lec serial on"));
+  }
+  ASSERT_FALSE(f.sent.empty());
+  for (const auto& frame : f.sent) EXPECT_FALSE(is_write_frame(frame)) << modbus::to_hex(frame);
+}
+
+TEST(Actuator, AMoveStoppedByAnotherMasterIsStoppedNeverReached) {
+  SimFixture f;
+  f.prepare();
+  DirectMove m;
+  m.position_001mm = 15000;
+  WaitOptions w;
+  bool stopped = false;
+  w.progress = [&](const Progress& p) {
+    if (!stopped && p.state.position_001mm > 5000) {
+      stopped = true;  // "another master" (same line, between two polls) sends a stop
+      f.client->write_coil(lec::Coil::RESET, true);
+      f.client->write_coil(lec::Coil::RESET, false);
+    }
+  };
+  const auto r = f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)), w);
+  EXPECT_EQ(r.outcome, MoveOutcome::Stopped);
+  EXPECT_EQ(r.stop_cause, StopCause::Unknown);
+  EXPECT_FALSE(r.succeeded());
+  EXPECT_LT(r.state.position_001mm, 15000);
+  EXPECT_THAT(r.describe(), HasSubstr("before the target 150.00 mm"));
+}
+
+TEST(Actuator, AStartTheControllerNeverShowsIsNotStartedAndIsStopped) {
+  sim::ActuatorConfig slow;
+  slow.busy_delay = milliseconds(600);  // far beyond the 200 ms start window
+  slow.target_update_late = true;
+  SimFixture f({}, {1}, slow);
+  f.axis->set_serial_mode(true);
+  f.axis->servo_on(f.axis->deadline_in(std::chrono::seconds(2)));
+  WaitOptions patient;
+  patient.completion.start_window = std::chrono::seconds(1);
+  f.axis->home(f.axis->deadline_in(std::chrono::seconds(30)), patient);
+  DirectMove m;
+  m.position_001mm = 15000;
+  try {
+    f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)));
+    FAIL();
+  } catch (const MoveNotStarted& e) {
+    EXPECT_THAT(e.what(), HasSubstr("did not start the move"));
+    ASSERT_TRUE(e.move_result());
+    EXPECT_EQ(e.move_result()->outcome, MoveOutcome::NotStarted);
+  }
+  // The stop sent with it cancelled the late start: nothing moves afterwards.
+  f.client->idle_until(f.clock.now() + std::chrono::seconds(2));
+  EXPECT_EQ(f.client->read_state().position_001mm, 0);
+  EXPECT_FALSE(f.client->read_flags().busy());
+  EXPECT_TRUE(f.bus.find(1)->operations().back().cancelled);
+}
+
+TEST(Actuator, PollIntervalSpacesThePolls) {
+  SimFixture f;
+  f.prepare();
+  DirectMove m;
+  m.position_001mm = 20000;
+  m.speed_mm_s = 100;  // ~2 s
+  int polls = 0;
+  WaitOptions w;
+  w.poll_interval = milliseconds(100);
+  w.progress = [&](const Progress&) { ++polls; };
+  const auto r = f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)), w);
+  EXPECT_EQ(r.outcome, MoveOutcome::Reached);
+  const double expected = to_seconds(r.elapsed) / 0.1;
+  EXPECT_NEAR(polls, expected, 2.0);
+}
+
+TEST(Actuator, CtrlCOnTheLineStopsTheAxisAndTheStopStillGoesOut) {
+  SimFixture f;
+  f.prepare();
+  bool interrupted = false;
+  client::ClientOptions o;
+  o.interrupted = [&] { return interrupted; };
+  f.reconnect(o);
+  DirectMove m;
+  m.position_001mm = 30000;
+  m.speed_mm_s = 100;
+  WaitOptions w;
+  w.progress = [&](const Progress& p) { interrupted = p.state.position_001mm > 5000; };
+  try {
+    f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)), w);
+    FAIL();
+  } catch (const Cancelled& e) {
+    ASSERT_TRUE(e.move_result());
+    EXPECT_EQ(e.move_result()->stop_cause, StopCause::Interrupted);
+  }
+  interrupted = false;
+  f.client->idle_until(f.clock.now() + std::chrono::seconds(1));
+  EXPECT_FALSE(f.client->read_flags().busy()) << "the RESET pulse went out while interrupted";
+  EXPECT_LT(f.client->read_state().position_001mm, 30000);
+  EXPECT_FALSE(f.client->read_controls().test(lec::Coil::RESET));
+}
+
+TEST(Actuator, RetargetWritesOnlyThePositionAndTheStart) {
+  SimFixture f;
+  f.prepare();
+  DirectMove m;
+  m.position_001mm = 10000;
+  f.axis->start(m);
+  f.sent.clear();
+  f.axis->retarget(12000);
+  ASSERT_EQ(f.sent.size(), 2u);
+  EXPECT_EQ(modbus::to_hex(f.sent[0]).substr(0, 17), "01 10 91 05 00 01");  // D9105 (low word)
+  EXPECT_EQ(modbus::to_hex(f.sent[1]).substr(0, 17), "01 10 91 00 00 01");  // D9100
+  f.sent.clear();
+  f.axis->retarget(13000, 321);
+  ASSERT_EQ(f.sent.size(), 2u);
+  EXPECT_EQ(modbus::to_hex(f.sent[0]).substr(0, 17), "01 10 91 03 00 03");  // speed + position
+  const auto r = f.axis->wait(f.axis->retarget(14000), f.axis->deadline_in(std::chrono::seconds(5)));
+  EXPECT_EQ(r.outcome, MoveOutcome::Reached);
+  EXPECT_EQ(r.state.position_001mm, 14000);
 }
 
 }  // namespace

@@ -23,8 +23,16 @@ struct SimFixture {
     axis = std::make_unique<client::Actuator>(*client);
   }
 
-  client::ClientOptions options() {
-    client::ClientOptions o;
+  // A new Client (and Actuator) on the same line with these options (the
+  // trace is kept).
+  void reconnect(client::ClientOptions o) {
+    axis.reset();
+    client.reset();
+    client = std::make_unique<client::Client>(*link, options(std::move(o)));
+    axis = std::make_unique<client::Actuator>(*client);
+  }
+
+  client::ClientOptions options(client::ClientOptions o = {}) {
     o.trace = [this](const client::TraceEvent& e) {
       if (e.outgoing) sent.push_back(modbus::Bytes(e.bytes.begin(), e.bytes.end()));
       if (on_trace) on_trace(e);

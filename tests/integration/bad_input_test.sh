@@ -36,8 +36,9 @@ refused() {
 }
 
 # ---- CLI arguments ---------------------------------------------------------------
-refused "id 0 (broadcast)" "--id" "1 to 255" -- lec --trace --id 0 status
-refused "id 256" "--id" "1 to 255" -- lec --trace --id 256 status
+refused "id 0 (broadcast) read" "--id 0 is broadcast" "only writes can be broadcast" -- lec --trace --id 0 status
+refused "id 0 (broadcast) move" "--id 0 is broadcast" -- lec --trace --id 0 move --to 10
+refused "id 256" "--id" "0 to 255" -- lec --trace --id 256 status
 refused "baud" "--baud" "38400" -- lec --trace --baud 12345 status
 refused "timeout" "--timeout" "0 to 60000" -- lec --trace --timeout -5 status
 refused "retries" "--retries" "0 to 10" -- lec --trace --retries 11 status
@@ -130,7 +131,7 @@ contains "scan" "ID   2  answers"
 if grep -q "ID   3" <<<"$out"; then bad "scan invented ID 3: $out"; else ok; fi
 
 # ---- broadcast misuse -----------------------------------------------------------
-# ID 0 is refused as --id (above). A raw broadcast read: the controllers ignore
+# --id 0 is refused for reads (above). A raw broadcast read: the controllers ignore
 # it, nothing answers, and lec says so without waiting for a reply that cannot come.
 expect_exit 0 "raw broadcast read" -- lec raw 00 03 90 00 00 07
 contains "raw broadcast read" "(nothing)"
@@ -141,5 +142,14 @@ expect_exit 0 "ID 1 serial" -- lec --json --id 1 status
 [[ $(json 'd["serial_mode"]') == "True" ]] && ok || bad "broadcast write not executed by ID 1: $out"
 expect_exit 0 "ID 2 serial" -- lec --json --id 2 status
 [[ $(json 'd["serial_mode"]') == "True" ]] && ok || bad "broadcast write not executed by ID 2: $out"
+# Writes go out with --id 0: every controller obeys, no reply is awaited.
+expect_exit 0 "broadcast hold" -- lec --id 0 hold on
+for id in 1 2; do
+  expect_exit 0 "ID $id hold" -- lec raw 0$id 01 00 18 00 01  # read Y18 HOLD
+  contains "broadcast HOLD executed by ID $id" "<- 0$id 01 01 01"
+done
+expect_exit 0 "broadcast hold off" -- lec --id 0 hold off
+# `lec reset` reads the alarms after its pulse: refused before the pulse.
+refused "broadcast reset" "--id 0 is broadcast" -- lec --trace --id 0 reset
 
 finish

@@ -26,13 +26,13 @@ contains "servo" "SVRE = 1"
 expect_exit 0 "flags after servo" -- lec raw 01 02 00 40 00 10
 contains "manual reply 4.1.3" "<- 01 02 02 00 02 38 79"
 expect_exit 0 "home" -- lec home
-contains "home" "SVRE SETON INP"
+contains "home" "reached the origin: 0.00 mm (SETON, INP = 1)"
 expect_exit 0 "flags after homing" -- lec raw 01 02 00 40 00 10
 contains "manual reply 4.2.2" "<- 01 02 02 00 0E 38 7C"
 
 # Direct operation, absolute and relative, with progress and the final report.
 expect_exit 0 "move to" -- lec move --to 120.5 --speed 400 --accel 3000 --decel 3000
-contains "move report" "position 120.50 mm, INP = 1"
+contains "move report" "reached 120.50 mm (INP, within ±0.50 mm)"
 expect_exit 0 "move relative" -- lec move --to -20.25 --relative --json
 [[ $(json 'd["position_mm"], d["in_position"], d["flags"]["busy"]') == "(100.25, True, False)" ]] && ok || bad "relative: $out"
 grep -q '"position_mm": 100.25' <<<"$out" && ok || bad "two decimals in JSON: $out"
@@ -43,7 +43,7 @@ expect_exit 0 "status after no-wait" -- lec status --json
 
 # Pushing against the workpiece at 350 mm: INP = 1 while pressing.
 expect_exit 0 "push" -- lec move --to 340 --push 50 --trigger 40 --push-speed 10 --in-position 20
-contains "push" "INP = 1"
+contains "push" "pushed: workpiece at 350.00 mm, thrust 50 % (INP)"
 expect_exit 0 "thrust while pushing" -- lec status --json
 [[ $(json 'd["thrust_pct"]') == "50" ]] && ok || bad "pushing thrust: $out"
 expect_exit 0 "stop push" -- lec stop
@@ -70,7 +70,7 @@ contains "history" "group  0:  62"
 # A stored step: write the manual's record to step 1 with raw FC10, run it.
 expect_exit 0 "write step 1" -- lec raw 01 10 04 10 00 10 20 00 01 01 F4 00 00 3A 98 13 88 13 88 00 00 00 00 00 14 00 64 00 00 00 00 00 00 00 00 00 00 00 64
 expect_exit 0 "move step" -- lec move --step 1
-contains "step report" "position 150.00 mm, INP = 1"
+contains "step report" "reached 150.00 mm (INP, within ±1.00 mm)"
 expect_exit 0 "OUT after step" -- lec status --json
 [[ $(json 'd["flags"]["out"], d["step"]') == "(1, 1)" ]] && ok || bad "OUT0-5: $out"
 expect_exit 2 "blank step" -- lec move --step 9

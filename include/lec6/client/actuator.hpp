@@ -6,18 +6,26 @@
 //   axis.set_serial_mode(true);
 //   axis.servo_on(axis.deadline_in(seconds(5)));
 //   axis.home(axis.deadline_in(seconds(30)));
-//   auto r = axis.move_to({.position_001mm = 30000}, axis.deadline_in(seconds(30)));
+//   auto r = axis.move({.position_001mm = 30000}, axis.deadline_in(seconds(30)));
+//   std::puts(r.describe().c_str());   // "reached 300.00 mm (INP, within ±0.50 mm) in 0.70 s"
 //
-// Completion is BUSY falling; success is INP = 1 after that (digest §5).
-// An alarm during an operation throws AlarmError with the active codes; a
-// deadline throws DeadlineError; cancel() returning true stops the axis
-// (decelerating) and throws Cancelled.
+// Every move ends by the one rule in completion.hpp and returns a MoveResult
+// (outcome and timeline): reached, pushed, push missed or stopped. The other
+// ends are thrown, each carrying the MoveResult: an alarm (AlarmError), the
+// deadline (DeadlineError), a start the controller never acted on
+// (MoveNotStarted: the axis is stopped first), or cancel() / Ctrl-C
+// (Cancelled: the axis is stopped first).
+//
+// Thread safety: one thread at a time, like the Client underneath. Used by
+// the CLI, `lec serve` and the Python bindings: nothing here knows about them.
 
 #include <chrono>
 #include <functional>
 #include <optional>
 
 #include "lec6/client/client.hpp"
+#include "lec6/client/completion.hpp"
+#include "lec6/client/move_result.hpp"
 
 namespace lec6::client {
 
@@ -30,13 +38,10 @@ struct Progress {
 struct WaitOptions {
   std::function<void(const Progress&)> progress;  // called after every poll
   std::function<bool()> cancel;                   // polled between transactions
-};
-
-struct MoveResult {
-  bool in_position = false;  // INP after BUSY fell
-  lec::StateData state;
-  lec::StatusFlags flags;
-  Duration elapsed{};
+  // From the start of one poll (flags, then state) to the start of the next;
+  // 0: back to back at the wire's speed. `lec serve` polls at a sane rate.
+  Duration poll_interval{};
+  CompletionOptions completion{};  // the start window
 };
 
 // A direct operation. Fields left empty keep what the controller holds in
@@ -57,6 +62,11 @@ struct DirectMove {
   std::optional<uint16_t> pushing_speed_mm_s;
 };
 
+// A move the controller acknowledged: what wait() judges it against.
+struct StartedMove {
+  MoveStart start;
+};
+
 // What fills fields the user did not give when the controller's direct data
 // are blank (power-on). Gentle values, documented in docs/protocol-decisions.md.
 lec::StepData default_direct_data();
@@ -68,19 +78,28 @@ class Actuator {
  public:
   explicit Actuator(Client& client) : client_(client) {}
 
+  Client& client() noexcept { return client_; }
   TimePoint deadline_in(Duration d) const { return client_.clock().now() + d; }
 
   void set_serial_mode(bool serial);
   void servo_on(TimePoint deadline, const WaitOptions& wait = {});
   void servo_off(TimePoint deadline, const WaitOptions& wait = {});
-  // SETUP ← 1, wait SETON = 1 and BUSY = 0, SETUP ← 0 (always, also on failure).
+  // SETUP ← 1, wait for the return to origin to end, SETUP ← 0 (always).
   MoveResult home(TimePoint deadline, const WaitOptions& wait = {});
-  // IN0–IN5 ← step, DRIVE ← 1, wait BUSY to fall, DRIVE ← 0.
+  // IN0–IN5 ← step, DRIVE ← 1, wait for the move to end, DRIVE ← 0 (always).
   MoveResult run_step(unsigned step, TimePoint deadline, const WaitOptions& wait = {});
-  // Writes only the direct-data registers that change, starts, and waits.
-  // With `no_wait` it returns right after the start (result holds the state then).
-  MoveResult move(const DirectMove& move, TimePoint deadline, const WaitOptions& wait = {},
-                  bool no_wait = false);
+  // start() then wait().
+  MoveResult move(const DirectMove& move, TimePoint deadline, const WaitOptions& wait = {});
+  // Checks serial mode, servo and alarms (nothing is written when one
+  // fails), writes only the direct-data registers that change, then D9100.
+  StartedMove start(const DirectMove& move);
+  // A follower's setpoint (`lec follow`): rewrites only the position (and
+  // speed, when given and changed) of the direct data this Actuator last
+  // wrote, and starts again with D9100. A running move is retargeted; no
+  // checks and no wait, so a stream of setpoints costs two writes each.
+  StartedMove retarget(int32_t position_001mm, std::optional<uint16_t> speed_mm_s = std::nullopt);
+  // Waits for a started move to end (completion.hpp).
+  MoveResult wait(const StartedMove& started, TimePoint deadline, const WaitOptions& wait = {});
   // JOG± ← 1 until `until` or cancel(), then ← 0; waits for the axis to stop.
   MoveResult jog(bool plus, TimePoint until, TimePoint deadline, const WaitOptions& wait = {});
   void hold(bool on);
@@ -91,18 +110,25 @@ class Actuator {
   // The codes of the alarm being generated (history group 0) when ALARM = 1.
   std::vector<uint8_t> active_alarms(const lec::StatusFlags& flags);
 
-  // Waits for BUSY to fall after a start whose expected target is `target`.
-  MoveResult wait_until_idle(std::optional<int32_t> target, TimePoint deadline,
-                             const WaitOptions& wait);
-
  private:
+  struct Before {
+    lec::ControlFlags controls;
+    lec::StatusFlags flags;
+    lec::StateData state;
+  };
+  Before ready_to_move(std::string_view what);
   void require_serial_mode(const lec::ControlFlags& controls);
   void pulse(lec::Coil coil);
   [[noreturn]] void raise_alarm(const lec::StatusFlags& flags, std::string_view during);
   void check_cancel(const WaitOptions& wait);
   void check_deadline(TimePoint deadline, std::string_view what);
+  MoveResult poll_until_done(Completion& done, TimePoint started_at, const WaitOptions& wait);
+  MoveResult conclude(MoveResult r, std::string_view what);
+  [[noreturn]] void stop_after_interrupt(const MoveResult& r);
 
   Client& client_;
+  // The direct data as this Actuator last wrote them, for retarget().
+  std::optional<lec::StepData> direct_written_;
 };
 
 }  // namespace lec6::client

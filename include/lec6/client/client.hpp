@@ -53,6 +53,7 @@ struct ClientOptions {
   Duration timeout_margin = std::chrono::milliseconds(50);  // added to Tx
   bool wait_for_silence = true;                             // see RtuOptions
   TraceSink trace{};                                        // every frame, when set
+  std::function<bool()> interrupted{};                      // Ctrl-C, see RtuOptions
 };
 
 // Thread safety: one thread at a time (a Client owns its line while a call
@@ -70,7 +71,8 @@ class Client {
 
   // ---- raw ----------------------------------------------------------------
   // Sends a request to `options.id` (or `id` when given) and returns the
-  // verified reply. An exception reply throws ControllerException.
+  // verified reply. An exception reply throws ControllerException. A read or
+  // echo to ID 0 (broadcast: nobody answers) throws InvalidRequest unsent.
   modbus::Response transact(const modbus::Request& request, Retry retry = Retry::Safe,
                             std::optional<uint8_t> id = std::nullopt);
   // Like transact() but returns exception replies instead of throwing, and
@@ -117,6 +119,8 @@ class Client {
   LinkStats stats() const;
   // The round trip of the last successful transaction (first byte sent → reply complete).
   Duration last_round_trip() const { return master_.last_round_trip(); }
+  // Waits until `t` without a transaction (Master::idle_until).
+  void idle_until(TimePoint t) { master_.idle_until(t); }
 
  private:
   std::unique_ptr<Master> owned_;  // the RtuMaster of a Client made on a Link

@@ -2,15 +2,20 @@
 // What can go wrong talking to a controller, kept apart by who is at fault:
 // the line (TransportError), the controller refusing a request
 // (ControllerException), the controller stopping with an alarm (AlarmError),
-// or an operation running past its deadline (DeadlineError). All derive from
-// lec6::Error (lec6/error.hpp).
+// an operation running past its deadline (DeadlineError), a start the
+// controller never acted on (MoveNotStarted), or the caller interrupting
+// (Cancelled). All derive from lec6::Error (lec6/error.hpp). The ones a move
+// can end with carry its MoveResult (outcome and timeline), so a caller can
+// print the move's one line.
 //
 // Thread safety: exception objects are immutable; copies may be used from any thread.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "lec6/client/move_result.hpp"
 #include "lec6/error.hpp"
 #include "lec6/modbus/pdu.hpp"
 
@@ -48,11 +53,25 @@ class ControllerException : public Error {
   modbus::ExceptionCode code_;
 };
 
-// The controller raised an alarm (X4F = 1) during an operation.
-class AlarmError : public Error {
+// What a move showed before it ended in one of the errors below; empty when
+// the error did not end a move (an alarm already active, an interrupted read).
+class WithMoveResult {
  public:
-  AlarmError(std::vector<uint8_t> codes, const std::string& what)
-      : Error(what), codes_(std::move(codes)) {}
+  const std::optional<MoveResult>& move_result() const noexcept { return result_; }
+
+ protected:
+  explicit WithMoveResult(std::optional<MoveResult> r) : result_(std::move(r)) {}
+
+ private:
+  std::optional<MoveResult> result_;
+};
+
+// The controller raised an alarm (X4F = 1) during an operation.
+class AlarmError : public Error, public WithMoveResult {
+ public:
+  AlarmError(std::vector<uint8_t> codes, const std::string& what,
+             std::optional<MoveResult> result = std::nullopt)
+      : Error(what), WithMoveResult(std::move(result)), codes_(std::move(codes)) {}
   const std::vector<uint8_t>& codes() const noexcept { return codes_; }
 
  private:
@@ -60,15 +79,27 @@ class AlarmError : public Error {
 };
 
 // An operation did not finish by its deadline (the controller kept answering).
-class DeadlineError : public Error {
+class DeadlineError : public Error, public WithMoveResult {
  public:
-  using Error::Error;
+  explicit DeadlineError(const std::string& what, std::optional<MoveResult> result = std::nullopt)
+      : Error(what), WithMoveResult(std::move(result)) {}
 };
 
-// The caller asked to stop (Ctrl-C); the axis was stopped before this was thrown.
-class Cancelled : public Error {
+// The caller asked to stop (Ctrl-C): a waiting move was stopped before this
+// was thrown; a wait on the line (Master) ended without a reply.
+class Cancelled : public Error, public WithMoveResult {
  public:
-  using Error::Error;
+  explicit Cancelled(const std::string& what, std::optional<MoveResult> result = std::nullopt)
+      : Error(what), WithMoveResult(std::move(result)) {}
+};
+
+// Nothing showed that the controller started a move within the start window
+// (client/completion.hpp): never taken for success. A stop (RESET pulse) was
+// sent before this was thrown, so a start processed late cannot run unattended.
+class MoveNotStarted : public Error, public WithMoveResult {
+ public:
+  MoveNotStarted(const std::string& what, MoveResult result)
+      : Error(what), WithMoveResult(std::move(result)) {}
 };
 
 // A request refused before anything was sent (value out of range, address

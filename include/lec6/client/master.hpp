@@ -67,6 +67,12 @@ class Master {
   // The byte link underneath when the master speaks RTU bytes on one (`lec
   // raw` sends arbitrary bytes on it); null otherwise.
   virtual Link* link() noexcept { return nullptr; }
+
+  // Waits until `t` on clock() without a transaction (a poll interval). The
+  // default sleeps on the steady clock; a master on a virtual clock, or one
+  // that should keep listening to its line meanwhile, overrides it. May
+  // throw Cancelled.
+  virtual void idle_until(TimePoint t);
 };
 
 }  // namespace lec6::client

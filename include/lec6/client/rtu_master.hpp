@@ -24,7 +24,15 @@ struct RtuOptions {
   // where it would measure the line rule rather than the software.
   bool wait_for_silence = true;
   TraceSink trace{};  // every frame, when set
+  // Ctrl-C: when set and true, the waits of an exchange (the silence before
+  // it, the reply after it) end at once with Cancelled, checked at least
+  // every kInterruptCheck; a query not sent yet is not sent. Requests that
+  // stop or release the axis (client/interrupt.hpp) are never interrupted,
+  // so a stop after Ctrl-C still goes out.
+  std::function<bool()> interrupted{};
 };
+
+inline constexpr Duration kInterruptCheck = std::chrono::milliseconds(20);
 
 class RtuMaster final : public Master {
  public:
@@ -37,11 +45,17 @@ class RtuMaster final : public Master {
   Duration last_round_trip() const override { return last_round_trip_; }
   const modbus::LineTiming& line_timing() const override { return timing_.line; }
   Link* link() noexcept override { return &link_; }
+  // Listens to the line until `t`: bytes that arrive (noise, a late reply)
+  // are drained and counted, and the silence rule counts from the last one.
+  void idle_until(TimePoint t) override;
 
   const TransactionTiming& timing() const noexcept { return timing_; }
 
  private:
-  void wait_for_silence();
+  void wait_for_silence(bool interruptible);
+  // read_some with the deadline cut to the next interrupt check.
+  std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible);
+  void check_interrupt(bool interruptible, std::string_view during);
   void trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
              const modbus::RequestFrame& request, const modbus::ResponseFrame* response);
 
@@ -49,7 +63,7 @@ class RtuMaster final : public Master {
   RtuOptions options_;
   TransactionTiming timing_;
   TimePoint line_busy_until_{};
-  Duration guard_after_failure_{};  // silence required before the next query after a failure
+  TimePoint hold_until_{};  // after a failure: no query before the failed one's reply window is over
   LinkStats stats_;
   Duration last_round_trip_{};
 };

@@ -38,9 +38,10 @@ inline constexpr auto kCrcTables = make_crc_tables();
 
 // Table-driven (slicing-by-8 for the bulk, one lookup per byte for the rest).
 // Usable at compile time.
-constexpr uint16_t crc16(std::span<const uint8_t> data) noexcept {
+// `crc16_update(crc16(a), b)` is the CRC of a followed by b; a frame with its
+// CRC appended has CRC 0 (the check of a frame too long to keep whole).
+constexpr uint16_t crc16_update(uint16_t crc, std::span<const uint8_t> data) noexcept {
   const auto& t = detail::kCrcTables;
-  uint16_t crc = 0xFFFF;
   std::size_t i = 0;
   for (; i + 8 <= data.size(); i += 8) {
     const uint16_t c = static_cast<uint16_t>(crc ^ (data[i] | (data[i + 1] << 8)));
@@ -52,6 +53,10 @@ constexpr uint16_t crc16(std::span<const uint8_t> data) noexcept {
     crc = static_cast<uint16_t>((crc >> 8) ^ t[0][(crc ^ data[i]) & 0xFFU]);
   }
   return crc;
+}
+
+constexpr uint16_t crc16(std::span<const uint8_t> data) noexcept {
+  return crc16_update(0xFFFF, data);
 }
 
 // The bit-by-bit procedure exactly as manual §11 words it; the reference the

@@ -79,8 +79,12 @@ enum class FrameEnd : uint8_t {
 class DeviceFramer {
  public:
   struct Frame {
-    Bytes bytes;
+    Bytes bytes;  // at most kMaxAdu + 1: the start of an over-long frame
     TimePoint end_of_query;  // arrival of the frame's last byte
+    // Bytes the frame had on the line, and, for an over-long frame (length
+    // > kMaxAdu, only its start kept), whether its CRC over all of them holds.
+    std::size_t length = 0;
+    bool long_crc_ok = false;
   };
 
   DeviceFramer(Duration silent_interval, FrameEnd end)
@@ -105,6 +109,8 @@ class DeviceFramer {
   Duration silent_interval_;
   bool complete_on_length_;
   Bytes buffer_;
+  std::size_t length_ = 0;     // bytes in the current frame, kept or not
+  uint16_t overflow_crc_ = 0;  // running CRC once the frame outgrew the buffer
   TimePoint last_byte_{};
   std::deque<Frame> ready_;
   std::size_t overflowed_ = 0;

@@ -68,6 +68,27 @@ struct ActuatorConfig {
   double accel_thrust_pct = 50.0;
   // Equipment name at D000E (≤ 14 ASCII characters), unless a state file has one.
   std::string equipment_name = "LEC6-TWIN";
+
+  // ---- Field quirks (all off by default; `lec sim --profile`, issue 12) ----
+  // A real controller can be slower than the digest's twin. With these on,
+  // a master that judges a move from one sample is caught the way it would be
+  // on a machine.
+  //
+  // BUSY rises this long after the controller took a start (DRIVE rising,
+  // a D9100 write, SETUP rising), measured from the instant it acted on the
+  // query (its reply leaves T0 + Td later). Until then the start is pending:
+  // BUSY, INP, OUT0–OUT5 keep their old values, the carriage does not move
+  // and a running move keeps running. All start checks (alarms 48–99) happen
+  // when BUSY would rise. RESET, SVON ← 0, ESTOP and alarms cancel a pending start.
+  Duration busy_delay{};
+  // The shortest BUSY pulse: a move or homing that ends sooner (already at
+  // its target) keeps BUSY = 1 and INP = 0 until this long after BUSY rose.
+  // Stops (RESET, alarm, servo off) end BUSY at once, as before.
+  Duration busy_min{};
+  // D9004 (target) and D9006 (step No.) change when BUSY rises instead of
+  // when the start is taken, so a master cannot lean on the target register
+  // alone. Only matters with a busy_delay.
+  bool target_update_late = false;
 };
 
 enum class Timing {

@@ -60,8 +60,18 @@ struct FaultConfig {
   unsigned garbage_max_bytes = 4;
   double delay = 0.0;  // the reply starts `extra_delay` later than it should
   Duration extra_delay = std::chrono::milliseconds(50);
+  // Idle-line noise, bytes/s: random bytes at random times while nobody
+  // transmits (exponential gaps of mean 1/rate between them, each byte one
+  // character time on the wire, so the rate saturates at the line's
+  // character rate). Every listener hears them: the controllers (a byte
+  // within Ts of a query corrupts it) and the master (Reply::noise). Drawn
+  // from its own generator (seeded from `seed`), so turning noise on does not
+  // change which replies the other faults hit.
+  double noise_rate = 0.0;
   uint64_t seed = 1;
-  bool any() const noexcept { return drop > 0 || corrupt > 0 || garbage > 0 || delay > 0; }
+  bool any() const noexcept {
+    return drop > 0 || corrupt > 0 || garbage > 0 || delay > 0 || noise_rate > 0;
+  }
 };
 
 // One reply on the wire.
@@ -70,6 +80,7 @@ struct Reply {
   TimePoint start;  // the first byte starts leaving
   TimePoint end;    // the last byte has left: start + wire time of `bytes`
   modbus::Bytes bytes;
+  bool noise = false;  // idle-line noise (id 0): for every master on the line
 };
 
 class Bus {
@@ -85,6 +96,8 @@ class Bus {
     uint64_t faults_corrupted = 0;
     uint64_t faults_garbage = 0;
     uint64_t faults_delayed = 0;
+    uint64_t noise_bytes = 0;  // idle-line noise put on the line
+    uint64_t long_frames = 0;  // sound frames over 256 data bytes: exception 03
   };
 
   explicit Bus(const LineConfig& line = {}, const FaultConfig& faults = {});
@@ -114,7 +127,8 @@ class Bus {
   std::vector<Reply> take_replies(TimePoint now);
 
   // The earliest instant something on the line is due: a frame's silent
-  // interval running out, or a reply's start. nullopt when nothing is pending.
+  // interval running out, a reply's start, the next noise byte. nullopt when
+  // nothing is pending.
   // (Motion needs no wake-ups: controllers are evaluated when asked.)
   std::optional<TimePoint> next_deadline() const;
 
@@ -128,7 +142,14 @@ class Bus {
 
  private:
   void act_on(const modbus::DeviceFramer::Frame& frame);
+  void answer_too_long(const modbus::DeviceFramer::Frame& frame, TimePoint reply_start);
   void schedule(uint8_t id, modbus::Bytes bytes, TimePoint start);
+  void queue(Reply r);
+  // Idle-line noise (FaultConfig::noise_rate).
+  bool noisy() const noexcept { return faults_.noise_rate > 0; }
+  void make_noise(TimePoint until);
+  void skip_noise(TimePoint until);
+  void draw_noise_after(TimePoint t);
 
   LineConfig line_;
   FaultConfig faults_;
@@ -137,6 +158,9 @@ class Bus {
   std::map<uint8_t, std::unique_ptr<Controller>> controllers_;
   std::vector<Reply> pending_;  // sorted by start
   TimePoint line_free_{};       // our last reply's end (half duplex)
+  TimePoint last_reply_start_{};
+  std::mt19937_64 noise_rng_;
+  std::optional<TimePoint> next_noise_;  // when the next noise byte has fully arrived
   Stats stats_;
 };
 
@@ -144,7 +168,8 @@ class Bus {
 // `start`, its last byte arrives after its wire time; the bus then runs until
 // the first reply has fully arrived, or until `timeout` after the query's end.
 // Returns that reply (its `end` is when the master has it), or nullopt
-// (broadcast, silence, a dropped reply). Any other reply due by then is discarded.
+// (broadcast, silence, a dropped reply). Any other reply due by then, and any
+// idle-line noise, is discarded.
 std::optional<Reply> transact(Bus& bus, std::span<const uint8_t> query, TimePoint start,
                               Duration timeout = std::chrono::milliseconds(1000));
 

@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -43,6 +44,19 @@ struct Eeprom {
 
 // Problems with a configuration, one message each; empty when it is usable.
 std::vector<std::string> validate(const ActuatorConfig& config);
+
+// What one start (a step, a direct operation or a return to origin) really
+// did, as only the twin knows it: the truth tests judge a master's completion
+// logic against (issue 12), and a record for tools.
+struct OperationRecord {
+  bool homing = false;
+  TimePoint taken;                       // the controller acted on the start request
+  std::optional<TimePoint> busy_rose;    // the operation began (BUSY = 1)
+  std::optional<TimePoint> busy_fell;    // it ended (BUSY = 0): done, stopped or alarm
+  bool superseded = false;               // a later start took over while it ran
+  bool cancelled = false;                // stopped before BUSY rose (pending start)
+  std::optional<uint8_t> refused_alarm;  // refused with this alarm when it would have begun
+};
 
 class Controller {
  public:
@@ -106,6 +120,11 @@ class Controller {
   double thrust_pct(TimePoint t);
   // The alarm present (X4F), if any, as of now() (does not advance).
   std::optional<uint8_t> alarm() const { return alarm_; }
+  // A start taken whose BUSY has not risen yet (ActuatorConfig::busy_delay).
+  bool start_pending() const { return pending_.has_value(); }
+  // The last starts, oldest first (at most kOperationRecords).
+  static constexpr std::size_t kOperationRecords = 32;
+  const std::deque<OperationRecord>& operations() const { return records_; }
 
   // ---- EEPROM -----------------------------------------------------------
   const Eeprom& eeprom() const { return eeprom_; }
@@ -143,7 +162,22 @@ class Controller {
     double stall_thrust = 0.0;
   };
 
-  enum class EventKind { Svre, PhaseEnd, Contact, StallAlarm };
+  enum class EventKind { Svre, PhaseEnd, Contact, StallAlarm, StartDue, BusyMinEnd };
+
+  // A start taken but not begun yet (busy_delay).
+  struct PendingStart {
+    bool homing = false;
+    lec::StepData data;
+    bool is_step = false;
+    uint8_t step_no = 0;
+    int64_t base_target = 0;  // D9004 when taken: INC counts from it
+    TimePoint at;             // when BUSY rises
+  };
+  // BUSY held up after the operation ended (busy_min), and the INP it ends with.
+  struct BusyHold {
+    TimePoint until;
+    bool inp = false;
+  };
   struct Event {
     TimePoint at;
     EventKind kind;
@@ -157,8 +191,16 @@ class Controller {
   Kinematics kin() const { return profile_.at(now_); }
   void servo_off();
   void cancel_op(double deceleration);
+  void take_start(PendingStart start);
+  void begin(const PendingStart& start);
   void start_homing();
-  void start_record(const lec::StepData& data, bool is_step, uint8_t step_no);
+  void start_record(const lec::StepData& data, bool is_step, uint8_t step_no,
+                    int64_t base_target);
+  std::optional<uint8_t> refusal(const lec::StepData& data, bool is_step, int64_t target) const;
+  void begin_busy();
+  void cancel_pending();
+  void complete(bool inp);
+  void drop_busy();
   void plan_phase();
   void hold_on();
   void hold_off();
@@ -190,6 +232,12 @@ class Controller {
   uint16_t step_no_ = 0;
   int64_t target_001mm_ = 0;
   std::optional<RangeMm> area_mm_;  // reported coordinate
+
+  // Field quirks and the truth record.
+  std::optional<PendingStart> pending_;
+  std::optional<BusyHold> busy_hold_;
+  TimePoint busy_rose_at_{};
+  std::deque<OperationRecord> records_;
 
   // Physics.
   MotionProfile profile_;

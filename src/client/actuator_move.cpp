@@ -1,0 +1,181 @@
+// Moves: a stored step (DRIVE), a direct operation (D9102–D9111 + D9100), a
+// follower's retarget, and the wait that ends each (completion.hpp).
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "client/coil_reset.hpp"
+#include "lec6/client/actuator.hpp"
+#include "lec6/lec/units.hpp"
+
+namespace lec6::client {
+namespace {
+
+using lec::Coil;
+
+// The goal a record is judged against; INC targets count from D9004 before
+// the start (the controller's "previous target", digest §6).
+MoveGoal goal_of(const lec::StepData& d, int32_t target_before, std::optional<unsigned> step) {
+  MoveGoal g;
+  g.step = step;
+  const bool relative = d.movement_mode == lec::MovementMode::Incremental;
+  g.target_001mm = relative ? static_cast<int32_t>(int64_t{target_before} + d.position_001mm)
+                            : d.position_001mm;
+  g.band_001mm = d.in_position_001mm;
+  if (d.is_pushing()) {
+    g.operation = Operation::Pushing;
+    g.trigger_level_pct = d.trigger_level_pct;
+  }
+  return g;
+}
+
+// The contiguous register range [first, first + count) where `want` differs
+// from `have`; count 0 when nothing does.
+std::pair<unsigned, unsigned> changed_range(const lec::StepData& have, const lec::StepData& want) {
+  const auto a = have.to_registers();
+  const auto b = want.to_registers();
+  unsigned first = lec::StepData::kRegisters, last = 0;
+  for (unsigned i = 0; i < lec::StepData::kRegisters; ++i) {
+    if (a[i] != b[i]) first = std::min(first, i), last = i;
+  }
+  if (first == lec::StepData::kRegisters) return {0, 0};
+  return {first, last - first + 1};
+}
+
+}  // namespace
+
+lec::StepData default_direct_data() {
+  lec::StepData d;
+  d.movement_mode = lec::MovementMode::Absolute;
+  d.speed_mm_s = 100;
+  d.acceleration_mm_s2 = 1000;
+  d.deceleration_mm_s2 = 1000;
+  d.pushing_force_pct = 0;
+  d.trigger_level_pct = 0;
+  d.pushing_speed_mm_s = 20;
+  d.moving_force_pct = 100;
+  d.in_position_001mm = 50;  // 0.50 mm
+  return d;
+}
+
+lec::StepData merge_direct(const lec::StepData& current, const DirectMove& m) {
+  lec::StepData d = lec::validate(current).empty() ? current : default_direct_data();
+  d.movement_mode = m.relative ? lec::MovementMode::Incremental : lec::MovementMode::Absolute;
+  if (m.position_001mm) d.position_001mm = *m.position_001mm;
+  if (m.speed_mm_s) d.speed_mm_s = *m.speed_mm_s;
+  if (m.acceleration_mm_s2) d.acceleration_mm_s2 = *m.acceleration_mm_s2;
+  if (m.deceleration_mm_s2) d.deceleration_mm_s2 = *m.deceleration_mm_s2;
+  if (m.moving_force_pct) d.moving_force_pct = *m.moving_force_pct;
+  if (m.in_position_001mm) d.in_position_001mm = *m.in_position_001mm;
+  if (m.area1_001mm) d.area1_001mm = *m.area1_001mm;
+  if (m.area2_001mm) d.area2_001mm = *m.area2_001mm;
+  if (m.pushing_speed_mm_s) d.pushing_speed_mm_s = *m.pushing_speed_mm_s;
+  // A move without --push is a positioning move, whatever the previous one was.
+  d.pushing_force_pct = m.pushing_force_pct.value_or(0);
+  d.trigger_level_pct =
+      m.trigger_level_pct.value_or(m.pushing_force_pct ? *m.pushing_force_pct : 0);
+  return d;
+}
+
+MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptions& wait) {
+  const std::string what = fmt::format("step {}", step);
+  const Before before = ready_to_move(what);
+  const auto data = client_.read_step(step);
+  if (data.is_blank()) {
+    throw InvalidRequest(fmt::format(
+        "step {} is blank (not registered): set it first with `lec step set {} ...`", step, step));
+  }
+  if (data.movement_mode == lec::MovementMode::Absolute && !before.flags.seton()) {
+    throw InvalidRequest(fmt::format(
+        "step {} is ABS and the axis is not homed (SETON = 0): run `lec home` first", step));
+  }
+  // DRIVE starts on a rising edge: make sure it is low first.
+  if (before.controls.test(Coil::DRIVE)) client_.write_coil(Coil::DRIVE, false);
+  client_.select_step(step);
+  detail::CoilReset clear_drive(client_, Coil::DRIVE);
+  // Writing DRIVE = 1 again after a lost reply is harmless: it is a level,
+  // and a repeat makes no new edge. So even INC steps cannot start twice.
+  client_.write_coil(Coil::DRIVE, true);
+  const StartedMove started{MoveStart{goal_of(data, before.state.target_001mm, step), before.flags,
+                                      before.state, false, client_.clock().now()}};
+  return this->wait(started, deadline, wait);
+}
+
+StartedMove Actuator::start(const DirectMove& m) {
+  // The values first (the user's own error before the machine's state), then
+  // the controller: nothing is written unless both are fine.
+  const auto current = client_.read_direct();
+  const lec::StepData want = merge_direct(current, m);
+  const auto issues = lec::validation_messages(want, std::nullopt);
+  if (!issues.empty()) throw InvalidRequest(issues.front());
+  const Before before = ready_to_move("the move");
+  const bool relative = want.movement_mode == lec::MovementMode::Incremental;
+  if (!relative && !before.flags.seton()) {
+    throw InvalidRequest(
+        "an ABS move needs the axis homed (SETON = 0): run `lec home`, or move --relative");
+  }
+
+  // Only the registers that change are written (one contiguous range).
+  if (const auto [first, count] = changed_range(current, want); count > 0)
+    client_.write_direct_registers(want, first, count);
+  direct_written_ = want;
+
+  const MoveGoal goal = goal_of(want, before.state.target_001mm, std::nullopt);
+  if (relative) {
+    // An INC start is never resent blindly: a repeat would move twice. After a
+    // lost reply, the target position tells whether the controller started.
+    try {
+      client_.write_direct_start(Retry::Never);
+    } catch (const TransportError& e) {
+      if (e.kind() == TransportErrorKind::Port || e.kind() == TransportErrorKind::EchoMismatch)
+        throw;
+      const auto after = client_.read_state();
+      if (after.target_001mm != goal.target_001mm) client_.write_direct_start(Retry::Never);
+    }
+  } else {
+    client_.write_direct_start(Retry::Safe);
+  }
+  return StartedMove{MoveStart{goal, before.flags, before.state, false, client_.clock().now()}};
+}
+
+MoveResult Actuator::move(const DirectMove& m, TimePoint deadline, const WaitOptions& wait) {
+  return this->wait(start(m), deadline, wait);
+}
+
+StartedMove Actuator::retarget(int32_t position_001mm, std::optional<uint16_t> speed_mm_s) {
+  if (!direct_written_) {
+    DirectMove m;
+    m.position_001mm = position_001mm;
+    m.speed_mm_s = speed_mm_s;
+    StartedMove s = start(m);
+    s.start.may_be_running = true;
+    return s;
+  }
+  lec::StepData want = *direct_written_;
+  want.movement_mode = lec::MovementMode::Absolute;
+  want.position_001mm = position_001mm;
+  if (speed_mm_s) want.speed_mm_s = *speed_mm_s;
+  if (const auto [first, count] = changed_range(*direct_written_, want); count > 0)
+    client_.write_direct_registers(want, first, count);
+  direct_written_ = want;
+  client_.write_direct_start(Retry::Safe);  // ABS: a repeat changes nothing
+  // No flags were read: the completion rule must assume a move is running.
+  MoveStart s;
+  s.goal = goal_of(want, 0, std::nullopt);
+  s.flags_before.set(lec::StatusFlags::Busy, true);
+  s.may_be_running = true;
+  s.at = client_.clock().now();
+  return StartedMove{s};
+}
+
+MoveResult Actuator::wait(const StartedMove& started, TimePoint deadline, const WaitOptions& w) {
+  Completion done(started.start, deadline, w.completion);
+  MoveResult r = poll_until_done(done, started.start.at, w);
+  const char* what = started.start.goal.operation == Operation::Home ? "return to origin"
+                     : started.start.goal.step                       ? "the step"
+                                                                     : "the move";
+  return conclude(std::move(r), what);
+}
+
+}  // namespace lec6::client

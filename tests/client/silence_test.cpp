@@ -1,0 +1,124 @@
+// The master's wait for a quiet line (manual §8.2) against a twin whose idle
+// line is noisy, on the virtual clock: bounded with a clear error, ended at
+// once by Ctrl-C, and never in the way of a stop. Also: reads to ID 0.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "lec6/client/interrupt.hpp"
+#include "lec6/client/rtu_master.hpp"
+#include "sim_fixture.hpp"
+
+namespace lec6::client {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::SimFixture;
+
+void noise(SimFixture& f, double bytes_per_s) {
+  sim::FaultConfig faults;
+  faults.noise_rate = bytes_per_s;
+  faults.seed = 3;
+  f.bus.set_faults(faults);
+}
+
+TEST(Silence, ALineThatIsNeverQuietFailsWithinItsBoundAndSaysWhy) {
+  SimFixture f;
+  noise(f, 1e9);  // a byte every character time: never Ts of silence
+  const TimePoint began = f.clock.now();
+  try {
+    f.client->read_flags();
+    FAIL();
+  } catch (const TransportError& e) {
+    EXPECT_EQ(e.kind(), TransportErrorKind::LineBusy);
+    EXPECT_THAT(e.what(), HasSubstr("line never silent"));
+    EXPECT_THAT(e.what(), HasSubstr("noise on the line, or another master"));
+  }
+  const auto& line = f.bus.line().line;
+  const Duration bound =
+      line.silent_interval() + line.response_time(modbus::kMaxAdu) + milliseconds(50);
+  EXPECT_LE(f.clock.now() - began, bound + line.char_time() * 2);
+  EXPECT_GE(f.clock.now() - began, bound);
+  EXPECT_TRUE(f.sent.empty()) << "nothing may be sent on a line that is not quiet";
+  EXPECT_GT(f.client->stats().bytes_discarded, 100u);
+}
+
+TEST(Silence, AQuietEnoughLineWorksAndTheNoiseIsCounted) {
+  SimFixture f;
+  noise(f, 50);
+  f.prepare();
+  for (int i = 0; i < 300; ++i) f.client->read_state();
+  EXPECT_GT(f.bus.stats().noise_bytes, 10u);
+  EXPECT_GT(f.client->stats().bytes_discarded, 0u);
+}
+
+TEST(Silence, CtrlCEndsTheWaitAtOnceWithNothingSent) {
+  SimFixture f;
+  noise(f, 1e9);
+  const TimePoint began = f.clock.now();
+  ClientOptions o;
+  o.timeout_margin = std::chrono::seconds(60);  // the silence bound is a minute now
+  o.interrupted = [&] { return f.clock.now() - began > milliseconds(30); };
+  f.reconnect(o);
+  EXPECT_THROW(f.client->read_flags(), Cancelled);
+  EXPECT_LT(f.clock.now() - began, milliseconds(30) + kInterruptCheck + milliseconds(1));
+  EXPECT_TRUE(f.sent.empty());
+}
+
+TEST(Silence, CtrlCNeverStopsAStop) {
+  SimFixture f;
+  f.prepare();
+  ClientOptions o;
+  o.interrupted = [] { return true; };
+  f.reconnect(o);
+  f.sent.clear();
+  EXPECT_THROW(f.client->read_flags(), Cancelled);
+  EXPECT_TRUE(f.sent.empty());
+  EXPECT_NO_THROW(f.axis->stop());  // RESET pulse
+  EXPECT_NO_THROW(f.client->write_coil(lec::Coil::DRIVE, false));
+  EXPECT_THROW(f.client->write_coil(lec::Coil::DRIVE, true), Cancelled);
+  EXPECT_EQ(f.sent.size(), 3u);
+}
+
+TEST(Interrupt, OnlyStopsAndReleasesGoThrough) {
+  auto coil = [](lec::Coil c, bool on) {
+    return modbus::Request{
+        modbus::WriteCoilRequest{lec::address(c), on ? modbus::kCoilOn : modbus::kCoilOff}};
+  };
+  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::RESET, true)));
+  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::RESET, false)));
+  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::HOLD, true)));
+  EXPECT_FALSE(stops_or_releases(coil(lec::Coil::HOLD, false)));  // resumes motion
+  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::SVON, false)));
+  EXPECT_FALSE(stops_or_releases(coil(lec::Coil::SVON, true)));
+  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::JOG_PLUS, false)));
+  EXPECT_FALSE(stops_or_releases(coil(lec::Coil::DRIVE, true)));
+  EXPECT_FALSE(stops_or_releases(modbus::ReadRegistersRequest{0x9000, 7}));
+}
+
+TEST(Silence, IdleUntilListensToTheLine) {
+  SimFixture f;
+  noise(f, 200);
+  const TimePoint until = f.clock.now() + std::chrono::seconds(1);
+  f.client->idle_until(until);
+  EXPECT_EQ(f.clock.now(), until);
+  EXPECT_GT(f.client->stats().bytes_discarded, 100u);
+}
+
+TEST(Broadcast, AReadToIdZeroIsRefusedUnsent) {
+  SimFixture f;
+  f.client->set_id(0);
+  try {
+    f.client->read_state();
+    FAIL();
+  } catch (const InvalidRequest& e) {
+    EXPECT_THAT(e.what(), HasSubstr("ID 0 is broadcast"));
+  }
+  EXPECT_TRUE(f.sent.empty());
+  EXPECT_NO_THROW(f.client->write_coil(lec::Coil::SerialMode, true));  // writes may be broadcast
+  f.client->set_id(1);
+  EXPECT_TRUE(f.client->read_controls().serial_mode);
+}
+
+}  // namespace
+}  // namespace lec6::client
