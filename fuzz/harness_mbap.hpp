@@ -114,7 +114,7 @@ inline void mbap_one(const uint8_t* data, std::size_t size) {
   policy.units = {1, 2, 3, 255};
   policy.allow_broadcast = ctl & 1;
   policy.read_only = ctl & 2;
-  policy.cache_max_age = milliseconds(200);
+  policy.cache_max_age = std::chrono::milliseconds(200);
   const auto whole = mbap_detail::frame(bytes, nullptr);
   Rng rng(ctl * 0x9E37ULL + size);
   const auto chunked = mbap_detail::frame(bytes, &rng);

@@ -181,7 +181,7 @@ TEST(Actuator, AMoveStoppedByAnotherMasterIsStoppedNeverReached) {
 
 TEST(Actuator, AStartTheControllerNeverShowsIsNotStartedAndIsStopped) {
   sim::ActuatorConfig slow;
-  slow.busy_delay = milliseconds(600);  // far beyond the 200 ms start window
+  slow.busy_delay = std::chrono::milliseconds(600);  // far beyond the 200 ms start window
   slow.target_update_late = true;
   SimFixture f({}, {1}, slow);
   f.axis->set_serial_mode(true);
@@ -214,7 +214,7 @@ TEST(Actuator, PollIntervalSpacesThePolls) {
   m.speed_mm_s = 100;  // ~2 s
   int polls = 0;
   WaitOptions w;
-  w.poll_interval = milliseconds(100);
+  w.poll_interval = std::chrono::milliseconds(100);
   w.progress = [&](const Progress&) { ++polls; };
   const auto r = f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(10)), w);
   EXPECT_EQ(r.outcome, MoveOutcome::Reached);

@@ -23,7 +23,7 @@ namespace {
 using testing::SimFixture;
 
 Duration ms(double v) {
-  return milliseconds(v);
+  return std::chrono::milliseconds(v);
 }
 
 struct Quirk {

@@ -36,7 +36,7 @@ TEST(Silence, ALineThatIsNeverQuietFailsWithinItsBoundAndSaysWhy) {
   }
   const auto& line = f.bus.line().line;
   const Duration bound =
-      line.silent_interval() + line.response_time(modbus::kMaxAdu) + milliseconds(50);
+      line.silent_interval() + line.response_time(modbus::kMaxAdu) + std::chrono::milliseconds(50);
   EXPECT_LE(f.clock.now() - began, bound + line.char_time() * 2);
   EXPECT_GE(f.clock.now() - began, bound);
   EXPECT_TRUE(f.sent.empty()) << "nothing may be sent on a line that is not quiet";
@@ -58,10 +58,10 @@ TEST(Silence, CtrlCEndsTheWaitAtOnceWithNothingSent) {
   const TimePoint began = f.clock.now();
   ClientOptions o;
   o.timeout_margin = std::chrono::seconds(60);  // the silence bound is a minute now
-  o.interrupted = [&] { return f.clock.now() - began > milliseconds(30); };
+  o.interrupted = [&] { return f.clock.now() - began > std::chrono::milliseconds(30); };
   f.reconnect(o);
   EXPECT_THROW(f.client->read_flags(), Cancelled);
-  EXPECT_LT(f.clock.now() - began, milliseconds(30) + kInterruptCheck + milliseconds(1));
+  EXPECT_LT(f.clock.now() - began, std::chrono::milliseconds(30) + kInterruptCheck + std::chrono::milliseconds(1));
   EXPECT_TRUE(f.sent.empty());
 }
 

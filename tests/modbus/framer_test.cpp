@@ -156,27 +156,27 @@ TEST(DeviceFramer, AnEndlessStreamIsBounded) {
 }
 
 TEST(DeviceFramer, AnOverLongFrameIsJudgedByItsWholeCrc) {
-  DeviceFramer f(milliseconds(1), false);
+  DeviceFramer f(std::chrono::milliseconds(1), false);
   Bytes sound(300, 0x42);
   sound[0] = 0x01;
   append_crc(sound);
   f.feed(std::span(sound).first(100), TimePoint{});
   f.feed(std::span(sound).subspan(100), TimePoint{});
-  auto frame = f.poll(TimePoint{} + milliseconds(2));
+  auto frame = f.poll(TimePoint{} + std::chrono::milliseconds(2));
   ASSERT_TRUE(frame);
   EXPECT_EQ(frame->length, 302u);
   EXPECT_EQ(frame->bytes.size(), kMaxAdu + 1);
   EXPECT_TRUE(frame->long_crc_ok);
   sound[280] ^= 0x01;
-  f.feed(sound, TimePoint{} + milliseconds(10));
-  frame = f.poll(TimePoint{} + milliseconds(20));
+  f.feed(sound, TimePoint{} + std::chrono::milliseconds(10));
+  frame = f.poll(TimePoint{} + std::chrono::milliseconds(20));
   ASSERT_TRUE(frame);
   EXPECT_FALSE(frame->long_crc_ok);
   // A frame within the limit is not "long": its CRC is checked as usual.
   Bytes ok{0x01, 0x03, 0x90, 0x00, 0x00, 0x07};
   append_crc(ok);
-  f.feed(ok, TimePoint{} + milliseconds(30));
-  frame = f.poll(TimePoint{} + milliseconds(40));
+  f.feed(ok, TimePoint{} + std::chrono::milliseconds(30));
+  frame = f.poll(TimePoint{} + std::chrono::milliseconds(40));
   EXPECT_EQ(frame->length, ok.size());
   EXPECT_FALSE(frame->long_crc_ok);
 }

@@ -16,7 +16,7 @@ using lec::Coil;
 using lec::StatusFlags;
 
 Duration ms(double v) {
-  return milliseconds(v);
+  return std::chrono::milliseconds(v);
 }
 
 lec::StepData positioning(int32_t pos_001mm, lec::MovementMode mode = lec::MovementMode::Absolute) {

@@ -33,8 +33,8 @@ TEST(FieldProfile, EveryKeyLandsInItsConfig) {
   const FieldProfile p = parse_field_profile(kYaml, "p.yaml");
   EXPECT_EQ(p.name, "quirky");
   EXPECT_EQ(p.description, "a test profile");
-  EXPECT_EQ(p.actuator.busy_delay, milliseconds(15));
-  EXPECT_EQ(p.actuator.busy_min, milliseconds(60));
+  EXPECT_EQ(p.actuator.busy_delay, std::chrono::milliseconds(15));
+  EXPECT_EQ(p.actuator.busy_min, std::chrono::milliseconds(60));
   EXPECT_TRUE(p.actuator.target_update_late);
   EXPECT_EQ(p.actuator.workpiece_mm, 350.0);
   EXPECT_EQ(p.line.line.baud, 115200u);
@@ -50,7 +50,7 @@ TEST(FieldProfile, EveryKeyLandsInItsConfig) {
 TEST(FieldProfile, JsonIsYamlToo) {
   const FieldProfile p = parse_field_profile(
       R"({"name": "j", "actuator": {"busy_min_ms": 60}, "line": {"noise_rate": 1}})", "p.json");
-  EXPECT_EQ(p.actuator.busy_min, milliseconds(60));
+  EXPECT_EQ(p.actuator.busy_min, std::chrono::milliseconds(60));
   EXPECT_EQ(p.faults.noise_rate, 1.0);
 }
 
@@ -63,7 +63,7 @@ TEST(FieldProfile, TheShippedProfileCombinesEveryQuirk) {
   EXPECT_TRUE(p.actuator.target_update_late);
   EXPECT_GT(p.faults.noise_rate, 0.0);
   // Within what the client's start window (200 ms) is made for.
-  EXPECT_LT(p.actuator.busy_delay + p.actuator.busy_min, milliseconds(200));
+  EXPECT_LT(p.actuator.busy_delay + p.actuator.busy_min, std::chrono::milliseconds(200));
 }
 
 TEST(FieldProfile, AnEmptyProfileChangesNothingAndTheFileNamesIt) {
