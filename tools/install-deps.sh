@@ -8,6 +8,9 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev libasio-dev
   libmodbus-dev mbpoll python3 python3-pymodbus python3-serial
+  # the Python module (python/): build, pytest suite, offline `pip install` in a venv
+  pybind11-dev python3-dev python3-pytest python3-venv
+  python3-setuptools-whl python3-wheel-whl python3-pip-whl
 )
 
 missing=()
