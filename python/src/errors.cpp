@@ -110,6 +110,7 @@ void raise_error(const char* name, const std::string& message, const py::dict& a
 }
 
 py::object python_exception(std::exception_ptr error) {
+  if (!error) return make("Error", "failed", {});
   try {
     return translate(error);
   } catch (const std::exception& e) {

@@ -30,12 +30,20 @@ modbus::ResponseFrame SharedLine::exchange(const modbus::RequestFrame& frame) {
     throw client::TransportError(client::TransportErrorKind::Port,
                                  description_ + ": the bus was closed");
   }
+  struct Snapshot {  // also when the exchange throws: timeouts count
+    SharedLine& line;
+    ~Snapshot() {
+      std::lock_guard lock(line.stats_mutex_);
+      line.stats_ = line.inner_->stats();
+      line.last_round_trip_ = line.inner_->last_round_trip();
+    }
+  } snapshot{*this};
   return inner_->exchange(frame);
 }
 
 client::LinkStats SharedLine::stats() const {
-  Turn turn(*this);
-  return inner_ ? inner_->stats() : final_stats_;
+  std::lock_guard lock(stats_mutex_);
+  return stats_;
 }
 
 client::LinkStats SharedLine::totals() const {
@@ -46,14 +54,13 @@ client::LinkStats SharedLine::totals() const {
 }
 
 Duration SharedLine::last_round_trip() const {
-  Turn turn(*this);
-  return inner_ ? inner_->last_round_trip() : Duration{};
+  std::lock_guard lock(stats_mutex_);
+  return last_round_trip_;
 }
 
 void SharedLine::close() {
   Turn turn(*this);
   if (!inner_) return;
-  final_stats_ = inner_->stats();
   inner_ = nullptr;
   owner_.reset();
 }

@@ -68,7 +68,11 @@ class SharedLine final : public client::Master {
   SteadyClock clock_;
   std::string description_;
   modbus::LineTiming timing_;
-  client::LinkStats final_stats_;  // after close()
+  // The inner master's counters as of its last exchange, so that stats()
+  // never waits for a transaction in progress.
+  mutable std::mutex stats_mutex_;
+  client::LinkStats stats_;
+  Duration last_round_trip_{};
   std::atomic<uint64_t> retries_{0};
   std::atomic<uint64_t> exceptions_{0};
 };

@@ -220,8 +220,10 @@ void bind_twin(py::module_& m) {
            py::arg("corrupt_rate") = 0.0, py::arg("garbage_rate") = 0.0,
            py::arg("delay_rate") = 0.0, py::arg("extra_delay_ms") = 50.0, py::arg("seed") = 1,
            py::arg("baud") = 38400, py::arg("pty") = false)
+      // keep_alive: the twin lives as long as a bus to it, so that
+      // `lec6.Twin().connect()` does not close the twin under its bus.
       .def("connect", &Twin::connect, py::kw_only(), py::arg("retries") = 2,
-           "A Bus to this twin (in process: all share one line).")
+           py::keep_alive<0, 1>(), "A Bus to this twin (in process: all share one line).")
       .def_property_readonly("port", &Twin::port,
                              "The pty path to open (pty twins), or 'in-process'.")
       .def_property_readonly("ids", [](const Twin& t) { return t.settings().ids; })

@@ -94,3 +94,12 @@ def test_faulty_line_is_retried(twin_factory):
             assert a.status().position_mm == 0.0
         stats = bus.stats()
     assert stats["retries"] > 0 and stats["timeouts"] + stats["crc_errors"] > 0
+
+
+def test_a_bus_keeps_its_twin_alive():
+    import gc
+
+    bus = lec6.Twin(name="KEPT").connect()  # nothing else holds the twin
+    gc.collect()
+    assert bus.axis(1).name() == "KEPT"
+    bus.close()
