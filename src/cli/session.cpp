@@ -3,23 +3,15 @@
 #include "cli/app.hpp"
 #include "cli/trace_printer.hpp"
 #include "lec6/lec/units.hpp"
-#include "lec6/sim/bus.hpp"
-#include "lec6/transport/modbus_tcp_master.hpp"
 #include "lec6/transport/port_spec.hpp"
-#include "lec6/transport/serial_link.hpp"
-#include "lec6/transport/tcp_link.hpp"
-#include "lec6/twin/sim_link.hpp"
+#include "lec6/twin/open_port.hpp"
 
 namespace lec6::cli {
 
 struct Session::Impl {
-  SteadyClock clock;
-  std::unique_ptr<sim::Bus> twin;          // only for --port sim
-  std::unique_ptr<client::Link> link;      // RTU on bytes: serial, rtu+tcp://, sim
-  std::unique_ptr<client::Master> master;  // Modbus TCP: tcp://
+  std::unique_ptr<twin::OpenPort> port;
   std::unique_ptr<client::Client> client;
   std::unique_ptr<client::Actuator> axis;
-  std::string description;
 };
 
 Session::Session(const GlobalOptions& options) : options_(options) {}
@@ -58,65 +50,28 @@ client::Client& Session::client(std::string_view default_port) {
   }
   auto impl = std::make_unique<Impl>();
   const std::string text = resolve_port(options_, default_port);
-  const transport::PortSpec spec = transport::parse_port_spec(text);
-  switch (spec.kind) {
-    case transport::PortKind::Serial: {
-      transport::SerialOptions so;
-      so.baud = options_.baud;
-      so.discard_echo = options_.echo;
-      so.rs485.enabled = options_.rs485;
-      so.rs485.rts_after_send = options_.rs485_rts_after_send;
-      so.rs485.delay_before_send_ms = static_cast<uint32_t>(options_.rs485_delay_before_ms);
-      so.rs485.delay_after_send_ms = static_cast<uint32_t>(options_.rs485_delay_after_ms);
-      auto serial = std::make_unique<transport::SerialLink>(spec.device, so);
-      for (const auto& w : serial->warnings()) fmt::print(stderr, "lec: warning: {}\n", w);
-      impl->link = std::move(serial);
-      break;
-    }
-    case transport::PortKind::RtuOverTcp: {
-      transport::TcpOptions to;
-      to.baud = options_.baud;
-      to.scheme = "rtu+tcp";
-      impl->link = std::make_unique<transport::TcpLink>(spec.host, spec.tcp_port, to);
-      break;
-    }
-    case transport::PortKind::Tcp: {
-      transport::ModbusTcpOptions mo;
-      mo.line.baud = options_.baud;
-      mo.line.silent_interval_k = options_.silent_interval_k;
-      mo.line.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
-      // The gateway queues us behind other clients on its line: a second on
-      // top of the serial reply window.
-      mo.timeout =
-          std::chrono::seconds(1) + to_duration(FractionalMilliseconds(options_.timeout_margin_ms));
-      if (options_.trace) mo.trace = print_trace_event;
-      impl->master = std::make_unique<transport::ModbusTcpMaster>(spec.host, spec.tcp_port, mo);
-      break;
-    }
-    case transport::PortKind::Sim: {
-      sim::LineConfig line;
-      line.line.baud = options_.baud;
-      line.line.silent_interval_k = options_.silent_interval_k;
-      line.line.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
-      impl->twin = std::make_unique<sim::Bus>(line);
-      impl->twin->add(static_cast<uint8_t>(options_.id), sim::ActuatorConfig{}, impl->clock.now());
-      impl->link = std::make_unique<twin::SimLink>(*impl->twin, impl->clock);
-      break;
-    }
-  }
-  impl->description = impl->link ? impl->link->describe() : impl->master->describe();
+  twin::PortOptions po;
+  po.baud = options_.baud;
+  po.silent_interval_k = options_.silent_interval_k;
+  po.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
+  po.timeout_margin = to_duration(FractionalMilliseconds(options_.timeout_margin_ms));
+  po.wait_for_silence = !options_.no_silence_wait;
+  po.discard_echo = options_.echo;
+  po.rs485.enabled = options_.rs485;
+  po.rs485.rts_after_send = options_.rs485_rts_after_send;
+  po.rs485.delay_before_send_ms = static_cast<uint32_t>(options_.rs485_delay_before_ms);
+  po.rs485.delay_after_send_ms = static_cast<uint32_t>(options_.rs485_delay_after_ms);
+  if (options_.trace) po.trace = print_trace_event;
+  // Ctrl-C ends every wait on the line at once (exit 130); stop requests still go out.
+  po.interrupted = [] { return g_interrupted.load(); };
+  po.sim_id = static_cast<uint8_t>(options_.id);
+  impl->port = twin::open_port(transport::parse_port_spec(text), po);
+  for (const auto& w : impl->port->warnings()) fmt::print(stderr, "lec: warning: {}\n", w);
   client::ClientOptions co;
   co.id = static_cast<uint8_t>(options_.id);
   co.retries = options_.retries;
-  co.timeout_margin = to_duration(FractionalMilliseconds(options_.timeout_margin_ms));
-  co.silent_interval_k = options_.silent_interval_k;
-  co.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
-  co.wait_for_silence = !options_.no_silence_wait;
-  if (options_.trace) co.trace = print_trace_event;
-  // Ctrl-C ends every wait on the line at once (exit 130); stop requests still go out.
-  co.interrupted = [] { return g_interrupted.load(); };
-  impl->client = impl->link ? std::make_unique<client::Client>(*impl->link, co)
-                            : std::make_unique<client::Client>(*impl->master, co);
+  co.timeout_margin = po.timeout_margin;  // `lec raw` reads it for its reply window
+  impl->client = std::make_unique<client::Client>(impl->port->master(), co);
   impl->axis = std::make_unique<client::Actuator>(*impl->client);
   impl_ = std::move(impl);
   return *impl_->client;
@@ -132,7 +87,7 @@ void Session::close() noexcept {
 }
 
 std::string Session::port_description() const {
-  return impl_ ? impl_->description : std::string("(not open)");
+  return impl_ ? impl_->port->description() : std::string("(not open)");
 }
 
 client::WaitOptions Session::wait_options(

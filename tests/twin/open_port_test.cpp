@@ -1,0 +1,89 @@
+// twin::open_port: each kind of port spec gives a Master that reaches the
+// controller; a port that cannot be opened says which and why.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <thread>
+
+#include "lec6/client/client.hpp"
+#include "lec6/transport/serial_link.hpp"
+#include "lec6/twin/open_port.hpp"
+#include "lec6/twin/sim_server.hpp"
+
+namespace lec6::twin {
+namespace {
+
+using ::testing::HasSubstr;
+using transport::parse_port_spec;
+
+// A pty twin on its own thread for the test's duration.
+struct ServedTwin {
+  explicit ServedTwin(sim::Timing timing) : bus({{}, timing}) {
+    bus.add(1, {}, SteadyClock().now());
+    SimServerOptions o;
+    o.pty = true;
+    server = std::make_unique<SimServer>(bus, o);
+    thread = std::thread([this] { server->run(); });
+  }
+  ~ServedTwin() {
+    server->stop();
+    thread.join();
+  }
+  sim::Bus bus;
+  std::unique_ptr<SimServer> server;
+  std::thread thread;
+};
+
+TEST(OpenPort, SimIsATwinInThisProcessWithTheGivenId) {
+  PortOptions o;
+  o.sim_id = 7;
+  auto port = open_port(parse_port_spec("sim"), o);
+  ASSERT_NE(port->twin(), nullptr);
+  EXPECT_EQ(port->twin()->ids(), std::vector<uint8_t>{7});
+  EXPECT_EQ(port->description(), "in-process twin");
+  client::Client c(port->master(), {.id = 7});
+  EXPECT_FALSE(c.read_flags().svre());
+  EXPECT_EQ(port->master().line_timing().baud, 38400u);
+}
+
+TEST(OpenPort, SerialDeviceSpeaksRtuWithTheGivenLineSettings) {
+  ServedTwin twin(sim::Timing::Fast);
+  PortOptions o;
+  o.baud = 115200;
+  o.wait_for_silence = false;
+  const std::string path = twin.server->pty()->client_path();
+  auto port = open_port(parse_port_spec(path), o);
+  EXPECT_EQ(port->twin(), nullptr);
+  EXPECT_THAT(port->description(), HasSubstr(path));
+  EXPECT_EQ(port->master().line_timing().baud, 115200u);
+  ASSERT_NE(port->master().link(), nullptr);  // `lec raw` needs the byte link
+  client::Client c(port->master(), {.id = 1});
+  EXPECT_EQ(c.read_name().text, "LEC6-TWIN");
+}
+
+TEST(OpenPort, MissingDeviceNamesIt) {
+  const std::string path = (std::filesystem::temp_directory_path() / "lec6-no-such-tty").string();
+  try {
+    open_port(parse_port_spec(path), {});
+    FAIL() << "opened a port that does not exist";
+  } catch (const client::LinkError& e) {
+    EXPECT_EQ(e.kind(), client::LinkErrorKind::PortUnavailable);
+    EXPECT_THAT(e.what(), HasSubstr(path));
+  }
+}
+
+TEST(OpenPort, ModbusTcpWithNobodyListeningIsATransportError) {
+  // Port 1 on loopback: nothing listens there without root.
+  try {
+    open_port(parse_port_spec("tcp://127.0.0.1:1"), {});
+    FAIL() << "connected to nobody";
+  } catch (const client::TransportError& e) {
+    EXPECT_EQ(e.kind(), client::TransportErrorKind::Port);
+    EXPECT_THAT(e.what(), HasSubstr("tcp://127.0.0.1:1"));
+  }
+}
+
+}  // namespace
+}  // namespace lec6::twin
