@@ -8,7 +8,12 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev libasio-dev libboost-dev curl
   libmodbus-dev mbpoll python3 python3-pymodbus python3-serial
+  nodejs chromium
 )
+# The dashboard's build (web/) needs npm. Debian's nodejs does not include it
+# (package npm does); NodeSource's nodejs provides npm and conflicts with
+# Debian's npm package: ask for npm only when no npm command exists.
+if ! command -v npm >/dev/null 2>&1; then packages+=(npm); fi
 
 missing=()
 for p in "${packages[@]}"; do
