@@ -161,6 +161,10 @@ void HttpApi::handle(HttpRequest request, Responder responder) {
               {"lines", lines},
               {"axes", daemon_.axes().size()}})));
   }
+  if (parts.size() == 2 && parts[1] == "fields") {
+    if (!get) return void(responder.respond(method_not_allowed("GET")));
+    return void(responder.respond(json_response(200, step_fields_json())));
+  }
   if (parts.size() == 2 && parts[1] == "events") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));
     return open_events(responder);

@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include "lec6/client/actuator.hpp"
 #include "lec6/lec/alarms.hpp"
+#include "lec6/lec/step_table.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -148,6 +150,36 @@ nlohmann::json stats_json(const LineStatsSnapshot& s, const LineConfig& config) 
           {"cache_hits", s.cache_hits},
           {"priorities", priorities},
           {"devices", devices}};
+}
+
+nlohmann::json step_fields_json() {
+  const lec::StepData defaults = client::default_direct_data();
+  auto fields = nlohmann::json::array();
+  for (const auto& i : lec::step_fields()) {
+    // Lengths travel in 0.01 mm and are shown in mm with 2 decimals.
+    const auto shown = [&](int64_t raw) {
+      return i.is_length ? nlohmann::json(mm(raw)) : nlohmann::json(raw);
+    };
+    nlohmann::json f{{"name", i.name},   {"csv_column", i.csv_column},
+                     {"label", i.label}, {"unit", i.unit},
+                     {"min", shown(i.min)}, {"max", shown(i.max)},
+                     {"is_length", i.is_length}, {"decimals", i.is_length ? 2 : 0},
+                     {"default", shown(lec::get_field(defaults, i.field))}};
+    if (i.field == lec::StepField::MovementMode) {
+      f["choices"] = {{{"value", 1}, {"text", "abs"}}, {{"value", 2}, {"text", "inc"}}};
+    }
+    fields.push_back(f);
+  }
+  // lec::validate()'s rule between fields (manual §10.4), for pages to show as
+  // the user types; the daemon checks it again on every write.
+  const auto& trigger = lec::field_info(lec::StepField::TriggerLevel);
+  const auto& push = lec::field_info(lec::StepField::PushingForce);
+  auto rules = nlohmann::json::array();
+  rules.push_back({{"field", trigger.csv_column},
+                   {"at_most", push.csv_column},
+                   {"when_positive", push.csv_column},
+                   {"message", "trigger level exceeds pushing force"}});
+  return {{"fields", fields}, {"rules", rules}, {"steps", lec::StepTable::kSteps}};
 }
 
 nlohmann::json line_json(const LineConfig& c, const Line& line) {

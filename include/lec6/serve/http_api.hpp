@@ -17,6 +17,7 @@
 //   GET  /api/axes/{name}/alarms            active alarms and the 16-group history
 //   GET  /api/lines/{line}/twin             the built-in twin's settings (sim lines)
 //   POST /api/lines/{line}/twin             change them: workpiece, fault rates
+//   GET  /api/fields                        the step fields: ranges, defaults, rules
 //   GET  /api/events                        Server-Sent Events: hello, telemetry, op, stats
 //   GET  /metrics                           Prometheus text
 //   GET  /…                                 the dashboard's files

@@ -25,6 +25,11 @@ nlohmann::json line_json(const LineConfig& config, const Line& line);
 // The stats of a line, for the bus page.
 nlohmann::json stats_json(const LineStatsSnapshot& s, const LineConfig& config);
 
+// The step fields with the manual's ranges, the defaults a blank step starts
+// from and the rules between fields, so a page validates as the user types
+// from the same table the daemon checks (lec::step_fields()).
+nlohmann::json step_fields_json();
+
 // Prometheus text exposition of every line's stats (GET /metrics).
 std::string prometheus_metrics(const Daemon& daemon);
 

@@ -1,0 +1,79 @@
+// The results of commands on one axis, newest first: outcome, message and,
+// for motions, the timeline (start, BUSY up, BUSY down, INP) when the daemon
+// reports one.
+import type { OpResult } from "./types";
+import { h } from "./dom";
+
+const KEEP = 8;
+const DETAIL_KEYS: [string, string, (v: number) => string][] = [
+  ["position_mm", "at", (v) => `${v.toFixed(2)} mm`],
+  ["target_mm", "target", (v) => `${v.toFixed(2)} mm`],
+  ["elapsed_s", "took", (v) => `${v.toFixed(2)} s`],
+];
+const TIMELINE: [string, string][] = [
+  ["start_ms", "start"],
+  ["busy_up_ms", "BUSY↑"],
+  ["busy_down_ms", "BUSY↓"],
+  ["inp_ms", "INP"],
+];
+
+export class ResultList {
+  readonly el = h("ol", { class: "results", "aria-label": "results" });
+
+  running(op: string, source: string): void {
+    this.add(h("li", { class: "running" }, h("b", {}, op), ` running… (${source})`));
+  }
+
+  show(r: OpResult, status: number): void {
+    const ok = r.ok !== false && status < 400;
+    const outcome = r.outcome ? h("span", { class: `outcome ${ok ? "ok" : "bad"}` }, r.outcome) : null;
+    const details = DETAIL_KEYS.filter(([k]) => typeof r[k] === "number").map(
+      ([k, label, f]) => `${label} ${f(r[k] as number)}`,
+    );
+    const li = h(
+      "li",
+      { class: ok ? "ok" : "bad", "data-op": r.op ?? "" },
+      h("b", {}, r.op ?? "command"),
+      " ",
+      outcome,
+      " ",
+      h("span", { class: "message" }, String(r.message ?? r.error ?? (ok ? "done" : `HTTP ${status}`))),
+      details.length ? h("div", { class: "muted" }, details.join(" · ")) : null,
+      r.timeline ? timeline(r.timeline) : null,
+    );
+    // A result replaces the "running…" line of its op.
+    const first = this.el.firstElementChild;
+    if (first?.classList.contains("running")) first.remove();
+    this.add(li);
+  }
+
+  private add(li: HTMLElement): void {
+    this.el.prepend(li);
+    while (this.el.children.length > KEEP) this.el.lastElementChild?.remove();
+  }
+}
+
+function timeline(t: Record<string, number | null>): HTMLElement {
+  const marks = TIMELINE.filter(([k]) => typeof t[k] === "number");
+  const start = (t.start_ms as number) ?? 0;
+  const end = Math.max(...marks.map(([k]) => t[k] as number), start + 1);
+  const bar = h("div", { class: "timeline-bar" });
+  for (const [k, label] of marks) {
+    const at = t[k] as number;
+    const pct = ((at - start) / (end - start)) * 100;
+    bar.appendChild(
+      h("span", { class: "mark", style: `left:${pct.toFixed(1)}%`, title: `${label} at ${Math.round(at - start)} ms` }),
+    );
+  }
+  const missing = TIMELINE.filter(([k]) => k in t && t[k] === null).map(([, l]) => `${l} never`);
+  return h(
+    "div",
+    { class: "timeline" },
+    bar,
+    h(
+      "div",
+      { class: "muted" },
+      [...marks.map(([k, l]) => `${l} ${Math.round((t[k] as number) - start)} ms`), ...missing].join(" · "),
+    ),
+  );
+}
