@@ -8,6 +8,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev libasio-dev libboost-dev curl
   libmodbus-dev mbpoll python3 python3-pymodbus python3-serial
+  libmosquitto-dev mosquitto mosquitto-clients python3-paho-mqtt openssl
 )
 
 missing=()
