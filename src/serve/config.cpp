@@ -13,6 +13,7 @@
 
 #include "config_reader.hpp"
 #include "lec6/modbus/timing.hpp"
+#include "lec6/serve/mqtt_topics.hpp"
 #include "lec6/transport/port_spec.hpp"
 
 namespace lec6::serve {
@@ -163,30 +164,66 @@ std::optional<HttpConfig> read_http(const Reader& r, const YAML::Node& n) {
   return h;
 }
 
+void check_mqtt_files(const Reader& r, const YAML::Node& n, const MqttConfig& m, bool tls) {
+  for (const char* key : {"ca_file", "cert_file", "key_file"}) {
+    const std::string path = std::string("mqtt.") + key;
+    const std::string file = r.get<std::string>(n[key], path, "");
+    if (file.empty()) continue;
+    if (!tls) r.fail(n[key], path, "TLS files need an mqtts:// broker");
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec)) {
+      r.fail(n[key], path, fmt::format("cannot read '{}': no such file", file));
+    }
+  }
+  if (m.cert_file.empty() != m.key_file.empty()) {
+    const char* given = m.cert_file.empty() ? "key_file" : "cert_file";
+    r.fail(n[given], std::string("mqtt.") + given,
+           "a client certificate needs both cert_file and key_file");
+  }
+}
+
 std::optional<MqttConfig> read_mqtt(const Reader& r, const YAML::Node& n) {
   if (!n) return std::nullopt;
   if (n.IsScalar() && !n.as<bool>(true)) return std::nullopt;
+  if (n.IsScalar()) return MqttConfig{};  // `mqtt: true`: the local broker
   r.keys(n, "mqtt",
          {"broker", "client_id", "bridge", "prefix", "username", "password", "ca_file", "cert_file",
-          "key_file", "telemetry_hz", "command_valid_for_s", "home_assistant"});
+          "key_file", "telemetry_hz", "command_valid_for_s", "home_assistant", "keepalive_s",
+          "reconnect_max_s"});
   MqttConfig m;
   m.broker = r.get<std::string>(n["broker"], "mqtt.broker", m.broker);
-  if (!m.broker.starts_with("mqtt://") && !m.broker.starts_with("mqtts://")) {
-    r.fail(n["broker"], "mqtt.broker",
-           fmt::format("'{}': expected mqtt://host:port or mqtts://host:port", m.broker));
+  BrokerUrl url;
+  try {
+    url = parse_broker_url(m.broker);
+  } catch (const std::invalid_argument& e) {
+    r.fail(n["broker"], "mqtt.broker", e.what());
   }
   m.client_id = r.get<std::string>(n["client_id"], "mqtt.client_id", "");
+  if (n["client_id"] && m.client_id.empty()) {
+    r.fail(n["client_id"], "mqtt.client_id", "empty: leave it out for lec6-<host name>");
+  }
   m.bridge = r.get<std::string>(n["bridge"], "mqtt.bridge", "");
+  if (n["bridge"]) r.name(n["bridge"], "mqtt.bridge", m.bridge);
   m.prefix = r.get<std::string>(n["prefix"], "mqtt.prefix", m.prefix);
+  if (const auto why = check_topic_prefix(m.prefix)) r.fail(n["prefix"], "mqtt.prefix", *why);
   m.username = r.get<std::string>(n["username"], "mqtt.username", "");
   m.password = r.get<std::string>(n["password"], "mqtt.password", "");
+  if (!m.password.empty() && m.username.empty()) {
+    r.fail(n["password"], "mqtt.password", "a password needs a username");
+  }
   m.ca_file = r.get<std::string>(n["ca_file"], "mqtt.ca_file", "");
   m.cert_file = r.get<std::string>(n["cert_file"], "mqtt.cert_file", "");
   m.key_file = r.get<std::string>(n["key_file"], "mqtt.key_file", "");
+  check_mqtt_files(r, n, m, url.tls);
   m.telemetry_hz = r.number(n["telemetry_hz"], "mqtt.telemetry_hz", 5, 0.01, 1000);
   m.command_valid_for_s =
       r.number(n["command_valid_for_s"], "mqtt.command_valid_for_s", 5, 0.1, 3600);
   m.home_assistant = r.get<bool>(n["home_assistant"], "mqtt.home_assistant", false);
+  // libmosquitto refuses a keepalive under 5 s.
+  m.keepalive_s = static_cast<unsigned>(
+      r.integer(n["keepalive_s"], "mqtt.keepalive_s", 30, 5, 65535, "5 to 65535 s"));
+  m.reconnect_max_s = static_cast<unsigned>(
+      r.integer(n["reconnect_max_s"], "mqtt.reconnect_max_s", 30, 1, 3600, "1 to 3600 s"));
   return m;
 }
 
@@ -241,6 +278,51 @@ bool Endpoint::loopback() const {
 std::string Endpoint::text() const {
   return address.find(':') != std::string::npos ? fmt::format("[{}]:{}", address, port)
                                                 : fmt::format("{}:{}", address, port);
+}
+
+BrokerUrl parse_broker_url(const std::string& text) {
+  BrokerUrl url;
+  std::string_view rest = text;
+  if (rest.starts_with("mqtts://")) {
+    url.tls = true;
+    url.port = 8883;
+    rest.remove_prefix(8);
+  } else if (rest.starts_with("mqtt://")) {
+    rest.remove_prefix(7);
+  } else {
+    throw std::invalid_argument(
+        fmt::format("'{}': expected mqtt://host[:port] or mqtts://host[:port]", text));
+  }
+  if (rest.ends_with("/")) rest.remove_suffix(1);
+  std::string_view port;
+  if (rest.starts_with("[")) {  // [IPv6]:port
+    const auto close = rest.find(']');
+    if (close == std::string_view::npos) {
+      throw std::invalid_argument(fmt::format("'{}': an IPv6 address needs its ']'", text));
+    }
+    url.host = std::string(rest.substr(1, close - 1));
+    rest.remove_prefix(close + 1);
+    if (!rest.empty() && !rest.starts_with(":")) {
+      throw std::invalid_argument(fmt::format("'{}': expected :port after ']'", text));
+    }
+    if (!rest.empty()) port = rest.substr(1);
+  } else {
+    const auto colon = rest.rfind(':');
+    url.host = std::string(rest.substr(0, colon));
+    if (colon != std::string_view::npos) port = rest.substr(colon + 1);
+  }
+  if (url.host.empty() || url.host.find_first_of("/@?#") != std::string::npos) {
+    throw std::invalid_argument(fmt::format("'{}': expected a host name or address", text));
+  }
+  if (!port.empty() || rest.ends_with(":")) {
+    unsigned value = 0;
+    const auto [end, ec] = std::from_chars(port.data(), port.data() + port.size(), value);
+    if (ec != std::errc() || end != port.data() + port.size() || value < 1 || value > 65535) {
+      throw std::invalid_argument(fmt::format("'{}': the port must be 1 to 65535", text));
+    }
+    url.port = static_cast<uint16_t>(value);
+  }
+  return url;
 }
 
 Duration LineConfig::cache_max_age() const {

@@ -5,6 +5,7 @@
 #include "lec6/serve/http_api.hpp"
 #include "lec6/serve/http_server.hpp"
 #include "lec6/serve/modbus_tcp_server.hpp"
+#include "lec6/serve/mqtt_bridge.hpp"
 #include "lec6/serve/operations.hpp"
 #include "lec6/serve/wire.hpp"
 
@@ -33,9 +34,14 @@ Daemon::Daemon(ServeConfig config, Log log)
   ops_ = std::make_unique<Operations>(log_);
   start_lines();
   start_listeners();
+  if (config_.mqtt) {
+    mqtt_ = std::make_unique<MqttBridge>(*this, *ops_, *config_.mqtt, log_);
+    mqtt_->start();
+  }
 }
 
 Daemon::~Daemon() {
+  if (mqtt_) mqtt_->stop();
   if (http_) http_->stop();
   for (auto& s : modbus_) s->stop();
   if (ops_) ops_->shutdown();
@@ -98,6 +104,7 @@ std::vector<std::string> Daemon::endpoints() const {
   std::vector<std::string> out;
   for (const auto& s : modbus_) out.push_back(s->url());
   if (http_) out.push_back("http://" + http_->address());
+  if (mqtt_) out.push_back(mqtt_->describe());
   return out;
 }
 
@@ -123,6 +130,7 @@ void Daemon::begin_stop() {
   stats_timer_.cancel();
   for (auto& s : modbus_) s->shutdown();
   ops_->shutdown();  // hold-to-run jogs are released while the lines still run
+  if (mqtt_) mqtt_->stop();  // "offline" goes out; the will is for a crash
   for (auto& [name, line] : lines_) line->stop();
   ops_->shutdown();  // operations end on "shutting down"; their HTTP answers go out
   if (http_) http_->stop();

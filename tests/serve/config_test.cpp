@@ -109,6 +109,54 @@ TEST(ServeConfig, FlagsMakeTheSimpleCase) {
   EXPECT_NO_THROW(config_from_flags(f));
 }
 
+TEST(ServeConfig, MqttSection) {
+  const char* lines = "lines:\n  - port: sim\n    axes: [{id: 1}]\n";
+  auto c = parse_config(std::string(lines) + "mqtt: true\n", "lec6.yaml");
+  ASSERT_TRUE(c.mqtt);  // the embedded default: the local broker
+  EXPECT_EQ(c.mqtt->broker, "mqtt://127.0.0.1:1883");
+  EXPECT_EQ(c.mqtt->prefix, "lec6");
+  EXPECT_EQ(c.mqtt->telemetry_hz, 5);
+  EXPECT_EQ(c.mqtt->command_valid_for_s, 5);
+  EXPECT_EQ(c.mqtt->keepalive_s, 30u);
+  EXPECT_FALSE(parse_config(std::string(lines) + "mqtt: false\n", "lec6.yaml").mqtt);
+  c = parse_config(std::string(lines) +
+                       "mqtt:\n  broker: mqtt://[::1]:11883\n  client_id: cell7\n"
+                       "  bridge: cell7\n  prefix: plant/hall3\n  username: u\n  password: p\n"
+                       "  telemetry_hz: 20\n  command_valid_for_s: 2\n  home_assistant: true\n"
+                       "  keepalive_s: 10\n  reconnect_max_s: 5\n",
+                   "lec6.yaml");
+  EXPECT_EQ(c.mqtt->url().port, 11883);
+  EXPECT_EQ(c.mqtt->prefix, "plant/hall3");
+  EXPECT_EQ(c.mqtt->telemetry_hz, 20);
+  EXPECT_TRUE(c.mqtt->home_assistant);
+  EXPECT_EQ(c.mqtt->reconnect_max_s, 5u);
+}
+
+TEST(ServeConfig, MqttMistakesNameTheKey) {
+  const std::string lines = "lines:\n  - port: sim\n    axes: [{id: 1}]\n";
+  EXPECT_EQ(error_of(lines + "mqtt:\n  broker: tcp://h:1883\n"),
+            "lec6.yaml:5: mqtt.broker: 'tcp://h:1883': expected mqtt://host[:port] or "
+            "mqtts://host[:port]");
+  EXPECT_THAT(error_of(lines + "mqtt:\n  broker: mqtt://h:99999\n"),
+              HasSubstr("mqtt.broker: 'mqtt://h:99999': the port must be 1 to 65535"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  prefix: lec6/#\n"),
+              HasSubstr("lec6.yaml:5: mqtt.prefix: 'lec6/#' has a wildcard"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  bridge: 'a/b'\n"), HasSubstr("mqtt.bridge"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  password: p\n"),
+              HasSubstr("mqtt.password: a password needs a username"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  ca_file: /etc/hostname\n"),
+              HasSubstr("mqtt.ca_file: TLS files need an mqtts:// broker"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  broker: mqtts://h\n  ca_file: /nonexistent/ca.crt\n"),
+              HasSubstr("mqtt.ca_file: cannot read '/nonexistent/ca.crt'"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  broker: mqtts://h\n  cert_file: /etc/hostname\n"),
+              HasSubstr("mqtt.cert_file: a client certificate needs both cert_file and key_file"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  telemetry_hz: 0\n"), HasSubstr("mqtt.telemetry_hz"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  keepalive_s: 2\n"),
+              HasSubstr("mqtt.keepalive_s: 2 is not 5 to 65535 s"));
+  EXPECT_THAT(error_of(lines + "mqtt:\n  telemetry: 5\n"),
+              HasSubstr("mqtt.telemetry: unknown key: did you mean 'telemetry_hz'?"));
+}
+
 TEST(ServeConfig, Endpoints) {
   EXPECT_TRUE(parse_endpoint("127.0.0.1:1502").loopback());
   EXPECT_TRUE(parse_endpoint("[::1]:1502").loopback());

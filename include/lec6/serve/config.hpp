@@ -94,6 +94,17 @@ struct HttpConfig {
   std::filesystem::path web_root;  // the dashboard's files; empty: beside the binary
 };
 
+// Where the MQTT bridge connects: mqtt://host[:1883] or mqtts://host[:8883]
+// (TLS). IPv6 addresses in brackets: mqtt://[::1]:1883.
+struct BrokerUrl {
+  bool tls = false;
+  std::string host;
+  uint16_t port = 1883;
+};
+// Throws std::invalid_argument saying what is wrong.
+BrokerUrl parse_broker_url(const std::string& text);
+
+// The MQTT bridge (docs/mqtt.md): telemetry out, commands in, one broker.
 struct MqttConfig {
   std::string broker = "mqtt://127.0.0.1:1883";
   std::string client_id;  // default: lec6-<host name>
@@ -101,9 +112,13 @@ struct MqttConfig {
   std::string prefix = "lec6";
   std::string username, password;
   std::filesystem::path ca_file, cert_file, key_file;  // TLS (mqtts://)
-  double telemetry_hz = 5;
+  double telemetry_hz = 5;         // state messages per axis per second
   double command_valid_for_s = 5;  // older commands are refused
   bool home_assistant = false;     // MQTT discovery
+  unsigned keepalive_s = 30;       // the broker gives up on us after 1.5 × this
+  unsigned reconnect_max_s = 30;   // back-off doubles from 1 s up to this
+
+  BrokerUrl url() const { return parse_broker_url(broker); }
 };
 
 struct ServeConfig {

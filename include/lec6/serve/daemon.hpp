@@ -4,7 +4,8 @@
 //
 // Threads: one per line (serve::Line, the only one touching its wire), one
 // for the event loop (standalone Asio: listeners, connections, timers), and
-// one per running axis operation (operations block on their line's answers).
+// one per running axis operation (operations block on their line's answers),
+// and the MQTT client's (mqtt_bridge.hpp).
 //
 // Stopping (SIGTERM, SIGINT, stop()): listeners stop accepting, each line
 // finishes the transaction on the wire and fails its queued jobs (masters
@@ -30,6 +31,7 @@ namespace lec6::serve {
 class ModbusTcpServer;
 class HttpServer;
 class HttpApi;
+class MqttBridge;
 class Operations;
 
 // An axis of the daemon, by name.
@@ -81,6 +83,7 @@ class Daemon {
   std::unique_ptr<Operations> ops_;
   std::unique_ptr<HttpApi> api_;
   std::unique_ptr<HttpServer> http_;
+  std::unique_ptr<MqttBridge> mqtt_;
   asio::steady_timer stats_timer_;
   asio::signal_set signals_;
   // Keeps run() going until stop, whatever listens.
