@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
     follower.apply(10000);  // the first setpoint writes the whole record
     const uint64_t tx_before = c.stats().transactions;
     const TimePoint start = c.clock().now();
-    const TimePoint end = start + std::chrono::milliseconds(seconds * 1000);
+    const TimePoint end = start + to_duration(FractionalSeconds(seconds));
     uint64_t n = 0;
     while (c.clock().now() < end) {
       // A wave between 100 and 200 mm: every setpoint differs from the last.

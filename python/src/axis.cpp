@@ -55,8 +55,20 @@ client::DirectMove direct_move(const MoveArgs& a) {
   return m;
 }
 
-MoveResult finished(client::MoveResult r, std::string operation) {
-  return MoveResult{std::move(r), std::move(operation)};
+// wait=False: the move as the controller shows it right after the start
+// (BUSY may not be up yet: the controller raises it when it acts).
+client::MoveResult started_only(const client::StartedMove& started, client::Client& c) {
+  client::MoveResult r;
+  r.goal = started.start.goal;
+  r.started_at = started.start.at;
+  r.flags = c.read_flags();  // flags first: the state read after them is as new
+  r.state = c.read_state();
+  r.in_position = r.flags.inp();
+  return r;
+}
+
+MoveResult finished(client::MoveResult r, std::string operation, bool waited = true) {
+  return MoveResult{std::move(r), std::move(operation), waited};
 }
 
 void bind_reads(py::class_<Axis>& c) {
@@ -175,11 +187,12 @@ void bind_motion(py::class_<Axis>& c) {
                              trigger, push_speed, relative});
             const Duration limit = seconds_arg(timeout, "timeout");
             return finished(self.wait_call(progress, cancel, kStopped,
-                                           [&](client::Client&, client::Actuator& a,
+                                           [&](client::Client& c, client::Actuator& a,
                                                const client::WaitOptions& w) {
-                                             return a.move(m, a.deadline_in(limit), w, !wait);
+                                             if (wait) return a.move(m, a.deadline_in(limit), w);
+                                             return started_only(a.start(m), c);
                                            }),
-                            "move");
+                            "move", wait);
           },
           py::arg("to"), py::kw_only(), py::arg("relative") = false, py::arg("speed") = py::none(),
           py::arg("accel") = py::none(), py::arg("decel") = py::none(),

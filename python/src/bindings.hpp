@@ -77,6 +77,7 @@ struct Alarm {
 struct MoveResult {
   client::MoveResult result;
   std::string operation;  // "move", "step 3", "home", "jog"
+  bool waited = true;     // false: move(wait=False), the status right after the start
 };
 
 // ---- waiting (wait.cpp) -------------------------------------------------------

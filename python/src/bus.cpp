@@ -61,8 +61,8 @@ Bus open_bus(const std::string& port, uint32_t baud, int retries, double timeout
   twin::PortOptions o;
   o.baud = baud;
   o.silent_interval_k = silent_interval;
-  o.delay_td = milliseconds(delay_ms);
-  o.timeout_margin = milliseconds(timeout_margin_ms);
+  o.delay_td = to_duration(FractionalMilliseconds(delay_ms));
+  o.timeout_margin = to_duration(FractionalMilliseconds(timeout_margin_ms));
   o.wait_for_silence = silence_wait;
   o.discard_echo = echo;
   o.rs485.enabled = rs485;

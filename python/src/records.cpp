@@ -98,10 +98,16 @@ py::dict flags_dict(const StatusFlags& f) {
       py::arg("estop") = f.estop(), py::arg("alarm") = f.alarm(), py::arg("out") = f.out());
 }
 
-// Interim until the move outcome of issue 12: INP after BUSY fell is success.
-std::string outcome(const client::MoveResult& r) {
-  if (r.flags.busy()) return "running";
-  return r.in_position ? "reached" : "not_in_position";
+// The Actuator's outcome (client/move_result.hpp); "running" for a move
+// that was only started (wait=False).
+std::string outcome(const MoveResult& r) {
+  if (!r.waited) return "running";
+  return std::string(client::outcome_name(r.result.outcome));
+}
+
+py::object seconds_or_none(const std::optional<Duration>& d) {
+  if (!d) return py::none();
+  return py::float_(to_seconds(*d));
 }
 
 // A hashable tuple of integers (lists are not hashable).
@@ -188,10 +194,19 @@ void bind_records(py::module_& m) {
       .def_property_readonly("operation", [](const MoveResult& r) { return r.operation; })
       .def_property_readonly(
           "in_position", [](const MoveResult& r) { return r.result.in_position; },
-          "INP after BUSY fell: the move succeeded.")
+          "INP when the move ended.")
       .def_property_readonly(
-          "outcome", [](const MoveResult& r) { return outcome(r.result); },
-          "'reached' (INP = 1 after BUSY fell) or 'not_in_position'.")
+          "outcome", [](const MoveResult& r) { return outcome(r); },
+          "'reached', 'pushed', 'push_missed' or 'stopped' (alarms, deadlines and starts the "
+          "controller never acted on raise); 'running' for move(wait=False).")
+      .def_property_readonly(
+          "succeeded", [](const MoveResult& r) { return r.waited && r.result.succeeded(); },
+          "True for 'reached' and 'pushed'.")
+      .def_property_readonly(
+          "evidence", [](const MoveResult& r) { return r.result.evidence; },
+          "What showed that the controller started the move (e.g. 'BUSY').")
+      .def("describe", [](const MoveResult& r) { return r.result.describe(); },
+           "One line in the manual's words, as `lec move` prints it.")
       .def_property_readonly("status",
                              [](const MoveResult& r) {
                                return Status{r.result.state, r.result.flags, {}};
@@ -202,10 +217,18 @@ void bind_records(py::module_& m) {
           "elapsed_s", [](const MoveResult& r) { return to_seconds(r.result.elapsed); },
           "From the start until completion was seen, s.")
       .def_property_readonly(
-          "timeline", [](const MoveResult&) { return py::none(); }, "Not measured yet (None).")
+          "timeline",
+          [](const MoveResult& r) {
+            const auto& t = r.result.timeline;
+            return py::dict(py::arg("busy_up_s") = seconds_or_none(t.busy_up),
+                            py::arg("busy_down_s") = seconds_or_none(t.busy_down),
+                            py::arg("inp_s") = seconds_or_none(t.inp));
+          },
+          "When the polls first saw BUSY rise, BUSY fall and INP, s from the start (None: not "
+          "seen).")
       .def("__repr__", [](const MoveResult& r) {
         return fmt::format("MoveResult({}, outcome='{}', position_mm={}, elapsed_s={:.3f})",
-                           r.operation, outcome(r.result),
+                           r.operation, outcome(r),
                            lec::format_mm(r.result.state.position_001mm),
                            to_seconds(r.result.elapsed));
       });

@@ -8,6 +8,7 @@
 #include "axis.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/lec/step_assign.hpp"
+#include "lec6/transport/step_table_file.hpp"
 #include "steps.hpp"
 
 namespace lec6::python {
@@ -167,7 +168,7 @@ void add_step_methods(py::class_<Axis>& c) {
                 [](client::Client& cl, client::Actuator&) { return client::backup_steps(cl); });
             if (!path.is_none()) {
               const std::string p = py::str(py::module_::import("os").attr("fspath")(path));
-              if (auto w = client::write_table_file(p, table); !w) throw py::value_error(w.error());
+              if (auto w = transport::write_table_file(p, table); !w) throw py::value_error(w.error());
             }
             return table;
           },

@@ -12,6 +12,7 @@
 #include "lec6/lec/step_assign.hpp"
 #include "lec6/lec/step_table.hpp"
 #include "lec6/lec/units.hpp"
+#include "lec6/transport/step_table_file.hpp"
 #include "steps.hpp"
 
 namespace lec6::python {
@@ -160,7 +161,7 @@ void bind_table(py::module_& m) {
           "load",
           [](const py::object& path) {
             const std::string p = py::str(py::module_::import("os").attr("fspath")(path));
-            auto t = client::read_table_file(p);
+            auto t = transport::read_table_file(p);
             if (!t) table_errors(p, t.error());
             return *t;
           },
@@ -181,7 +182,7 @@ void bind_table(py::module_& m) {
           "save",
           [](const StepTable& t, const py::object& path) {
             const std::string p = py::str(py::module_::import("os").attr("fspath")(path));
-            if (auto w = client::write_table_file(p, t); !w) throw py::value_error(w.error());
+            if (auto w = transport::write_table_file(p, t); !w) throw py::value_error(w.error());
           },
           py::arg("path"), "Writes CSV or JSON (by extension), atomically.")
       .def("to_csv", [](const StepTable& t) { return lec::to_csv(t); })
@@ -263,7 +264,7 @@ void bind_diff(py::module_& m) {
 StepTable table_argument(const py::object& source) {
   if (py::isinstance<StepTable>(source)) return source.cast<StepTable>();
   const std::string p = py::str(py::module_::import("os").attr("fspath")(source));
-  auto t = client::read_table_file(p);
+  auto t = transport::read_table_file(p);
   if (!t) table_errors(p, t.error());
   return *t;
 }

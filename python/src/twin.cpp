@@ -200,7 +200,7 @@ std::unique_ptr<Twin> make_twin(std::vector<int> ids, const std::string& timing,
   s.faults.delay = rate("delay_rate", delay_rate);
   if (!(extra_delay_ms >= 0 && extra_delay_ms <= 10000))
     throw client::InvalidRequest("extra_delay_ms: 0 to 10000 ms");
-  s.faults.extra_delay = milliseconds(extra_delay_ms);
+  s.faults.extra_delay = to_duration(FractionalMilliseconds(extra_delay_ms));
   s.faults.seed = seed;
   return std::make_unique<Twin>(std::move(s), pty);
 }

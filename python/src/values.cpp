@@ -56,7 +56,7 @@ Duration seconds_arg(double seconds, std::string_view keyword) {
     throw client::InvalidRequest(fmt::format(
         "{}={}: expected a number of seconds, > 0 and at most 1000000", keyword, seconds));
   }
-  return milliseconds(seconds * 1000.0);
+  return to_duration(FractionalSeconds(seconds));
 }
 
 }  // namespace lec6::python

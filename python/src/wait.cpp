@@ -12,7 +12,7 @@ namespace {
 
 // Signals are delivered to the main thread only; checking them costs a GIL
 // round trip, so at most this often (Ctrl-C still feels immediate).
-constexpr Duration kSignalCheckInterval = milliseconds(20);
+constexpr Duration kSignalCheckInterval = std::chrono::milliseconds(20);
 
 bool on_main_thread() {
   // Python ≥ 3.4: the main thread's ident is threading.main_thread().ident.

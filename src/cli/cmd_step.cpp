@@ -19,7 +19,7 @@
 #include <memory>
 
 #include "cli/app.hpp"
-#include "cli/step_files.hpp"
+#include "lec6/transport/step_table_file.hpp"
 #include "cli/step_views.hpp"
 #include "lec6/client/step_sync.hpp"
 #include "lec6/lec/memory_map.hpp"
@@ -71,7 +71,7 @@ std::string port_text(const Session& s) {
 }
 
 lec::StepTable load_table(const std::string& file) {
-  auto table = read_table_file(file);
+  auto table = transport::read_table_file(file);
   if (!table) {
     const auto& errors = table.error();
     throw UsageError(fmt::format("{}: {}; nothing was sent to the controller:{}", file,
@@ -179,7 +179,7 @@ void run_set(Session& s, const SetArgs& a) {
 
 void run_backup(Session& s, const std::string& file) {
   const lec::StepTable table = client::backup_steps(s.client());
-  if (auto w = write_table_file(file, table); !w) throw CommandFailed(kFailure, w.error());
+  if (auto w = transport::write_table_file(file, table); !w) throw CommandFailed(kFailure, w.error());
   std::vector<unsigned> in_use;
   std::vector<std::string> invalid;
   for (unsigned n = 0; n < kSteps; ++n) {

@@ -156,7 +156,7 @@ TEST(DeviceFramer, AnEndlessStreamIsBounded) {
 }
 
 TEST(DeviceFramer, AnOverLongFrameIsJudgedByItsWholeCrc) {
-  DeviceFramer f(std::chrono::milliseconds(1), false);
+  DeviceFramer f(std::chrono::milliseconds(1), FrameEnd::Silence);
   Bytes sound(300, 0x42);
   sound[0] = 0x01;
   append_crc(sound);
