@@ -23,7 +23,7 @@ namespace {
 using testing::SimFixture;
 
 Duration ms(double v) {
-  return std::chrono::milliseconds(v);
+  return to_duration(FractionalMilliseconds(v));
 }
 
 struct Quirk {

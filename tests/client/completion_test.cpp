@@ -15,7 +15,7 @@ using lec::StatusFlags;
 const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
 
 Duration ms(double v) {
-  return std::chrono::milliseconds(v);
+  return to_duration(FractionalMilliseconds(v));
 }
 
 StatusFlags flags(std::initializer_list<StatusFlags::Bit> on, uint8_t out = 0) {

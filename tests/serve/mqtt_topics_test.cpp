@@ -2,6 +2,7 @@
 
 #include "lec6/serve/mqtt_topics.hpp"
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 

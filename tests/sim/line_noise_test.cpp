@@ -15,7 +15,7 @@ namespace {
 using modbus::Bytes;
 
 Duration ms(double v) {
-  return std::chrono::milliseconds(v);
+  return to_duration(FractionalMilliseconds(v));
 }
 
 const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);

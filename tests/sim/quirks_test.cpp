@@ -16,7 +16,7 @@ using lec::Coil;
 using lec::StatusFlags;
 
 Duration ms(double v) {
-  return std::chrono::milliseconds(v);
+  return to_duration(FractionalMilliseconds(v));
 }
 
 lec::StepData positioning(int32_t pos_001mm, lec::MovementMode mode = lec::MovementMode::Absolute) {
