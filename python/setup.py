@@ -37,7 +37,8 @@ class CMakeBuild(build_ext):
         subprocess.run(["cmake", "-S", str(ROOT), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
                         "-DCMAKE_CXX_FLAGS_RELEASE=-O2 -DNDEBUG",
                         "-DLEC6_PYTHON=ON", "-DLEC6_BENCH=OFF", "-DLEC6_FUZZ=OFF",
-                        "-DLEC6_SANITIZE=OFF", f"-DPython_EXECUTABLE={sys.executable}"],
+                        "-DLEC6_SANITIZE=OFF", "-DLEC6_WEB=OFF", "-DLEC6_TESTS=OFF",
+                        "-DLEC6_WERROR=OFF", f"-DPython_EXECUTABLE={sys.executable}"],
                        check=True)
         env = dict(os.environ)
         env.setdefault("CMAKE_BUILD_PARALLEL_LEVEL", str(os.cpu_count() or 1))

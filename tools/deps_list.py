@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 DEFAULT_LIST = Path(__file__).resolve().parent / "deps.txt"
-_ANNOTATION = re.compile(r"\[(py|bin):\s*([^\]\s]+)\s*\]")
+_ANNOTATION = re.compile(r"\[(py|bin|file):\s*([^\]\s]+)\s*\]")
 _NAME = re.compile(r"^[a-z0-9][a-z0-9+.-]+(:[a-z0-9-]+)?$")
 
 
@@ -20,9 +20,15 @@ class Entry:
     line: int
     modules: list = field(default_factory=list)  # [py: NAME]
     programs: list = field(default_factory=list)  # [bin: NAME]
+    files: list = field(default_factory=list)  # [file: GLOB]: data a test reads (wheels, ...)
 
     def __str__(self):
         return " | ".join(self.alternatives)
+
+
+def _annotate(entry, reason):
+    for kind, name in _ANNOTATION.findall(reason):
+        {"py": entry.modules, "bin": entry.programs, "file": entry.files}[kind].append(name)
 
 
 def read_list(path=DEFAULT_LIST):
@@ -34,14 +40,12 @@ def read_list(path=DEFAULT_LIST):
         if not text.strip():
             if raw[:1].isspace() and reason and entries:  # an indented comment goes on
                 entries[-1].reason += " " + reason.strip()
-                for kind, name in _ANNOTATION.findall(reason):
-                    (entries[-1].modules if kind == "py" else entries[-1].programs).append(name)
+                _annotate(entries[-1], reason)
             continue
         if not all(_NAME.match(n) for n in names):
             raise ValueError(f"{path}:{number}: not a package or `a | b`: {raw.strip()!r}")
         entry = Entry(names, reason.strip(), number)
-        for kind, name in _ANNOTATION.findall(reason):
-            (entry.modules if kind == "py" else entry.programs).append(name)
+        _annotate(entry, reason)
         entries.append(entry)
     return entries
 

@@ -81,7 +81,8 @@ def python_files():
 
 
 def shell_files():
-    return list(_files(SCRIPT_DIRS, lambda p: p.suffix == ".sh" or (not p.suffix and re.search(r"\b(ba)?sh\b", _shebang(p)))))
+    return list(_files(SCRIPT_DIRS, lambda p: p.suffix in (".sh", ".bash") or
+                       (not p.suffix and re.search(r"\b(ba)?sh\b", _shebang(p)))))
 
 
 # ---- Python -----------------------------------------------------------------------
@@ -178,6 +179,20 @@ def python_needs(shell_texts, declared):
         if not top:
             continue  # loaded at start-up: the stdlib, or .pth hooks of whatever is installed
         needs.append(Need(f"module {name}", f"`import {top}` in {imports[top][0]}", [file], entry=declared.get(name)))
+    return needs
+
+
+def file_needs(entries):
+    """Needs for the data files entries declare with [file: GLOB] (what no
+    import or command line shows, e.g. the wheels an offline pip install reads)."""
+    needs = []
+    for e in entries:
+        for pattern in e.files:
+            found = sorted(str(p) for p in Path("/").glob(pattern.lstrip("/")))
+            need = Need(f"file {pattern}", f"tools/deps.txt line {e.line}", found, entry=e)
+            if not found:
+                need.problem = "not installed"
+            needs.append(need)
     return needs
 
 
@@ -308,6 +323,11 @@ def cmake_needs(cache_path):
         if p.is_dir():
             files = [str(c) for c in sorted(p.glob("*onfig.cmake"))] or files
         needs.append(Need(f"CMake {key}", _rel(cache_path), files))
+    # Python's headers (Development.Module): pybind11 includes Python.h, which
+    # no source of ours names.
+    kind, value = cache.get("_Python_INCLUDE_DIR", ("", ""))
+    if value and (Path(value) / "Python.h").exists():
+        needs.append(Need("header <Python.h>", _rel(cache_path), [str(Path(value) / "Python.h")]))
     return needs, include_dirs
 
 

@@ -2,7 +2,7 @@
 // the daemon serves them with a long cache) and writes index.html naming them.
 // Usage: node build.mjs [OUT_DIR]   (default: ../build/web)
 import { build } from "esbuild";
-import { mkdirSync, readFileSync, rmSync, writeFileSync } from "node:fs";
+import { copyFileSync, mkdirSync, readFileSync, rmSync, writeFileSync } from "node:fs";
 import { basename, dirname, resolve } from "node:path";
 import { fileURLToPath } from "node:url";
 
@@ -33,4 +33,6 @@ const html = readFileSync(resolve(here, "src/index.html"), "utf8")
   .replace("%CSS%", css)
   .replace("%JS%", js);
 writeFileSync(resolve(out, "index.html"), html);
+// The tab icon: without one the browser asks for /favicon.ico and gets a 404.
+copyFileSync(resolve(here, "src/favicon.svg"), resolve(out, "favicon.svg"));
 console.log(`dashboard built in ${out}: index.html, ${js}, ${css}`);

@@ -36,6 +36,7 @@ from ._lec6 import (  # noqa: F401  (re-exported)
     Axis,
     Bus,
     Cancelled,
+    MoveNotStarted,
     ControllerException,
     DeadlineError,
     Error,
@@ -57,7 +58,7 @@ from ._lec6 import (  # noqa: F401  (re-exported)
 )
 
 __all__ = [
-    "Alarm", "AlarmError", "Axis", "Bus", "Cancelled", "ControllerException", "DeadlineError",
+    "Alarm", "AlarmError", "Axis", "Bus", "Cancelled", "ControllerException", "DeadlineError", "MoveNotStarted",
     "Error", "Flags", "InvalidRequest", "MoveResult", "RestoreReport", "State", "Status", "Step",
     "StepDiff", "StepFieldDiff", "StepTable", "TransportError", "Twin", "VerifyError", "connect",
 ]

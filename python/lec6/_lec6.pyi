@@ -31,6 +31,7 @@ class AlarmError(Error):
 
 class DeadlineError(Error):
     """An operation did not finish before its timeout."""
+    result: Optional["MoveResult"]
 
 class InvalidRequest(Error, ValueError):
     """Refused before anything was sent; the message names the field and the range."""
@@ -38,6 +39,11 @@ class InvalidRequest(Error, ValueError):
 
 class Cancelled(Error):
     """The `cancel` callback stopped the operation; the axis was stopped first."""
+    result: Optional["MoveResult"]
+
+class MoveNotStarted(Error):
+    """Nothing showed that the controller started the move; a stop was sent. Never success."""
+    result: Optional["MoveResult"]
 
 class VerifyError(Error):
     """A written step read back different."""
@@ -139,7 +145,12 @@ class MoveResult:
     @property
     def in_position(self) -> bool: ...
     @property
-    def outcome(self) -> str: ...  # 'reached', 'not_in_position', 'running' (wait=False)
+    def outcome(self) -> str: ...  # 'reached', 'pushed', 'push_missed', 'stopped', 'running' (wait=False)
+    @property
+    def succeeded(self) -> bool: ...
+    @property
+    def evidence(self) -> str: ...
+    def describe(self) -> str: ...
     @property
     def status(self) -> Status: ...
     @property
@@ -147,7 +158,7 @@ class MoveResult:
     @property
     def elapsed_s(self) -> float: ...
     @property
-    def timeline(self) -> None: ...
+    def timeline(self) -> Dict[str, Optional[float]]: ...  # busy_up_s, busy_down_s, inp_s
 
 # ---- steps ----------------------------------------------------------------------
 

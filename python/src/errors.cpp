@@ -6,6 +6,7 @@
 #include "bindings.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
+#include "lec6/twin/field_profile.hpp"
 
 namespace lec6::python {
 namespace {
@@ -32,6 +33,10 @@ constexpr ErrorClass kClasses[] = {
      "A request refused before anything was sent: a value outside the manual's range (the "
      "message names the field and the range), a step file with errors (`.errors`), a command "
      "the controller's mode does not allow. Also a ValueError."},
+    {"MoveNotStarted", "Error",
+     "Nothing showed that the controller started the move (no BUSY edge, no target or step "
+     "change) within the start window; the axis was sent a stop. `.result` is the MoveResult "
+     "(its timeline shows what the polls saw). Never taken for success."},
     {"Cancelled", "Error",
      "An operation was cancelled by its `cancel` callback; the axis was stopped first."},
     {"VerifyError", "Error",
@@ -75,6 +80,12 @@ std::string_view link_error_name(client::LinkErrorKind k) {
   return "io";
 }
 
+// The MoveResult an error that ended a move carries, or None.
+py::object result_of(const client::WithMoveResult& e) {
+  if (!e.move_result()) return py::none();
+  return py::cast(MoveResult{*e.move_result(), "move"});
+}
+
 py::object translate(std::exception_ptr p) {
   try {
     std::rethrow_exception(p);
@@ -91,12 +102,18 @@ py::object translate(std::exception_ptr p) {
     return make(
         "AlarmError", e.what(),
         py::dict(py::arg("codes") = std::vector<int>(e.codes().begin(), e.codes().end()),
-                 py::arg("alarms") = alarm_list(e.codes()), py::arg("result") = py::none()));
+                 py::arg("alarms") = alarm_list(e.codes()), py::arg("result") = result_of(e)));
+  } catch (const client::MoveNotStarted& e) {
+    return make("MoveNotStarted", e.what(), py::dict(py::arg("result") = result_of(e)));
   } catch (const client::DeadlineError& e) {
-    return make("DeadlineError", e.what(), {});
+    return make("DeadlineError", e.what(), py::dict(py::arg("result") = result_of(e)));
   } catch (const client::Cancelled& e) {
-    return make("Cancelled", e.what(), {});
-  } catch (const std::invalid_argument& e) {  // InvalidRequest, port specs, twin settings
+    return make("Cancelled", e.what(), py::dict(py::arg("result") = result_of(e)));
+  } catch (const lec6::InvalidArgument& e) {  // InvalidRequest, port specs, twin settings
+    return make("InvalidRequest", e.what(), py::dict(py::arg("errors") = py::list()));
+  } catch (const twin::ProfileError& e) {
+    return make("InvalidRequest", e.what(), py::dict(py::arg("errors") = py::list()));
+  } catch (const std::invalid_argument& e) {
     return make("InvalidRequest", e.what(), py::dict(py::arg("errors") = py::list()));
   }
 }

@@ -247,7 +247,9 @@ void bind_twin(py::module_& m) {
           },
           py::arg("id") = 1,
           "Where the twin's carriage is (reported position, mm), read without the bus.")
-      .def("close", &Twin::close)
+      .def("close", &Twin::close,
+           "Stops the twin (its pty or TCP server) and closes the buses connected to it; "
+           "`with` does this.")
       .def("__enter__", [](Twin& t) -> Twin& { return t; })
       .def("__exit__", [](Twin& t, const py::args&) { t.close(); })
       .def("__repr__", [](const Twin& t) {

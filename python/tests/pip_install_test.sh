@@ -12,8 +12,8 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
 mkdir "$tmp/src"
-tar -C "$repo" --exclude=build --exclude='*.egg-info' --exclude=__pycache__ \
-  -cf - CMakeLists.txt include src python tests | tar -C "$tmp/src" -xf -
+tar -C "$repo" --exclude='./build*' --exclude=.git --exclude=node_modules --exclude='*.egg-info' \
+  --exclude=__pycache__ -cf - . | tar -C "$tmp/src" -xf -
 
 "$python" -m venv "$tmp/venv"
 start=$(date +%s)

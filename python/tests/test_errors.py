@@ -51,15 +51,16 @@ def test_controller_exception_parallel_mode(twin):
     assert e.value.code == 2
 
 
-def test_alarm_error_before_homing(twin):
+def test_abs_move_before_homing_is_refused(twin):
     with twin.connect() as bus:
         a = bus.axis(1)
         a.set_serial_mode(True)
         a.servo_on()
-        with pytest.raises(lec6.AlarmError) as e:
-            a.move(to=10.0)  # ABS before the first return to origin: alarm 99
-    assert e.value.codes == [99] and e.value.alarms[0].code == 99
-    assert "99" in str(e.value)
+        before = a.status()
+        with pytest.raises(lec6.InvalidRequest, match=r"needs the axis homed \(SETON = 0\)"):
+            a.move(to=10.0)  # ABS before the first return to origin: refused, nothing sent
+        after = a.status()
+    assert not after.busy and after.position_mm == before.position_mm and not after.alarm
 
 
 def test_alarm_error_estop(twin):

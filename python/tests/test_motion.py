@@ -57,7 +57,7 @@ def test_pushing_move_stops_on_the_workpiece(twin_factory):
 
 def test_pushing_move_that_misses_is_not_in_position(ready):
     r = ready.move(to=25.0, speed=500, push=50, push_speed=50, in_position=2.0)
-    assert not r.in_position and r.outcome == "not_in_position"
+    assert not r.in_position and r.outcome == "push_missed" and not r.succeeded
 
 
 def test_move_without_waiting_returns_at_the_start(ready):

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "client/coil_reset.hpp"
+#include "lec6/lec/alarms.hpp"
 #include "lec6/client/actuator.hpp"
 #include "lec6/lec/units.hpp"
 
@@ -43,8 +44,8 @@ std::vector<uint8_t> Actuator::active_alarms(const lec::StatusFlags& flags) {
 void Actuator::raise_alarm(const lec::StatusFlags& flags, std::string_view during) {
   auto codes = active_alarms(flags);
   throw AlarmError(
-      codes, fmt::format("the controller raised an alarm during {}: {}; clear it with `lec reset`",
-                         during, codes_text(codes)));
+      codes, fmt::format("the controller raised an alarm during {}: {}; {}", during,
+                         codes_text(codes), lec::alarm_clear_hint(codes)));
 }
 
 void Actuator::check_cancel(const WaitOptions& wait) {

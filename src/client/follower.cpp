@@ -16,8 +16,9 @@ void Follower::judge(const lec::StatusFlags& flags) {
     std::string text;
     for (uint8_t c : codes) text += fmt::format("{}{} ({})", text.empty() ? "" : ", ", c,
                                                 lec::alarm_meaning(c));
-    throw AlarmError(codes, fmt::format("alarm while following: {}; clear it with `lec reset`",
-                                        text.empty() ? "no code in the history" : text));
+    throw AlarmError(codes, fmt::format("alarm while following: {}; {}",
+                                        text.empty() ? "no code in the history" : text,
+                                        lec::alarm_clear_hint(codes)));
   }
 }
 

@@ -55,8 +55,8 @@ std::string alarm_text(const MoveResult& r) {
   for (uint8_t c : r.alarm_codes) {
     codes += fmt::format("{}{}: {}", codes.empty() ? "" : "; ", c, lec::alarm_meaning(c));
   }
-  return fmt::format("alarm {} (at {}); clear it with `lec reset`", codes,
-                     mm(r.state.position_001mm));
+  return fmt::format("alarm {} (at {}); {}", codes, mm(r.state.position_001mm),
+                     lec::alarm_clear_hint(r.alarm_codes));
 }
 
 }  // namespace

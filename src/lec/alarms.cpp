@@ -1,5 +1,7 @@
 #include "lec6/lec/alarms.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 
 namespace lec6::lec {
@@ -30,6 +32,17 @@ std::string_view alarm_meaning(uint8_t code) noexcept {
 
 bool alarm_resettable(uint8_t code) noexcept {
   return code >= 48 && code <= 99;
+}
+
+std::string alarm_clear_hint(const std::vector<uint8_t>& codes) {
+  for (uint8_t c : codes) {
+    if (!alarm_resettable(c)) {
+      return fmt::format(
+          "RESET does not clear alarm {} (only 48-99): switch the controller's power off and on",
+          c);
+    }
+  }
+  return "clear it with `lec reset`";
 }
 
 bool AlarmGroup::empty() const noexcept {

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <charconv>
+#include <cmath>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -161,6 +163,39 @@ void HttpApi::steps(const AxisRef& axis, std::vector<std::string_view> rest, Htt
   res.respond(error_response(404, fmt::format("no such endpoint: {}", request.path)));
 }
 
+namespace {
+
+// The twin's workpiece (every controller on the line gets the same one, as
+// the dashboard sets it); null: none.
+json workpiece_of(sim::Bus& bus) {
+  const auto ids = bus.ids();
+  if (ids.empty()) return nullptr;
+  const auto& w = bus.find(ids.front())->config().workpiece_mm;
+  return w ? json(*w) : json(nullptr);
+}
+
+// Places the workpiece for every controller, or none: all are checked to be
+// at rest first, so a refusal changes nothing. The reason when refused.
+std::optional<std::string> place_workpiece(sim::Bus& bus, std::optional<double> mm,
+                                           TimePoint now) {
+  if (mm && !std::isfinite(*mm)) return "workpiece_mm: a finite position in mm";
+  std::vector<std::pair<sim::Controller*, std::optional<double>>> before;
+  try {
+    for (uint8_t id : bus.ids()) {
+      sim::Controller* c = bus.find(id);
+      const auto old = c->config().workpiece_mm;
+      c->set_workpiece(mm, now);
+      before.emplace_back(c, old);
+    }
+  } catch (const InvalidArgument& e) {
+    for (auto& [c, old] : before) c->set_workpiece(old, now);
+    return e.what();
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 void HttpApi::twin(std::string_view line_name, HttpRequest& request, Responder& responder) {
   Line* line = daemon_.line(line_name);
   if (!line) {
@@ -175,12 +210,26 @@ void HttpApi::twin(std::string_view line_name, HttpRequest& request, Responder& 
       return void(responder.respond(
           error_response(400, fmt::format("the body is not valid JSON: {}", e.what()))));
     }
+    if (!changes.is_object()) {
+      return void(responder.respond(error_response(
+          400, "the body must be a JSON object of twin settings (drop_rate, corrupt_rate, "
+               "garbage_rate, workpiece_mm)")));
+    }
     for (const auto& [key, value] : changes.items()) {
+      if (key == "workpiece_mm") {
+        if (!value.is_null() && !value.is_number()) {
+          return void(responder.respond(error_response(
+              400, "workpiece_mm: a position in mm, or null for no workpiece", key)));
+        }
+        continue;
+      }
       const bool rate = key == "drop_rate" || key == "corrupt_rate" || key == "garbage_rate";
       if (!rate) {
         return void(responder.respond(error_response(
             400,
-            fmt::format("'{}' is not a twin setting (drop_rate, corrupt_rate, garbage_rate)", key),
+            fmt::format("'{}' is not a twin setting (drop_rate, corrupt_rate, garbage_rate, "
+                        "workpiece_mm)",
+                        key),
             key)));
       }
       if (!value.is_number() || value.get<double>() < 0 || value.get<double>() > 1) {
@@ -195,10 +244,18 @@ void HttpApi::twin(std::string_view line_name, HttpRequest& request, Responder& 
   }
   auto res = responder;
   // The twin belongs to the line's thread: read and change it there.
-  line->post_twin([res, changes](sim::Bus* bus) {
+  line->post_twin([res, changes](sim::Bus* bus, TimePoint now) {
     if (!bus)
       return void(
           res.respond(error_response(404, "this line is not the built-in twin (port: sim)")));
+    if (changes.contains("workpiece_mm")) {
+      const json& w = changes["workpiece_mm"];
+      const std::optional<double> mm =
+          w.is_null() ? std::nullopt : std::optional<double>(w.get<double>());
+      if (auto refused = place_workpiece(*bus, mm, now)) {
+        return void(res.respond(error_response(409, *refused, "workpiece_mm")));
+      }
+    }
     auto f = bus->faults();
     if (changes.contains("drop_rate")) f.drop = changes["drop_rate"];
     if (changes.contains("corrupt_rate")) f.corrupt = changes["corrupt_rate"];
@@ -207,6 +264,7 @@ void HttpApi::twin(std::string_view line_name, HttpRequest& request, Responder& 
     res.respond(json_response(200, {{"drop_rate", f.drop},
                                     {"corrupt_rate", f.corrupt},
                                     {"garbage_rate", f.garbage},
+                                    {"workpiece_mm", workpiece_of(*bus)},
                                     {"ids", bus->ids()}}));
   });
 }

@@ -79,8 +79,8 @@ void Line::post(std::function<void()> task) {
   wake_.notify_all();
 }
 
-void Line::post_twin(std::function<void(sim::Bus*)> task) {
-  post([this, task = std::move(task)] { task(wire_.twin); });
+void Line::post_twin(std::function<void(sim::Bus*, TimePoint now)> task) {
+  post([this, task = std::move(task)] { task(wire_.twin, clock_.now()); });
 }
 
 void Line::add_observer(TelemetryObserver observer) {

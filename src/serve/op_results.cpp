@@ -32,6 +32,29 @@ nlohmann::json alarms_json(const std::vector<uint8_t>& codes) {
   return out;
 }
 
+nlohmann::json seconds_or_null(const std::optional<Duration>& d) {
+  return d ? nlohmann::json(to_seconds(*d)) : nlohmann::json(nullptr);
+}
+
+// outcome, message, evidence and the flag timeline of a move.
+void add_move_details(nlohmann::json& body, const client::MoveResult& r) {
+  body["outcome"] = std::string(client::outcome_name(r.outcome));
+  body["message"] = r.describe();
+  body["evidence"] = r.evidence;
+  body["timeline"] = {{"busy_up_s", seconds_or_null(r.timeline.busy_up)},
+                      {"busy_down_s", seconds_or_null(r.timeline.busy_down)},
+                      {"inp_s", seconds_or_null(r.timeline.inp)}};
+}
+
+// An error that ended a move: its state and timeline with the refusal.
+void add_move_of(nlohmann::json& body, const client::WithMoveResult& e) {
+  if (!e.move_result()) return;
+  const std::string error = body.value("error", "");
+  body.update(state_part(*e.move_result()));
+  add_move_details(body, *e.move_result());
+  if (!error.empty()) body["message"] = error;
+}
+
 }  // namespace
 
 OpResult refusal(int status, const std::string& message, const std::string& field) {
@@ -44,28 +67,17 @@ OpResult done_result(Op op, const std::string& message) {
   return {200, {{"ok", true}, {"op", op_name(op)}, {"message", message}}};
 }
 
+// The move's one line and outcome are the Actuator's (client/move_result.hpp),
+// so `lec move`, the Python module and the API say the same thing.
 OpResult move_result(Op op, const client::MoveResult& r, bool stopped_by_other) {
   nlohmann::json body = state_part(r);
   body["op"] = op_name(op);
-  if (r.in_position) {
-    body["ok"] = true;
-    body["outcome"] = "reached";
-    body["message"] = fmt::format("{} at {} mm (INP = 1)", op == Op::Home ? "homed" : "reached",
-                                  lec::format_mm(r.state.position_001mm));
-    return {200, body};
+  add_move_details(body, r);
+  body["ok"] = r.succeeded();
+  if (!r.succeeded() && r.outcome == client::MoveOutcome::Stopped && stopped_by_other) {
+    body["message"] = r.describe() + " (a stop, hold or reset from another client)";
   }
-  body["ok"] = false;
-  body["outcome"] = stopped_by_other ? "stopped" : "ended without INP";
-  body["message"] =
-      stopped_by_other
-          ? fmt::format("stopped at {} mm before the target {} mm (stop, hold or reset)",
-                        lec::format_mm(r.state.position_001mm),
-                        lec::format_mm(r.state.target_001mm))
-          : fmt::format(
-                "BUSY fell at {} mm without INP: outside the in-position band (a push "
-                "that missed, or a stop)",
-                lec::format_mm(r.state.position_001mm));
-  return {422, body};
+  return {r.succeeded() ? 200 : 422, body};
 }
 
 OpResult jog_result(const client::MoveResult& r, bool lease_expired, bool stream_closed) {
@@ -155,17 +167,25 @@ OpResult result_of(std::exception_ptr e, bool stopped_by_other) {
     auto r = refusal(422, x.what());
     r.body["exception_code"] = static_cast<int>(x.code());
     return r;
+  } catch (const client::MoveNotStarted& x) {
+    auto r = refusal(502, x.what());
+    add_move_of(r.body, x);
+    r.body["outcome"] = "not_started";
+    return r;
   } catch (const client::AlarmError& x) {
     auto r = refusal(422, x.what());
+    add_move_of(r.body, x);
     r.body["outcome"] = "alarm";
     r.body["alarms"] = alarms_json(x.codes());
     return r;
   } catch (const client::DeadlineError& x) {
     auto r = refusal(504, x.what());
+    add_move_of(r.body, x);
     r.body["outcome"] = "deadline";
     return r;
   } catch (const client::Cancelled& x) {
     auto r = refusal(stopped_by_other ? 422 : 503, x.what());
+    add_move_of(r.body, x);
     r.body["outcome"] = "stopped";
     return r;
   } catch (const client::TransportError& x) {

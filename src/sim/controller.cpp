@@ -76,6 +76,18 @@ Controller::Controller(const ActuatorConfig& config, TimePoint power_on,
     workpiece_side_ = config_.initial_position_mm >= *config_.workpiece_mm ? 1 : -1;
 }
 
+void Controller::set_workpiece(std::optional<double> workpiece_mm, TimePoint t) {
+  advance(t);
+  if (op_.kind != OpKind::None || pending_ || profile_.moving(now_)) {
+    throw InvalidArgument("workpiece: the axis is moving; place the workpiece while it is at rest");
+  }
+  if (workpiece_mm && !std::isfinite(*workpiece_mm)) {
+    throw InvalidArgument("workpiece: the position must be a finite number of mm");
+  }
+  config_.workpiece_mm = workpiece_mm;
+  if (workpiece_mm) workpiece_side_ = physical(now_).position >= *workpiece_mm ? 1 : -1;
+}
+
 void Controller::restore_eeprom(const Eeprom& e) {
   eeprom_ = e;
   ++eeprom_generation_;

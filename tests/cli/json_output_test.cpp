@@ -45,8 +45,8 @@ TEST(JsonOutput, MillimetresHaveTwoDecimals) {
                   {"positions_mm", {mm_json(1), mm_json(12345)}},
                   {"nested", {{"in_position_mm", mm_json(100)}}}};
   EXPECT_EQ(dump_json(j),
-            R"({"area1_mm":-21474836.47,"position_mm":150.00,"positions_mm":[0.01,123.45],)"
-            R"("nested":{"in_position_mm":1.00},"speed_mm_s":500,"target_mm":-0.50,"zero_mm":0.00})");
+            R"({"area1_mm":-21474836.47,"nested":{"in_position_mm":1.00},"position_mm":150.00,)"
+            R"("positions_mm":[0.01,123.45],"speed_mm_s":500,"target_mm":-0.50,"zero_mm":0.00})");
   // The tree holds numbers, not text: a program reading it gets millimetres.
   EXPECT_DOUBLE_EQ(j["position_mm"].get<double>(), 150.0);
 }

@@ -20,8 +20,9 @@ from mqtt_lib import (Axis, Broker, Client, Serve, free_port, publish_props,  # 
 PREFIX = "t"
 
 
-def bridge(tmp, procs, broker, **mqtt):
-    cfg = {"broker": f"mqtt://127.0.0.1:{broker.port}", "client_id": "lec6-test", "bridge": "box1",
+def bridge(tmp, procs, broker_proc, **mqtt):
+    """lec serve bridged to broker_proc; **mqtt overrides its mqtt: section."""
+    cfg = {"broker": f"mqtt://127.0.0.1:{broker_proc.port}", "client_id": "lec6-test", "bridge": "box1",
            "prefix": PREFIX, "telemetry_hz": 10}
     cfg.update(mqtt)
     serve = Serve(tmp, cfg).start()
@@ -304,8 +305,13 @@ def outage(ck, tmp, procs):
     procs.append(late)
     late.wait_for(lambda m: m.topic == f"{PREFIX}/box1/status" and m.payload == "online", 40,
                   "online after the broker restarts")
-    m = late.wait_for(lambda m: m.topic == f"{PREFIX}/line1/axis1/state" and m.retain, 10,
-                      "retained state republished")
+    # A subscriber that was there before the bridge came back gets live
+    # messages (retain flag 0); one that subscribes now gets what the broker
+    # retained: the bridge's republished state.
+    later = Client(broker.port, [f"{PREFIX}/line1/axis1/state"])
+    procs.append(later)
+    m = later.wait_for(lambda m: m.topic == f"{PREFIX}/line1/axis1/state" and m.retain, 10,
+                       "retained state republished")
     ck.check(m.json()["name"] == "axis1", "retained state is back after the restart")
     first = late.wait_for(lambda m: m.topic == f"{PREFIX}/line1/axis2/state", 5, "telemetry")
     late.wait_for(lambda m: m.topic == f"{PREFIX}/line1/axis2/state" and m.t > first.t + 1, 5,

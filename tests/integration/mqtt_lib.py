@@ -78,9 +78,13 @@ class Broker:
             f.write(self.config())
 
     def config(self):
+        # Started as root, mosquitto would switch to the user `mosquitto`, who
+        # cannot read the password file and certificates in our private temp
+        # directory: stay the user who started it.
+        user = "user root\n" if os.geteuid() == 0 else ""
         if self.extra:
-            return f"listener {self.port} 127.0.0.1\n{self.extra}\npersistence false\n"
-        return f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence false\n"
+            return f"{user}listener {self.port} 127.0.0.1\n{self.extra}\npersistence false\n"
+        return f"{user}listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence false\n"
 
     def start(self):
         log = open(os.path.join(self.tmp, f"{self.name}.log"), "ab")

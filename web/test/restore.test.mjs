@@ -52,7 +52,9 @@ test("a backup file with a bad row: the preview shows the error and nothing is w
   await dialog.locator('button:text("Close")').click();
   assert.equal(await lec(daemon, "step", "get", "1"), before1);
   assert.equal(await lec(daemon, "step", "get", "2"), before2);
-  assert.deepEqual(page.errors, []);
+  // The plan's refusal (400, the file's errors) is the one console line:
+  // chromium logs every fetch answered 4xx.
+  assert.deepEqual(page.errors, ["Failed to load resource: the server responded with a status of 400 (Bad Request)"]);
 });
 
 test("a good backup file: the preview shows the diff, then only that is written", async () => {

@@ -9,7 +9,9 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <string_view>
+#include <vector>
 #include <vector>
 
 namespace lec6::lec {
@@ -30,6 +32,11 @@ inline constexpr uint8_t kPositioningTimeout = 149;
 std::string_view alarm_meaning(uint8_t code) noexcept;
 // Whether RESET clears it (48–99 do, digest §6).
 bool alarm_resettable(uint8_t code) noexcept;
+
+// What clears these alarms, for a message's end: "clear it with `lec reset`"
+// when RESET clears every one (48–99, digest §6), otherwise which one RESET
+// does not clear and that the controller's power must be cycled.
+std::string alarm_clear_hint(const std::vector<uint8_t>& codes);
 
 struct AlarmGroup {
   std::array<uint8_t, 8> codes{};

@@ -72,7 +72,7 @@ class Line {
   void post(std::function<void()> task);
   // Runs `task` on the line's thread with its in-process twin (null when the
   // line is not `sim`, or is down).
-  void post_twin(std::function<void(sim::Bus*)> task);
+  void post_twin(std::function<void(sim::Bus*, TimePoint now)> task);
   void add_observer(TelemetryObserver observer);
 
   // One step without waiting: runs due tasks and at most one transaction.

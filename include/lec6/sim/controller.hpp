@@ -133,6 +133,11 @@ class Controller {
   uint64_t eeprom_generation() const { return eeprom_generation_; }
 
   const ActuatorConfig& config() const { return config_; }
+  // Puts the workpiece at `workpiece_mm` (homed coordinate), or takes it
+  // away (nullopt), as of `t`. Only while the carriage is at rest and no
+  // operation runs: moving a workpiece under a moving carriage has no physical
+  // meaning. Throws InvalidArgument (with the reason) otherwise.
+  void set_workpiece(std::optional<double> workpiece_mm, TimePoint t);
 
  private:
   enum class OpKind { None, Homing, Move, Jog, JogStop, Stalled };
