@@ -83,16 +83,6 @@ TEST_P(FuzzHarness, KeptRegressionInputsPass) {
   RecordProperty("inputs_run", static_cast<int>(inputs.size()));
 }
 
-// Findings not fixed yet (tests/fuzz_regressions/open/<harness>/): they fail
-// until the bug is fixed; then move them up to tests/fuzz_regressions/<harness>/.
-// Disabled (ctest lists it as not run): run it with --gtest_also_run_disabled_tests.
-TEST_P(FuzzHarness, DISABLED_OpenFindingsPass) {
-  const auto inputs = inputs_in(kRegressions / "open" / GetParam());
-  for (const auto& [name, bytes] : inputs) run(GetParam(), bytes, name);
-  std::printf("open findings: %zu input(s) of harness '%s' run\n", inputs.size(),
-              GetParam().c_str());
-}
-
 // Mutations of every seed that the fuzzer would try first: each byte
 // flipped, the input truncated at each length. Cheap, and it keeps the
 // harnesses honest with any compiler.
