@@ -3,6 +3,7 @@
 #include <csignal>
 
 #include "cli/app.hpp"
+#include "cli/suggest.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
 #include "lec6/version.hpp"
@@ -116,6 +117,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::Success& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
+    // A mistyped command: name the nearest one rather than CLI11's generic words.
+    if (auto m = cli::unknown_command_message(app, argc, argv)) return fail(cli::kUsage, *m);
     app.exit(e);
     return cli::kUsage;
   } catch (const cli::UsageError& e) {

@@ -57,6 +57,9 @@ expect_exit 2 "trigger without push" -- lec move --to 10 --trigger 5
 expect_exit 2 "no target" -- lec move
 expect_exit 2 "bad id" -- lec --id 300 status
 expect_exit 2 "unknown command" -- lec frobnicate
+contains "unknown command named" "unknown command 'frobnicate' (\`lec --help\` lists the commands)"
+expect_exit 2 "mistyped command" -- lec --id 1 stauts
+contains "nearest command" "unknown command 'stauts': did you mean 'status'?"
 
 # An alarm: target beyond the stroke.
 expect_exit 5 "beyond stroke" -- lec move --to 900

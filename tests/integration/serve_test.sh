@@ -76,7 +76,7 @@ L() { "$LEC" --port "tcp://127.0.0.1:$MB" "$@"; }
 # ---- four clients at once -------------------------------------------------------
 L --id 1 serial on >/dev/null && L --id 1 servo on >/dev/null && L --id 1 home >/dev/null
 check "lec through the daemon: ID 1 homed" test $? -eq 0
-( for i in 1 2 3 4 5; do mbpoll -m tcp -a 2 -p "$MB" -t 4 -r 36865 -c 7 -0 -1 127.0.0.1; done ) \
+( for i in 1 2 3 4 5; do mbpoll -m tcp -a 2 -p "$MB" -t 4 -r 36864 -c 7 -0 -1 127.0.0.1; done ) \
   >"$TMP/mbpoll.out" 2>&1 &
 MBPOLL=$!
 $CLIENTS pymodbus-steps "$MB" 3 >"$TMP/pymodbus.out" 2>&1 &
@@ -96,7 +96,7 @@ wait $PYM
 wait $WATCH; check "lec watch through the daemon exits 0" test $? -eq 0
 wait $MOVE; MOVE_STATUS=$?
 wait $CURL
-check "mbpoll read D9000x7 of ID 2 five times" test "$(grep -c '^\[36865\]:' "$TMP/mbpoll.out")" -eq 5
+check "mbpoll read D9000x7 of ID 2 five times" test "$(grep -c '^\[36864\]:' "$TMP/mbpoll.out")" -eq 5
 check "pymodbus wrote step 5 of ID 3 and read it back" \
   test "$(jget "$(cat "$TMP/pymodbus.out")" 'd["equal"]')" = True
 check "lec move --to 150 through the daemon exits 0: $(cat "$TMP/move.out")" test $MOVE_STATUS -eq 0
