@@ -95,12 +95,14 @@ int main(int argc, char** argv) {
                        {"ts_ms", ts}};
       fmt::print("{}\n", j.dump(2));
     } else {
-      fmt::print("{} setpoints in {:.2f} s at {} baud: {:.1f} setpoints/s, {:.3f} transactions "
-                 "each ({} retries)\n",
-                 n, took, baud, rate, static_cast<double>(tx) / n, c.stats().retries);
-      fmt::print("limit (one position write 13/8 B + one state read 8/19 B): {:.3f} ms = {:.1f} "
-                 "setpoints/s; ratio {:.3f}\n",
-                 lim_ms, limit, rate / limit);
+      fmt::print(
+          "{} setpoints in {:.2f} s at {} baud: {:.1f} setpoints/s, {:.3f} transactions "
+          "each ({} retries)\n",
+          n, took, baud, rate, static_cast<double>(tx) / n, c.stats().retries);
+      fmt::print(
+          "limit (one position write 13/8 B + one state read 8/19 B): {:.3f} ms = {:.1f} "
+          "setpoints/s; ratio {:.3f}\n",
+          lim_ms, limit, rate / limit);
     }
     return 0;
   } catch (const std::exception& e) {

@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "seeds.hpp"
 #include "harness_mbap.hpp"
+#include "seeds.hpp"
 #include "seeds_http.hpp"
 
 int main(int argc, char** argv) {

@@ -205,8 +205,9 @@ void bind_records(py::module_& m) {
       .def_property_readonly(
           "evidence", [](const MoveResult& r) { return r.result.evidence; },
           "What showed that the controller started the move (e.g. 'BUSY').")
-      .def("describe", [](const MoveResult& r) { return r.result.describe(); },
-           "One line in the manual's words, as `lec move` prints it.")
+      .def(
+          "describe", [](const MoveResult& r) { return r.result.describe(); },
+          "One line in the manual's words, as `lec move` prints it.")
       .def_property_readonly("status",
                              [](const MoveResult& r) {
                                return Status{r.result.state, r.result.flags, {}};
@@ -228,8 +229,7 @@ void bind_records(py::module_& m) {
           "seen).")
       .def("__repr__", [](const MoveResult& r) {
         return fmt::format("MoveResult({}, outcome='{}', position_mm={}, elapsed_s={:.3f})",
-                           r.operation, outcome(r),
-                           lec::format_mm(r.result.state.position_001mm),
+                           r.operation, outcome(r), lec::format_mm(r.result.state.position_001mm),
                            to_seconds(r.result.elapsed));
       });
 }

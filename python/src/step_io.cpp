@@ -168,7 +168,8 @@ void add_step_methods(py::class_<Axis>& c) {
                 [](client::Client& cl, client::Actuator&) { return client::backup_steps(cl); });
             if (!path.is_none()) {
               const std::string p = py::str(py::module_::import("os").attr("fspath")(path));
-              if (auto w = transport::write_table_file(p, table); !w) throw py::value_error(w.error());
+              if (auto w = transport::write_table_file(p, table); !w)
+                throw py::value_error(w.error());
             }
             return table;
           },

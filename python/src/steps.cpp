@@ -107,14 +107,15 @@ void bind_step(py::module_& m) {
             return out;
           },
           "What the controller would refuse about this record (empty: nothing).")
-      .def("to_dict",
-           [](const StepData& s) {
-             py::dict d;
-             for (const auto& i : lec::step_fields()) d[py::str(i.csv_column)] = field_object(s, i);
-             return d;
-           },
-           "The fields by their CSV column names (speed_mm_s, position_mm...), in "
-           "the manual's units.")
+      .def(
+          "to_dict",
+          [](const StepData& s) {
+            py::dict d;
+            for (const auto& i : lec::step_fields()) d[py::str(i.csv_column)] = field_object(s, i);
+            return d;
+          },
+          "The fields by their CSV column names (speed_mm_s, position_mm...), in "
+          "the manual's units.")
       .def("__eq__", [](const StepData& a, const StepData& b) { return a == b; })
       .def("__hash__",
            [](const StepData& s) {
@@ -189,10 +190,12 @@ void bind_table(py::module_& m) {
             if (auto w = transport::write_table_file(p, t); !w) throw py::value_error(w.error());
           },
           py::arg("path"), "Writes CSV or JSON (by extension), atomically.")
-      .def("to_csv", [](const StepTable& t) { return lec::to_csv(t); },
-           "The table as `lec step backup file.csv` writes it.")
-      .def("to_json", [](const StepTable& t) { return lec::to_json(t); },
-           "The table as `lec step backup file.json` writes it.")
+      .def(
+          "to_csv", [](const StepTable& t) { return lec::to_csv(t); },
+          "The table as `lec step backup file.csv` writes it.")
+      .def(
+          "to_json", [](const StepTable& t) { return lec::to_json(t); },
+          "The table as `lec step backup file.json` writes it.")
       .def_readwrite("equipment_name", &StepTable::equipment_name)
       .def_readwrite("controller_id", &StepTable::controller_id)
       .def_property_readonly("steps", &covered, "The step numbers the table holds.")

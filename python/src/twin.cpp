@@ -222,8 +222,8 @@ void bind_twin(py::module_& m) {
            py::arg("baud") = 38400, py::arg("pty") = false)
       // keep_alive: the twin lives as long as a bus to it, so that
       // `lec6.Twin().connect()` does not close the twin under its bus.
-      .def("connect", &Twin::connect, py::kw_only(), py::arg("retries") = 2,
-           py::keep_alive<0, 1>(), "A Bus to this twin (in process: all share one line).")
+      .def("connect", &Twin::connect, py::kw_only(), py::arg("retries") = 2, py::keep_alive<0, 1>(),
+           "A Bus to this twin (in process: all share one line).")
       .def_property_readonly("port", &Twin::port,
                              "The pty path to open (pty twins), or 'in-process'.")
       .def_property_readonly("ids", [](const Twin& t) { return t.settings().ids; })

@@ -158,9 +158,8 @@ void report(const Session& s, const Counts& c, uint64_t applied, Duration took,
   const double secs = to_seconds(took);
   const double rate = secs > 0 ? static_cast<double>(applied) / secs : 0.0;
   if (s.json()) {
-    nlohmann::json j{{"received", c.received},  {"applied", applied},
-                     {"dropped", c.dropped},    {"repeated", c.repeated},
-                     {"seconds", secs},         {"setpoints_per_s", rate}};
+    nlohmann::json j{{"received", c.received}, {"applied", applied}, {"dropped", c.dropped},
+                     {"repeated", c.repeated}, {"seconds", secs},    {"setpoints_per_s", rate}};
     j["final"] = last ? move_json(*last) : nlohmann::json(nullptr);
     print_json(j);
   } else {
@@ -207,9 +206,9 @@ void run_follow(Session& s, const FollowArgs& a) {
         wait_ms = 100;
       }
       if (follower.servo_lost()) {
-        throw CommandFailed(kFailure, fmt::format("following stopped: the servo is off ({})",
-                                                  follower.last_flags().estop() ? "ESTOP = 1"
-                                                                                : "SVRE = 0"));
+        throw CommandFailed(kFailure,
+                            fmt::format("following stopped: the servo is off ({})",
+                                        follower.last_flags().estop() ? "ESTOP = 1" : "SVRE = 0"));
       }
     }
     if (g_interrupted) throw client::Cancelled("interrupted");
@@ -224,7 +223,8 @@ void run_follow(Session& s, const FollowArgs& a) {
   const Duration took = s.client().clock().now() - began;
   std::optional<client::MoveResult> last;
   with_move_report(s, [&] {
-    last = follower.finish(s.deadline_in(to_duration(FractionalSeconds(a.timeout_s))), s.wait_options());
+    last = follower.finish(s.deadline_in(to_duration(FractionalSeconds(a.timeout_s))),
+                           s.wait_options());
   });
   report(s, counts, follower.applied(), took, last);
   if (last && !last->succeeded()) throw CommandFailed(exit_code(*last), last->describe());

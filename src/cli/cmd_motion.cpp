@@ -186,8 +186,9 @@ void add_motion_commands(CLI::App& app, Session& session) {
   home->callback([&session, home_timeout] {
     auto& axis = session.axis();
     with_move_report(session, [&] {
-      report_move(session, axis.home(session.deadline_in(to_duration(FractionalSeconds(*home_timeout))),
-                                     session.wait_options(progress_printer(session))));
+      report_move(session,
+                  axis.home(session.deadline_in(to_duration(FractionalSeconds(*home_timeout))),
+                            session.wait_options(progress_printer(session))));
     });
   });
 

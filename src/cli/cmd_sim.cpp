@@ -136,7 +136,8 @@ twin::FieldProfile settings(const SimArgs& a) {
     }
     config.equipment_name = a.name;
   }
-  if (a.has("--busy-delay-ms")) config.busy_delay = to_duration(FractionalMilliseconds(a.busy_delay_ms));
+  if (a.has("--busy-delay-ms"))
+    config.busy_delay = to_duration(FractionalMilliseconds(a.busy_delay_ms));
   if (a.has("--busy-min-ms")) config.busy_min = to_duration(FractionalMilliseconds(a.busy_min_ms));
   if (a.has("--target-update-late")) config.target_update_late = a.target_update_late;
   if (auto problems = sim::validate(config); !problems.empty()) {

@@ -19,13 +19,13 @@
 #include <memory>
 
 #include "cli/app.hpp"
-#include "lec6/transport/step_table_file.hpp"
 #include "cli/step_views.hpp"
 #include "lec6/client/step_sync.hpp"
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/lec/step_assign.hpp"
 #include "lec6/lec/step_table.hpp"
 #include "lec6/lec/units.hpp"
+#include "lec6/transport/step_table_file.hpp"
 
 namespace lec6::cli {
 namespace {
@@ -179,7 +179,8 @@ void run_set(Session& s, const SetArgs& a) {
 
 void run_backup(Session& s, const std::string& file) {
   const lec::StepTable table = client::backup_steps(s.client());
-  if (auto w = transport::write_table_file(file, table); !w) throw CommandFailed(kFailure, w.error());
+  if (auto w = transport::write_table_file(file, table); !w)
+    throw CommandFailed(kFailure, w.error());
   std::vector<unsigned> in_use;
   std::vector<std::string> invalid;
   for (unsigned n = 0; n < kSteps; ++n) {

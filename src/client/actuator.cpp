@@ -6,8 +6,8 @@
 #include <fmt/format.h>
 
 #include "client/coil_reset.hpp"
-#include "lec6/lec/alarms.hpp"
 #include "lec6/client/actuator.hpp"
+#include "lec6/lec/alarms.hpp"
 #include "lec6/lec/units.hpp"
 
 namespace lec6::client {
@@ -43,9 +43,8 @@ std::vector<uint8_t> Actuator::active_alarms(const lec::StatusFlags& flags) {
 
 void Actuator::raise_alarm(const lec::StatusFlags& flags, std::string_view during) {
   auto codes = active_alarms(flags);
-  throw AlarmError(
-      codes, fmt::format("the controller raised an alarm during {}: {}; {}", during,
-                         codes_text(codes), lec::alarm_clear_hint(codes)));
+  throw AlarmError(codes, fmt::format("the controller raised an alarm during {}: {}; {}", during,
+                                      codes_text(codes), lec::alarm_clear_hint(codes)));
 }
 
 void Actuator::check_cancel(const WaitOptions& wait) {
@@ -163,7 +162,8 @@ MoveResult Actuator::conclude(MoveResult r, std::string_view what) {
       throw AlarmError(r.alarm_codes, fmt::format("{}: {}", what, r.describe()), r);
     case MoveOutcome::Deadline: {
       std::string held;
-      if (client_.read_controls().test(Coil::HOLD)) held = " (HOLD is on: the operation is suspended)";
+      if (client_.read_controls().test(Coil::HOLD))
+        held = " (HOLD is on: the operation is suspended)";
       throw DeadlineError(fmt::format("{} did not finish in time: {}{}", what, r.describe(), held),
                           r);
     }

@@ -20,8 +20,8 @@ MoveGoal goal_of(const lec::StepData& d, int32_t target_before, std::optional<un
   MoveGoal g;
   g.step = step;
   const bool relative = d.movement_mode == lec::MovementMode::Incremental;
-  g.target_001mm = relative ? static_cast<int32_t>(int64_t{target_before} + d.position_001mm)
-                            : d.position_001mm;
+  g.target_001mm =
+      relative ? static_cast<int32_t>(int64_t{target_before} + d.position_001mm) : d.position_001mm;
   g.band_001mm = d.in_position_001mm;
   if (d.is_pushing()) {
     g.operation = Operation::Pushing;

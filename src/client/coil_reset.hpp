@@ -13,7 +13,7 @@ class CoilReset {
   ~CoilReset() {
     try {
       client_.write_coil(coil_, false);  // a release: Ctrl-C on the line lets it through
-    } catch (...) {  // the primary error is already on its way
+    } catch (...) {                      // the primary error is already on its way
     }
   }
   CoilReset(const CoilReset&) = delete;

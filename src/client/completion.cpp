@@ -95,10 +95,10 @@ MoveOutcome Completion::judge(const Poll& p) const {
   switch (g.operation) {
     case Operation::Positioning:
       return p.flags.inp() && within(pos, g.target_001mm, g.band_001mm) ? MoveOutcome::Reached
-                                                                          : MoveOutcome::Stopped;
+                                                                        : MoveOutcome::Stopped;
     case Operation::Home:
       return p.flags.seton() && within(pos, 0, kPositionTolerance001mm) ? MoveOutcome::Reached
-                                                                         : MoveOutcome::Stopped;
+                                                                        : MoveOutcome::Stopped;
     case Operation::Pushing:
       if (p.flags.inp()) return MoveOutcome::Pushed;
       return within(pos, push_end(), kPositionTolerance001mm) ? MoveOutcome::PushMissed
@@ -125,7 +125,8 @@ MoveResult Completion::result(MoveOutcome o, const Poll& p) const {
   }
   r.evidence = evidence_;
   if (o == MoveOutcome::Stopped) {
-    r.stop_cause = start_.goal.operation == Operation::Jog ? StopCause::Released : cause_of(p.flags);
+    r.stop_cause =
+        start_.goal.operation == Operation::Jog ? StopCause::Released : cause_of(p.flags);
   }
   return r;
 }
@@ -145,8 +146,7 @@ std::optional<MoveResult> Completion::feed(const Poll& p) {
   } else {
     look_for_start(p, t);
     if (started_ && !p.flags.busy()) return result(judge(p), p);
-    const bool window_over =
-        t >= options_.start_window && polls_ >= options_.start_window_polls;
+    const bool window_over = t >= options_.start_window && polls_ >= options_.start_window_polls;
     if (!started_ && window_over) {
       if (!p.flags.busy() && settled_without_busy(p)) {
         evidence_ = "at the target with INP = 1 and D9004 = the target (BUSY not seen)";

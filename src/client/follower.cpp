@@ -14,8 +14,8 @@ void Follower::judge(const lec::StatusFlags& flags) {
   if (flags.alarm()) {
     const auto codes = axis_.active_alarms(flags);
     std::string text;
-    for (uint8_t c : codes) text += fmt::format("{}{} ({})", text.empty() ? "" : ", ", c,
-                                                lec::alarm_meaning(c));
+    for (uint8_t c : codes)
+      text += fmt::format("{}{} ({})", text.empty() ? "" : ", ", c, lec::alarm_meaning(c));
     throw AlarmError(codes, fmt::format("alarm while following: {}; {}",
                                         text.empty() ? "no code in the history" : text,
                                         lec::alarm_clear_hint(codes)));

@@ -14,8 +14,8 @@ bool stops_or_releases(const modbus::Request& request) noexcept {
   if (is(Coil::RESET)) return true;
   if (is(Coil::HOLD)) return w->on();
   const bool release = w->value == modbus::kCoilOff;
-  return release && (is(Coil::SVON) || is(Coil::DRIVE) || is(Coil::SETUP) ||
-                     is(Coil::JOG_MINUS) || is(Coil::JOG_PLUS));
+  return release && (is(Coil::SVON) || is(Coil::DRIVE) || is(Coil::SETUP) || is(Coil::JOG_MINUS) ||
+                     is(Coil::JOG_PLUS));
 }
 
 }  // namespace lec6::client

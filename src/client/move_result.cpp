@@ -103,9 +103,10 @@ std::string MoveResult::describe() const {
     case MoveOutcome::Alarm:
       return alarm_text(*this);
     case MoveOutcome::Deadline:
-      return fmt::format("deadline: still running after {:.2f} s, at {} ({}); the axis may "
-                         "still be moving: `lec stop` stops it",
-                         s, mm(state.position_001mm), flags.describe());
+      return fmt::format(
+          "deadline: still running after {:.2f} s, at {} ({}); the axis may "
+          "still be moving: `lec stop` stops it",
+          s, mm(state.position_001mm), flags.describe());
     case MoveOutcome::NotStarted:
       return fmt::format(
           "the controller did not start the move: no BUSY within {:.2f} s of the start, and "

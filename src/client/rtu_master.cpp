@@ -118,8 +118,9 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
       if (interruptible && options_.interrupted()) {
         line_busy_until_ = link_.clock().now();
         hold_until_ = link_.clock().now() + (tx.deadline() - tx.sent_at());  // its reply may come
-        throw Cancelled("interrupted while waiting for the reply: the request was sent and may "
-                        "have been carried out");
+        throw Cancelled(
+            "interrupted while waiting for the reply: the request was sent and may "
+            "have been carried out");
       }
       const std::size_t n = read_some(buffer, tx.deadline(), interruptible);
       const TimePoint now = link_.clock().now();

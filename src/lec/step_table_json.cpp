@@ -97,7 +97,8 @@ Expected<StepTable, TableErrors> parse_json(std::string_view text) {
   } catch (const json::parse_error& e) {
     return unexpected(TableErrors{fmt::format("not valid JSON: {}", e.what())});
   } catch (const json::out_of_range& e) {  // e.g. a number like 1e400 that no field can hold
-    return unexpected(TableErrors{fmt::format("a number in the JSON is out of range: {}", e.what())});
+    return unexpected(
+        TableErrors{fmt::format("a number in the JSON is out of range: {}", e.what())});
   }
   if (!doc.is_object()) {
     return unexpected(TableErrors{

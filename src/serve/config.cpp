@@ -83,8 +83,8 @@ void check_port(const Reader& r, const YAML::Node& n, const std::string& path,
 LineConfig read_line(const Reader& r, const YAML::Node& n, const std::string& path) {
   r.keys(n, path,
          {"name", "port", "baud", "silent_interval", "delay_ms", "timeout_margin_ms", "retries",
-          "echo", "silence_wait", "rs485", "sim", "axes", "cache_max_age_ms", "offline_after", "probe_interval_ms",
-          "allow_broadcast", "modbus_tcp", "rtu_tcp"});
+          "echo", "silence_wait", "rs485", "sim", "axes", "cache_max_age_ms", "offline_after",
+          "probe_interval_ms", "allow_broadcast", "modbus_tcp", "rtu_tcp"});
   LineConfig l;
   if (!n["port"])
     r.fail(n, path, "every line needs a port: /dev/ttyUSB0, sim, or rtu+tcp://host:port");

@@ -129,7 +129,7 @@ void Daemon::begin_stop() {
   signals_.cancel();
   stats_timer_.cancel();
   for (auto& s : modbus_) s->shutdown();
-  ops_->shutdown();  // hold-to-run jogs are released while the lines still run
+  ops_->shutdown();          // hold-to-run jogs are released while the lines still run
   if (mqtt_) mqtt_->stop();  // "offline" goes out; the will is for a crash
   for (auto& [name, line] : lines_) line->stop();
   ops_->shutdown();  // operations end on "shutting down"; their HTTP answers go out

@@ -176,8 +176,7 @@ json workpiece_of(sim::Bus& bus) {
 
 // Places the workpiece for every controller, or none: all are checked to be
 // at rest first, so a refusal changes nothing. The reason when refused.
-std::optional<std::string> place_workpiece(sim::Bus& bus, std::optional<double> mm,
-                                           TimePoint now) {
+std::optional<std::string> place_workpiece(sim::Bus& bus, std::optional<double> mm, TimePoint now) {
   if (mm && !std::isfinite(*mm)) return "workpiece_mm: a finite position in mm";
   std::vector<std::pair<sim::Controller*, std::optional<double>>> before;
   try {
@@ -212,8 +211,9 @@ void HttpApi::twin(std::string_view line_name, HttpRequest& request, Responder& 
     }
     if (!changes.is_object()) {
       return void(responder.respond(error_response(
-          400, "the body must be a JSON object of twin settings (drop_rate, corrupt_rate, "
-               "garbage_rate, workpiece_mm)")));
+          400,
+          "the body must be a JSON object of twin settings (drop_rate, corrupt_rate, "
+          "garbage_rate, workpiece_mm)")));
     }
     for (const auto& [key, value] : changes.items()) {
       if (key == "workpiece_mm") {

@@ -38,8 +38,7 @@ MqttClientOptions client_options(const MqttConfig& c, const MqttTopics& topics) 
 }  // namespace
 
 double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 std::string mqtt_client_id(const MqttConfig& config) {

@@ -32,7 +32,7 @@ struct MqttBridge::Core : std::enable_shared_from_this<MqttBridge::Core> {
   // What the bridge keeps per axis.
   struct AxisOut {
     std::string state, availability, alarm, cmd, result;  // topics
-    std::atomic<bool> wake{false};  // a publish is posted and has not run yet
+    std::atomic<bool> wake{false};                        // a publish is posted and has not run yet
     // Event loop only:
     std::optional<bool> online;  // the availability last published
     std::set<int> alarms;        // the alarm codes active at the last publish

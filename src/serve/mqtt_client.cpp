@@ -68,8 +68,8 @@ struct MqttClient::Impl {
   bool stop_now = false;  // leave the loop
   bool stopped = false;
   bool connected = false;
-  bool failing = false;     // the last attempt failed (report failures once)
-  std::size_t reserved = 0; // publishes between the bound check and their id
+  bool failing = false;      // the last attempt failed (report failures once)
+  std::size_t reserved = 0;  // publishes between the bound check and their id
   PendingWindow window;
   std::unordered_set<int> awaited;  // stop()'s last messages
   MqttClientStats stats;
@@ -116,9 +116,10 @@ void MqttClient::Impl::setup() {
   if (o.url.tls) {
     auto c_str = [](const std::string& s) { return s.empty() ? nullptr : s.c_str(); };
     if (!o.ca_file.empty() || !o.cert_file.empty()) {
-      check(mosquitto_tls_set(mosq, c_str(o.ca_file), o.ca_file.empty() ? "/etc/ssl/certs" : nullptr,
-                              c_str(o.cert_file), c_str(o.key_file), nullptr),
-            "TLS files");
+      check(
+          mosquitto_tls_set(mosq, c_str(o.ca_file), o.ca_file.empty() ? "/etc/ssl/certs" : nullptr,
+                            c_str(o.cert_file), c_str(o.key_file), nullptr),
+          "TLS files");
     }
     if (o.ca_file.empty()) mosquitto_int_option(mosq, MOSQ_OPT_TLS_USE_OS_CERTS, 1);
   }

@@ -11,7 +11,8 @@ CommandLog::Lookup CommandLog::find(const std::string& id, TimePoint now,
   if (e.running) {
     for (const auto& r : reply) {
       bool known = false;
-      for (const auto& w : e.replies) known = known || (w.topic == r.topic && w.correlation == r.correlation);
+      for (const auto& w : e.replies)
+        known = known || (w.topic == r.topic && w.correlation == r.correlation);
       if (!known) e.replies.push_back(r);
     }
     return {Seen::Running, {}};

@@ -56,8 +56,8 @@ std::vector<Publication> home_assistant_discovery(const MqttTopics& t, const std
                     {"name", axis},
                     {"manufacturer", "SMC"},
                     {"model", fmt::format("LEC6 controller {} on line {}", controller_id, line)}};
-  const json availability = json::array({{{"topic", t.status()}},
-                                         {{"topic", t.availability(line, axis)}}});
+  const json availability =
+      json::array({{{"topic", t.status()}}, {{"topic", t.availability(line, axis)}}});
   auto entity = [&](const char* component, const std::string& object, const std::string& name) {
     json p{{"name", name},
            {"unique_id", node + "_" + object},
@@ -66,9 +66,8 @@ std::vector<Publication> home_assistant_discovery(const MqttTopics& t, const std
            {"availability", availability},
            {"availability_mode", "all"},
            {"origin", {{"name", "lec6"}}}};
-    return Publication{fmt::format("{}/{}/{}/{}/config", kHomeAssistantPrefix, component, node,
-                                   object),
-                       p};
+    return Publication{
+        fmt::format("{}/{}/{}/{}/config", kHomeAssistantPrefix, component, node, object), p};
   };
   std::vector<Publication> out;
   for (const Sensor& s : kSensors) {

@@ -12,8 +12,7 @@ std::optional<std::string> check_topic_prefix(std::string_view prefix) {
   if (prefix.find('\0') != std::string_view::npos) return "the topic prefix contains NUL";
   if (prefix.front() == '/' || prefix.back() == '/' ||
       prefix.find("//") != std::string_view::npos) {
-    return fmt::format("'{}' has an empty topic level (a leading, trailing or double '/')",
-                       prefix);
+    return fmt::format("'{}' has an empty topic level (a leading, trailing or double '/')", prefix);
   }
   if (prefix.starts_with("$")) {
     return fmt::format("'{}' starts with '$': those topics belong to the broker", prefix);

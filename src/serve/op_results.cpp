@@ -74,8 +74,12 @@ OpResult move_result(Op op, const client::MoveResult& r, bool stopped_by_other) 
   body["op"] = op_name(op);
   add_move_details(body, r);
   body["ok"] = r.succeeded();
-  if (!r.succeeded() && r.outcome == client::MoveOutcome::Stopped && stopped_by_other) {
-    body["message"] = r.describe() + " (a stop, hold or reset from another client)";
+  if (r.outcome == client::MoveOutcome::Stopped && r.stop_cause == client::StopCause::Unknown &&
+      stopped_by_other) {
+    // Here we know who: a stop, hold or reset went through this daemon.
+    body["message"] = fmt::format(
+        "stopped at {} mm before the target {} mm: a stop, hold or reset sent through lec serve",
+        lec::format_mm(r.state.position_001mm), lec::format_mm(r.goal.target_001mm));
   }
   return {r.succeeded() ? 200 : 422, body};
 }

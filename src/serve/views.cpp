@@ -160,10 +160,14 @@ nlohmann::json step_fields_json() {
     const auto shown = [&](int64_t raw) {
       return i.is_length ? nlohmann::json(mm(raw)) : nlohmann::json(raw);
     };
-    nlohmann::json f{{"name", i.name},   {"csv_column", i.csv_column},
-                     {"label", i.label}, {"unit", i.unit},
-                     {"min", shown(i.min)}, {"max", shown(i.max)},
-                     {"is_length", i.is_length}, {"decimals", i.is_length ? 2 : 0},
+    nlohmann::json f{{"name", i.name},
+                     {"csv_column", i.csv_column},
+                     {"label", i.label},
+                     {"unit", i.unit},
+                     {"min", shown(i.min)},
+                     {"max", shown(i.max)},
+                     {"is_length", i.is_length},
+                     {"decimals", i.is_length ? 2 : 0},
                      {"default", shown(lec::get_field(defaults, i.field))}};
     if (i.field == lec::StepField::MovementMode) {
       f["choices"] = {{{"value", 1}, {"text", "abs"}}, {{"value", 2}, {"text", "inc"}}};

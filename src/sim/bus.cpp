@@ -123,7 +123,8 @@ void Bus::make_noise(TimePoint until) {
       return !r.noise && r.start < end && start < r.end;
     });
     if (on_reply || (start < line_free_ && last_reply_start_ < end)) continue;
-    const uint8_t b = static_cast<uint8_t>(std::uniform_int_distribution<unsigned>(0, 255)(noise_rng_));
+    const uint8_t b =
+        static_cast<uint8_t>(std::uniform_int_distribution<unsigned>(0, 255)(noise_rng_));
     ++stats_.noise_bytes;
     framer_.feed(std::span<const uint8_t>(&b, 1), end);  // the controllers hear it too
     queue(Reply{modbus::kBroadcastId, start, end, {b}, true});

@@ -294,8 +294,12 @@ void Controller::write_direct_data(std::size_t index, uint16_t value) {
 }
 
 void Controller::start_direct() {
-  take_start(PendingStart{false, lec::StepData::from_registers(std::span<const uint16_t>(direct_)),
-                          false, 0, target_001mm_, {}});
+  take_start(PendingStart{false,
+                          lec::StepData::from_registers(std::span<const uint16_t>(direct_)),
+                          false,
+                          0,
+                          target_001mm_,
+                          {}});
 }
 
 void Controller::write_steps(const std::map<unsigned, lec::StepData>& steps) {

@@ -12,8 +12,8 @@ Expected<lec::StepTable, lec::TableErrors> read_table_file(const std::filesystem
 
 Expected<void, std::string> write_table_file(const std::filesystem::path& path,
                                              const lec::StepTable& table) {
-  return write_file_atomically(
-      path, lec::format_table(table, lec::table_format_for_path(path.string())));
+  return write_file_atomically(path,
+                               lec::format_table(table, lec::table_format_for_path(path.string())));
 }
 
 }  // namespace lec6::transport

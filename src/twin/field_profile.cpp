@@ -138,8 +138,8 @@ class Reader {
         if (v != std::floor(v) || v < k.min || v > k.max)
           fail(n, path, fmt::format("{} is not a whole number from {} to {}", text, k.min, k.max));
         if (std::string_view(k.name) == "baud" && !modbus::is_supported_baud(n.as<uint32_t>()))
-          fail(n, path, fmt::format("{} is not a baud rate (9600 19200 38400 57600 115200 230400)",
-                                    text));
+          fail(n, path,
+               fmt::format("{} is not a baud rate (9600 19200 38400 57600 115200 230400)", text));
         return;
       }
       case Key::Number: {
@@ -179,7 +179,8 @@ void read_section(const Reader& r, const YAML::Node& map, const std::string& sec
     for (const Key& k : keys()) {
       if (section == k.section && key == k.name) spec = &k;
     }
-    if (!spec) r.fail(kv.first, path, fmt::format("unknown key (known here: {})", known_in(section)));
+    if (!spec)
+      r.fail(kv.first, path, fmt::format("unknown key (known here: {})", known_in(section)));
     r.check(*spec, kv.second, path);
     spec->set(p, kv.second);
     p.given.insert(path);
@@ -205,7 +206,8 @@ FieldProfile parse_field_profile(std::string_view text, const std::string& sourc
   FieldProfile p = defaults;
   p.given.clear();
   if (!root.IsDefined() || root.IsNull()) return p;  // an empty profile changes nothing
-  if (!root.IsMap()) r.fail(root, "", "expected a map with name, description, actuator, line, faults");
+  if (!root.IsMap())
+    r.fail(root, "", "expected a map with name, description, actuator, line, faults");
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
     if (key == "name" || key == "description") {

@@ -231,9 +231,11 @@ struct SimServer::Impl {
   // Noise goes to every master, best effort (not traced, not counted as replies).
   void spread(const modbus::Bytes& bytes) {
     if (self.pty_) {
-      [[maybe_unused]] const ssize_t n = ::write(self.pty_->master_fd(), bytes.data(), bytes.size());
+      [[maybe_unused]] const ssize_t n =
+          ::write(self.pty_->master_fd(), bytes.data(), bytes.size());
     }
-    for (auto& [source, c] : connections) c.pending.insert(c.pending.end(), bytes.begin(), bytes.end());
+    for (auto& [source, c] : connections)
+      c.pending.insert(c.pending.end(), bytes.begin(), bytes.end());
     for (auto it = connections.begin(); it != connections.end();) send_pending((it++)->first);
   }
 

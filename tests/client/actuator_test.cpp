@@ -263,7 +263,8 @@ TEST(Actuator, RetargetWritesOnlyThePositionAndTheStart) {
   f.axis->retarget(13000, 321);
   ASSERT_EQ(f.sent.size(), 2u);
   EXPECT_EQ(modbus::to_hex(f.sent[0]).substr(0, 17), "01 10 91 03 00 03");  // speed + position
-  const auto r = f.axis->wait(f.axis->retarget(14000), f.axis->deadline_in(std::chrono::seconds(5)));
+  const auto r =
+      f.axis->wait(f.axis->retarget(14000), f.axis->deadline_in(std::chrono::seconds(5)));
   EXPECT_EQ(r.outcome, MoveOutcome::Reached);
   EXPECT_EQ(r.state.position_001mm, 14000);
 }

@@ -134,10 +134,14 @@ const std::vector<Op>& ops() {
        [](SimFixture& f, const WaitOptions& w) { return f.axis->move(to(25, true), far(f), w); },
        MoveOutcome::Reached, 17500},
       {"direct-push", true, [](SimFixture&) {},
-       [](SimFixture& f, const WaitOptions& w) { return f.axis->move(push_at(330, 30), far(f), w); },
+       [](SimFixture& f, const WaitOptions& w) {
+         return f.axis->move(push_at(330, 30), far(f), w);
+       },
        MoveOutcome::Pushed, 35000},
       {"direct-push-missed", true, [](SimFixture&) {},
-       [](SimFixture& f, const WaitOptions& w) { return f.axis->move(push_at(200, 20), far(f), w); },
+       [](SimFixture& f, const WaitOptions& w) {
+         return f.axis->move(push_at(200, 20), far(f), w);
+       },
        MoveOutcome::PushMissed, 22000},
       {"retarget-while-moving", true, [](SimFixture&) {},
        [](SimFixture& f, const WaitOptions& w) {
@@ -193,8 +197,8 @@ TimePoint sampled_at(const SimFixture& f, TimePoint reply_end) {
     return ::testing::AssertionFailure() << "reported done, but the move never began";
   if (!last.busy_fell || *last.busy_fell > decided_at) {
     return ::testing::AssertionFailure()
-           << "reported done early: decided on flags sampled at "
-           << to_ms(decided_at - last.taken) << " ms after the start was taken; BUSY fell at "
+           << "reported done early: decided on flags sampled at " << to_ms(decided_at - last.taken)
+           << " ms after the start was taken; BUSY fell at "
            << (last.busy_fell ? fmt::format("{} ms", to_ms(*last.busy_fell - last.taken))
                               : std::string("(not yet)"));
   }
@@ -233,8 +237,8 @@ TEST_P(Table, NeverEarlyNeverHung) {
       EXPECT_LT(f->clock.now() - began, std::chrono::seconds(60)) << "past its deadline";
       const int32_t tol = op.outcome == MoveOutcome::Reached ? r.goal.band_001mm : 1;
       EXPECT_LE(std::abs(r.state.position_001mm - op.where_001mm), tol) << r.describe();
-      EXPECT_TRUE(judged_in_time(*f, sampled_at(*f, r.started_at + r.elapsed),
-                                 r.state.position_001mm));
+      EXPECT_TRUE(
+          judged_in_time(*f, sampled_at(*f, r.started_at + r.elapsed), r.state.position_001mm));
     }
   }
 }

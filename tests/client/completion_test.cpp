@@ -201,8 +201,8 @@ TEST(Completion, StepOutputsShowAStartWhoseBusyWasMissed) {
   g.step = 3;
   const auto before = flags({StatusFlags::Inp}, 1);
   Completion c(from(g, before, state(10000, 10000)), t0 + ms(5000));
-  const auto r = run(c, {{before, state(10000, 10000)},
-                         {flags({StatusFlags::Inp}, 3), state(15000, 15000)}});
+  const auto r =
+      run(c, {{before, state(10000, 10000)}, {flags({StatusFlags::Inp}, 3), state(15000, 15000)}});
   ASSERT_TRUE(r.result);
   EXPECT_EQ(r.result->outcome, MoveOutcome::Reached);
   EXPECT_EQ(r.result->evidence, "OUT0-OUT5 = 3");
@@ -225,9 +225,8 @@ TEST(Completion, HomingWhenHomedWaitsForItsPulse) {
   g.operation = Operation::Home;
   const auto homed = flags({StatusFlags::Inp});
   Completion c(from(g, homed, state(0, 0)), t0 + ms(60000));
-  const auto r = run(c, {{homed, state(0, 0)},
-                         {flags({StatusFlags::Busy}), state(0, 0)},
-                         {homed, state(0, 0)}});
+  const auto r = run(
+      c, {{homed, state(0, 0)}, {flags({StatusFlags::Busy}), state(0, 0)}, {homed, state(0, 0)}});
   ASSERT_TRUE(r.result);
   EXPECT_EQ(r.at, 2);
 }
@@ -235,8 +234,8 @@ TEST(Completion, HomingWhenHomedWaitsForItsPulse) {
 TEST(Completion, PushThatMeetsNothingIsMissed) {
   Completion c(from(pushing(30000, 2000), flags({StatusFlags::Inp}), state(10000, 10000)),
                t0 + ms(5000));
-  const auto r = run(c, {{flags({StatusFlags::Busy}), state(20000, 30000, 10)},
-                         {flags({}), state(32000, 30000)}});
+  const auto r = run(
+      c, {{flags({StatusFlags::Busy}), state(20000, 30000, 10)}, {flags({}), state(32000, 30000)}});
   EXPECT_EQ(r.result->outcome, MoveOutcome::PushMissed);
   EXPECT_EQ(r.result->describe(),
             "push missed: moved the whole pushing distance (20.00 mm) without contact (INP = 0), "
@@ -245,8 +244,8 @@ TEST(Completion, PushThatMeetsNothingIsMissed) {
 
 TEST(Completion, BusyFallingShortWithoutAlarmIsStoppedNotReached) {
   Completion c(from(positioning(15000), flags({StatusFlags::Inp}), state(0, 0)), t0 + ms(5000));
-  const auto r = run(c, {{flags({StatusFlags::Busy}), state(5000, 15000)},
-                         {flags({}), state(12033, 15000)}});
+  const auto r =
+      run(c, {{flags({StatusFlags::Busy}), state(5000, 15000)}, {flags({}), state(12033, 15000)}});
   EXPECT_EQ(r.result->outcome, MoveOutcome::Stopped);
   EXPECT_EQ(r.result->stop_cause, StopCause::Unknown);
   EXPECT_EQ(r.result->describe().substr(0, 48), "stopped at 120.33 mm before the target 150.00 mm");

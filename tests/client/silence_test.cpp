@@ -61,7 +61,8 @@ TEST(Silence, CtrlCEndsTheWaitAtOnceWithNothingSent) {
   o.interrupted = [&] { return f.clock.now() - began > std::chrono::milliseconds(30); };
   f.reconnect(o);
   EXPECT_THROW(f.client->read_flags(), Cancelled);
-  EXPECT_LT(f.clock.now() - began, std::chrono::milliseconds(30) + kInterruptCheck + std::chrono::milliseconds(1));
+  EXPECT_LT(f.clock.now() - began,
+            std::chrono::milliseconds(30) + kInterruptCheck + std::chrono::milliseconds(1));
   EXPECT_TRUE(f.sent.empty());
 }
 

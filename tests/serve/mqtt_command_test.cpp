@@ -11,8 +11,8 @@
 namespace lec6::serve {
 namespace {
 
-using ::testing::HasSubstr;
 using nlohmann::json;
+using ::testing::HasSubstr;
 
 constexpr double kNow = 1767950000.0;
 

@@ -14,8 +14,8 @@
 namespace lec6::serve {
 namespace {
 
-using ::testing::HasSubstr;
 using nlohmann::json;
+using ::testing::HasSubstr;
 
 TEST(MqttTopics, Layout) {
   const MqttTopics t("plant/hall3", "box7");
@@ -66,9 +66,9 @@ TEST(BrokerUrl, HostPortAndTls) {
   EXPECT_EQ(u.host, "::1");
   EXPECT_EQ(u.port, 11883);
   EXPECT_EQ(parse_broker_url("mqtt://[fe80::1]").port, 1883);
-  for (const char* bad : {"tcp://h:1", "mqtt://", "mqtt://h:0", "mqtt://h:70000", "mqtt://h:x",
-                          "mqtt://[::1", "mqtt://[::1]x", "mqtt://u@h", "mqtt://h/path",
-                          "mqtt://h:"}) {
+  for (const char* bad :
+       {"tcp://h:1", "mqtt://", "mqtt://h:0", "mqtt://h:70000", "mqtt://h:x", "mqtt://[::1",
+        "mqtt://[::1]x", "mqtt://u@h", "mqtt://h/path", "mqtt://h:"}) {
     EXPECT_THROW(parse_broker_url(bad), std::invalid_argument) << bad;
   }
 }
@@ -122,8 +122,7 @@ TEST(HomeAssistant, IdsStayValidWithASlashedPrefix) {
   for (auto& p : home_assistant_discovery(MqttTopics("plant/hall3", "b"), "press", "x", 1)) {
     EXPECT_THAT(p.topic, testing::StartsWith("homeassistant/"));
     EXPECT_EQ(std::count(p.topic.begin(), p.topic.end(), '/'), 4) << p.topic;
-    EXPECT_THAT(p.payload["unique_id"].get<std::string>(),
-                testing::MatchesRegex("[A-Za-z0-9_-]+"));
+    EXPECT_THAT(p.payload["unique_id"].get<std::string>(), testing::MatchesRegex("[A-Za-z0-9_-]+"));
   }
 }
 

@@ -59,8 +59,8 @@ class Quirks : public ::testing::Test {
     (void)c->handle(modbus::WriteRegistersRequest::of(lec::kDirectStart, go), t);
   }
   void drive(unsigned n) {
-    const bool bits[8] = {bool(n & 1), bool(n & 2), bool(n & 4), bool(n & 8), bool(n & 16),
-                          bool(n & 32)};
+    const bool bits[8] = {bool(n & 1), bool(n & 2),  bool(n & 4),
+                          bool(n & 8), bool(n & 16), bool(n & 32)};
     (void)c->handle(modbus::WriteCoilsRequest::of(0x10, bits), t);
     coil(Coil::DRIVE, true);
     coil(Coil::DRIVE, false);
@@ -109,8 +109,8 @@ TEST_F(Quirks, BusyDelayKeepsTheOldOutputsUntilBusyRises) {
 TEST_F(Quirks, TargetUpdateLateKeepsD9004AndD9006AndOutputs) {
   make(ms(30), {}, true);
   lec::StepData s = positioning(12000);
-  (void)c->handle(modbus::WriteRegistersRequest::of(
-                      lec::step_address(5), std::span<const uint16_t>(s.to_registers())),
+  (void)c->handle(modbus::WriteRegistersRequest::of(lec::step_address(5),
+                                                    std::span<const uint16_t>(s.to_registers())),
                   t);
   drive(5);
   EXPECT_EQ(state(ms(29)).target_001mm, 0);

@@ -89,8 +89,10 @@ TEST(FieldProfile, ErrorsNameFileLineAndRule) {
   EXPECT_THAT(error_of("actuator:\n  busy_dely_ms: 5\n"), HasSubstr("busy_delay_ms"));
   EXPECT_EQ(error_of("line:\n  noise_rate: lots\n"),
             "bad.yaml:2: line.noise_rate: 'lots' is not a number bytes/s");
-  EXPECT_EQ(error_of("line:\n  timing: slow\n"), "bad.yaml:2: line.timing: 'slow' is not real or fast");
-  EXPECT_THAT(error_of("line:\n  baud: 12345\n"), HasSubstr("bad.yaml:2: line.baud: 12345 is not a baud rate"));
+  EXPECT_EQ(error_of("line:\n  timing: slow\n"),
+            "bad.yaml:2: line.timing: 'slow' is not real or fast");
+  EXPECT_THAT(error_of("line:\n  baud: 12345\n"),
+              HasSubstr("bad.yaml:2: line.baud: 12345 is not a baud rate"));
   EXPECT_EQ(error_of("actuator:\n  target_update_late: maybe\n"),
             "bad.yaml:2: actuator.target_update_late: 'maybe' is not true or false");
   EXPECT_THAT(error_of("speed: 3\n"), HasSubstr("bad.yaml:1: speed: unknown key"));

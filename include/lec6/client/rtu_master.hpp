@@ -63,7 +63,8 @@ class RtuMaster final : public Master {
   RtuOptions options_;
   TransactionTiming timing_;
   TimePoint line_busy_until_{};
-  TimePoint hold_until_{};  // after a failure: no query before the failed one's reply window is over
+  TimePoint
+      hold_until_{};  // after a failure: no query before the failed one's reply window is over
   LinkStats stats_;
   Duration last_round_trip_{};
 };

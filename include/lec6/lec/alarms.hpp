@@ -12,7 +12,6 @@
 #include <string>
 #include <string_view>
 #include <vector>
-#include <vector>
 
 namespace lec6::lec {
 

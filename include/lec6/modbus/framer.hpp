@@ -79,7 +79,7 @@ enum class FrameEnd : uint8_t {
 class DeviceFramer {
  public:
   struct Frame {
-    Bytes bytes;  // at most kMaxAdu + 1: the start of an over-long frame
+    Bytes bytes;             // at most kMaxAdu + 1: the start of an over-long frame
     TimePoint end_of_query;  // arrival of the frame's last byte
     // Bytes the frame had on the line, and, for an over-long frame (length
     // > kMaxAdu, only its start kept), whether its CRC over all of them holds.

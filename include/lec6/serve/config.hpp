@@ -112,11 +112,11 @@ struct MqttConfig {
   std::string prefix = "lec6";
   std::string username, password;
   std::filesystem::path ca_file, cert_file, key_file;  // TLS (mqtts://)
-  double telemetry_hz = 5;         // state messages per axis per second
-  double command_valid_for_s = 5;  // older commands are refused
-  bool home_assistant = false;     // MQTT discovery
-  unsigned keepalive_s = 30;       // the broker gives up on us after 1.5 × this
-  unsigned reconnect_max_s = 30;   // back-off doubles from 1 s up to this
+  double telemetry_hz = 5;                             // state messages per axis per second
+  double command_valid_for_s = 5;                      // older commands are refused
+  bool home_assistant = false;                         // MQTT discovery
+  unsigned keepalive_s = 30;      // the broker gives up on us after 1.5 × this
+  unsigned reconnect_max_s = 30;  // back-off doubles from 1 s up to this
 
   BrokerUrl url() const { return parse_broker_url(broker); }
 };

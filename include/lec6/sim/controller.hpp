@@ -199,8 +199,7 @@ class Controller {
   void take_start(PendingStart start);
   void begin(const PendingStart& start);
   void start_homing();
-  void start_record(const lec::StepData& data, bool is_step, uint8_t step_no,
-                    int64_t base_target);
+  void start_record(const lec::StepData& data, bool is_step, uint8_t step_no, int64_t base_target);
   std::optional<uint8_t> refusal(const lec::StepData& data, bool is_step, int64_t target) const;
   void begin_busy();
   void cancel_pending();
