@@ -16,6 +16,8 @@ struct Operations::Running {
   bool jog_plus = true;
   std::atomic<bool> cancel{false};
   std::atomic<bool> stopped_by_other{false};
+  // A stop or reset for this axis (not a hold: a held motion resumes).
+  std::atomic<bool> stop_requested{false};
   std::atomic<int64_t> lease_until{0};  // steady ns; 0: no lease
   std::mutex tie_mutex;
   std::function<bool()> tie;  // the stream a jog is tied to has closed
@@ -106,6 +108,8 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
       const bool stop_like =
           cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
       if (stop_like && slot.motion && slot.motion != run) slot.motion->stopped_by_other = true;
+      if ((cmd.op == Op::Stop || cmd.op == Op::Reset) && slot.motion && slot.motion != run)
+        slot.motion->stop_requested = true;
     }
   }
   if (at_once) return done(std::move(*at_once));
@@ -228,6 +232,20 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
   client::Actuator act(c);
   const TimePoint deadline = kClock.now() + cmd.timeout;
   client::WaitOptions wait;
+  if (cmd.op == Op::Home || cmd.op == Op::Move || cmd.op == Op::RunStep) {
+    // A stop or reset for this axis wins over its motion, even one whose start
+    // has not reached the line yet (the stop goes first, at emergency
+    // priority): not started at all, or stopped at the first poll after the
+    // start. (A hold suspends it; HOLD off resumes it.)
+    if (run.stop_requested) {
+      auto r = refusal(422, fmt::format("{} not started: a stop or reset for this axis came first "
+                                        "(through lec serve)",
+                                        op_name(cmd.op)));
+      r.body["outcome"] = "stopped";
+      return r;
+    }
+    wait.cancel = [&run] { return run.stop_requested.load(); };
+  }
   switch (cmd.op) {
     case Op::Serial:
       act.set_serial_mode(cmd.on);
