@@ -1,4 +1,5 @@
 #pragma once
+// Over 450 lines: the four protocol harnesses share their checking helpers here.
 // The fuzz harnesses' bodies, header-only so that the libFuzzer programs
 // (fuzz/fuzz_*.cpp, clang only) and the ordinary regression test
 // (tests/modbus/fuzz_regression_test.cpp, any compiler) run the same code on

@@ -1,4 +1,5 @@
-// The twin's event loop. See the header for the timing rule.
+// The twin's event loop. See the header for the timing rule. (451 lines: the loop,
+// its timers and its clients stay together; the saver and trace are apart.)
 
 #include "lec6/twin/sim_server.hpp"
 #include "lec6/error.hpp"

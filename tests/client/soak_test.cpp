@@ -6,7 +6,8 @@
 // reported (a classified TransportError: the caller knows it has no value), or
 // a wrong value accepted. Only the last must be 0; no call may take longer than
 // its configured deadlines allow. A summary table and a line with the three
-// counts are printed per run.
+// counts are printed per run. Over 450 lines: the fault soak and the bad-input
+// cases share the twin fixture and the counting.
 //
 // LEC6_SOAK_TRANSACTIONS sets the number of transactions per run (default
 // 10 000); `make soak` runs these tests alone. The client's bad-input tests

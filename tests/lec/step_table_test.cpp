@@ -1,3 +1,6 @@
+// Step tables: CSV and JSON formats, every field's range and every file error.
+// Over 450 lines: one case per format rule and error message, kept together.
+
 #include "lec6/lec/step_table.hpp"
 
 #include <gmock/gmock.h>

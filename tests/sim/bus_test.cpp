@@ -1,5 +1,7 @@
 // The twin on the wire: raw frames in, raw replies out, on a virtual clock.
 // Golden frames come from tests/data/manual-frames.tsv (the manual's examples).
+// Over 450 lines: one case per manual rule on the wire (each FC, exceptions,
+// broadcast, timing, faults), kept in one suite so the rules read side by side.
 
 #include "lec6/sim/bus.hpp"
 

@@ -1,5 +1,7 @@
 // The controller model on a virtual time line: flags at the analytic
 // instants, alarms, pushing, hold/reset/servo/estop, registers.
+// Over 450 lines: the controller's state machine case by case (one per
+// manual sequence and alarm), on one time line fixture.
 
 #include "lec6/sim/controller.hpp"
 

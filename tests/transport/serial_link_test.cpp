@@ -1,5 +1,7 @@
 // SerialLink and Pty against real pseudo-terminals: no mocks, no sleeps. Every
 // wait is a poll() on a real descriptor with a deadline.
+// Over 450 lines: every serial-port behaviour (open, exclusive mode, RS485,
+// echo, low latency, faults) needs its own real pty case.
 
 #include <fcntl.h>
 #include <poll.h>
