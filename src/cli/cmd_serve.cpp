@@ -9,6 +9,7 @@
 
 #include "cli/app.hpp"
 #include "lec6/serve/daemon.hpp"
+#include "lec6/serve/mqtt_topics.hpp"
 
 namespace lec6::cli {
 namespace {
@@ -22,6 +23,8 @@ struct ServeArgs {
   std::string http = "127.0.0.1:8080";
   std::string token;
   std::string sim_timing = "real";
+  std::string mqtt;  // broker URL: the bridge with its defaults (docs/mqtt.md)
+  std::string mqtt_prefix = "lec6";
   bool check = false;
 };
 
@@ -57,6 +60,20 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
   f.token = a.token;
   f.fast_sim = a.sim_timing == "fast";
   auto c = serve::config_from_flags(f);
+  if (!a.mqtt.empty()) {
+    serve::MqttConfig m;
+    m.broker = a.mqtt;
+    m.prefix = a.mqtt_prefix;
+    try {
+      (void)m.url();
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(fmt::format("--mqtt: {}", e.what()));
+    }
+    if (const auto why = serve::check_topic_prefix(m.prefix)) {
+      throw UsageError(fmt::format("--mqtt-prefix: {}", *why));
+    }
+    c.mqtt = m;
+  }
   auto& line = c.lines.front();
   line.silent_interval = g.silent_interval_k;
   line.delay_ms = g.delay_td_ms;
@@ -129,6 +146,11 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
   cmd->add_option("--sim-timing", args->sim_timing, "Timing of the built-in twin (--port sim)")
       ->capture_default_str()
       ->check(CLI::IsMember({"real", "fast"}));
+  cmd->add_option("--mqtt", args->mqtt,
+                  "Bridge to this MQTT broker, e.g. mqtt://127.0.0.1:1883 or mqtts://host (the "
+                  "config's mqtt: section has every setting, docs/mqtt.md)");
+  cmd->add_option("--mqtt-prefix", args->mqtt_prefix, "Topic prefix of the bridge (with --mqtt)")
+      ->capture_default_str();
   cmd->add_flag("--check", args->check, "Check the config and exit");
   cmd->callback([&globals, args] { run_serve(globals, *args); });
 }

@@ -14,6 +14,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import mqtt_lib  # noqa: E402
 from mqtt_lib import (Axis, Broker, Client, Serve, free_port, publish_props,  # noqa: E402
                       run_scenarios, wait_until)
 
@@ -364,8 +365,37 @@ def tls(ck, tmp, procs):
     ck.check(bad.http("GET", "/api/axes/axis1")[0] == 200, "and the daemon serves on")
 
 
+def command_line(ck, tmp, procs):
+    """`lec serve --port sim --ids 1-2 --mqtt URL`: the bridge without a config file."""
+    bad = subprocess.run([mqtt_lib.LEC, "--port", "sim", "serve", "--mqtt", "ftp://x", "--check"],
+                         capture_output=True, text=True, timeout=30)
+    ck.check(bad.returncode == 2 and "--mqtt:" in bad.stderr, "a bad --mqtt URL is a usage error",
+             bad.stderr)
+    bad = subprocess.run([mqtt_lib.LEC, "--port", "sim", "serve", "--mqtt", "mqtt://127.0.0.1",
+                          "--mqtt-prefix", "a/#", "--check"], capture_output=True, text=True, timeout=30)
+    ck.check(bad.returncode == 2 and "--mqtt-prefix:" in bad.stderr, "a bad prefix is refused",
+             bad.stderr)
+    broker = Broker(tmp).start()
+    procs.append(broker)
+    cl = Client(broker.port, ["flagsbox/#"])
+    procs.append(cl)
+    p = subprocess.Popen([mqtt_lib.LEC, "--port", "sim", "serve", "--ids", "1-2", "--http", "",
+                          "--modbus-tcp", "", "--mqtt", f"mqtt://127.0.0.1:{broker.port}",
+                          "--mqtt-prefix", "flagsbox"],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        m = cl.wait_for(lambda m: m.topic == "flagsbox/line1/axis2/state", 15, "state of axis2")
+        ck.check(m.json()["id"] == 2, "telemetry from a bridge set up by flags", m.payload)
+        ax = Axis(cl, "flagsbox", "line1", "axis1")
+        r = ax.run("serial", on=True)
+        ck.check(r["ok"], "and it takes commands", r)
+    finally:
+        p.terminate()
+        p.wait(20)
+
+
 SCENARIOS = {f.__name__: f for f in (telemetry, commands, dedup, refusals, alarms, flags,
-                                     home_assistant, will, outage, tls)}
+                                     home_assistant, will, outage, tls, command_line)}
 
 if __name__ == "__main__":
     run_scenarios(SCENARIOS, sys.argv[1:] or list(SCENARIOS))
