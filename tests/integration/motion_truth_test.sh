@@ -65,7 +65,14 @@ for _ in $(seq 1 100); do
   lec --port "$tcp_url" --json status 2>/dev/null | grep -q '"busy": true' && break
   sleep 0.05
 done
-expect_exit 0 "stop from another master" -- lec --port "$tcp_url" stop
+# Two masters on one line collide (the twin models it): the second master's
+# stop may be garbled by the mover's polls, so it tries as an operator would,
+# a few times; one must get through.
+stopped=0
+for _ in 1 2 3 4 5; do
+  if lec --port "$tcp_url" stop >/dev/null 2>&1; then stopped=1; break; fi
+done
+[[ $stopped -eq 1 ]] && ok || bad "stop from another master: 5 attempts, none answered"
 set +e
 timeout 20 tail -s 0.05 --pid=$mover -f /dev/null
 wait $mover
