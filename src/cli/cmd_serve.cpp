@@ -125,9 +125,9 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
 
 void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
   auto args = std::make_shared<ServeArgs>();
-  auto* cmd = app.add_subcommand(
-      "serve",
-      "Own the line(s) and share them: Modbus TCP, RTU over TCP, HTTP API (see docs/serve.md)");
+  auto* cmd = app.add_subcommand("serve",
+                                 "Own the line(s) and share them: Modbus TCP, RTU over TCP, HTTP "
+                                 "API, web dashboard, MQTT (docs/serve.md)");
   cmd->add_option("--config,-c", args->config,
                   "YAML config: lines, axes, listeners (docs/serve.md); or use --port and --ids");
   cmd->add_option("--ids", args->ids, "Controller IDs on the line, e.g. 1-4 or 1,3,5")
