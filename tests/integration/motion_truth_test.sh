@@ -59,7 +59,9 @@ out=$("$LEC" move --to 900 --json 2>/dev/null) || true  # stdout: the JSON alone
 expect_exit 0 "reset" -- lec reset
 
 # Stopped by another master (RTU over TCP into the same line): exit 1, never success.
-"$LEC" move --to 380 --speed 20 >"$tmp/mover.out" 2>&1 &
+# Two masters on one line collide (the twin models it): both retry, as they
+# would on a real line (the mover's polls are safe to resend).
+"$LEC" --retries 10 move --to 380 --speed 20 >"$tmp/mover.out" 2>&1 &
 mover=$!
 for _ in $(seq 1 100); do
   lec --port "$tcp_url" --json status 2>/dev/null | grep -q '"busy": true' && break
@@ -70,7 +72,7 @@ done
 # a few times; one must get through.
 stopped=0
 for _ in 1 2 3 4 5; do
-  if lec --port "$tcp_url" stop >/dev/null 2>&1; then stopped=1; break; fi
+  if lec --port "$tcp_url" --retries 5 stop >/dev/null 2>&1; then stopped=1; break; fi
 done
 [[ $stopped -eq 1 ]] && ok || bad "stop from another master: 5 attempts, none answered"
 set +e
