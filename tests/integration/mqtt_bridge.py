@@ -247,7 +247,13 @@ def home_assistant(ck, tmp, procs):
         [node.format("binary_sensor", k) for k in ("busy", "inp", "svre", "seton", "alarm", "estop")] + \
         [node.format("button", k) for k in ("home", "stop")]
     for topic in want:
-        m = ha.wait_for(lambda m: m.topic == topic, 10, topic)
+        ha.wait_for(lambda m: m.topic == topic, 10, topic)
+    # Published at connect, possibly while `ha` subscribed (then live, retain
+    # flag 0): a subscriber that comes now must get every one from the broker.
+    later = Client(broker.port, ["homeassistant/#"])
+    procs.append(later)
+    for topic in want:
+        m = later.wait_for(lambda m: m.topic == topic, 10, topic)
         ck.check(m.retain and m.json()["device"]["identifiers"] == ["t_line1_axis1"],
                  f"discovery {topic}")
     home = ha.wait_for(lambda m: m.topic == node.format("button", "home"), 1, "home").json()
