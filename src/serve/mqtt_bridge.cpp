@@ -97,8 +97,9 @@ void MqttBridge::Core::start() {
   // One observer per line, waking the axes whose flags, health or alarms changed.
   std::map<Line*, std::map<uint8_t, std::size_t>> lines;
   for (std::size_t i = 0; i < axes.size(); ++i) lines[axes[i].line][axes[i].id] = i;
-  for (auto& [line, ids] : lines) {
-    line->add_observer([weak, ids](const TelemetryEvent& e, const AxisSnapshot&) {
+  for (auto& entry : lines) {  // not a structured binding: clang 14 cannot capture one
+    const std::map<uint8_t, std::size_t> ids = entry.second;
+    entry.first->add_observer([weak, ids](const TelemetryEvent& e, const AxisSnapshot&) {
       if (!e.flags_changed && !e.online_changed && e.block != Block::Alarms) return;
       const auto it = ids.find(e.id);
       if (it == ids.end()) return;
