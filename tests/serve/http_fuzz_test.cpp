@@ -11,19 +11,12 @@
 
 #include "../../fuzz/harness_http.hpp"
 #include "../../fuzz/seeds_http.hpp"
+#include "fuzz_replay.hpp"
 
 namespace lec6::fuzz {
 namespace {
 
 namespace fs = std::filesystem;
-
-// Property violations throw here instead of aborting.
-struct ThrowOnFailure {
-  ThrowOnFailure() {
-    failure_handler() = [](const std::string& what) { throw std::runtime_error(what); };
-  }
-  ~ThrowOnFailure() { failure_handler() = nullptr; }
-};
 
 void run(const std::string& input, const std::string& label) {
   ThrowOnFailure guard;
@@ -56,14 +49,9 @@ TEST(HttpFuzzHarness, EveryByteFlipAndCutOfTheSeedsPasses) {
 }
 
 TEST(HttpFuzzHarness, KeptRegressionInputsPass) {
-  const fs::path dir = fs::path(LEC6_TEST_DATA_DIR) / ".." / "fuzz_regressions" / "http";
   std::size_t n = 0;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    if (!entry.is_regular_file() || entry.path().filename().string().starts_with(".")) continue;
-    std::ifstream in(entry.path(), std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    run(s.str(), entry.path().filename().string());
+  for (const auto& [name, input] : kept_inputs("http")) {
+    run(input, name);
     ++n;
   }
   // No skip: with no kept input it runs none and says so (the CI log shows the count).

@@ -9,18 +9,12 @@
 #include <sstream>
 
 #include "../../fuzz/harness_mbap.hpp"
+#include "fuzz_replay.hpp"
 
 namespace lec6::fuzz {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct ThrowOnFailure {
-  ThrowOnFailure() {
-    failure_handler() = [](const std::string& what) { throw std::runtime_error(what); };
-  }
-  ~ThrowOnFailure() { failure_handler() = nullptr; }
-};
 
 void run(const modbus::Bytes& input, const std::string& label) {
   ThrowOnFailure guard;
@@ -61,17 +55,13 @@ TEST(MbapFuzzHarness, EveryByteFlipAndCutOfTheSeedsPasses) {
 }
 
 TEST(MbapFuzzHarness, KeptRegressionInputsPass) {
-  const fs::path dir = fs::path(LEC6_TEST_DATA_DIR) / ".." / "fuzz_regressions" / "mbap";
   std::size_t n = 0;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    if (!entry.is_regular_file() || entry.path().filename() == ".gitkeep") continue;
-    std::ifstream in(entry.path(), std::ios::binary);
-    modbus::Bytes input((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    run(input, entry.path().filename().string());
+  for (const auto& [name, bytes] : kept_inputs("mbap")) {
+    run(modbus::Bytes(bytes.begin(), bytes.end()), name);
     ++n;
   }
   std::printf("mbap regression inputs run: %zu\n", n);
-  EXPECT_GE(n, 1u) << "the kept inputs were not found in " << dir;
+  EXPECT_GE(n, 1u) << "no kept input found under tests/fuzz_regressions/mbap";
 }
 
 }  // namespace
