@@ -18,7 +18,7 @@ namespace lec6 {
 using Duration = std::chrono::nanoseconds;
 using TimePoint = std::chrono::time_point<std::chrono::steady_clock, Duration>;
 
-// Fractional milliseconds and seconds, as people type them (`--timeout 2.5`)
+// Fractional milliseconds and seconds, as people type them (`--timeout 2.5s`)
 // or as computations produce them. Whole values need none of this:
 // std::chrono::milliseconds(5) converts to Duration exactly.
 using FractionalMilliseconds = std::chrono::duration<double, std::milli>;

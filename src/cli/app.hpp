@@ -51,19 +51,24 @@ struct GlobalOptions {
   std::string port;  // --port, else $LEC_PORT
   uint32_t baud = 38400;
   int id = 1;
-  int timeout_margin_ms = 50;  // added to the manual's Tx
+  Duration reply_margin = std::chrono::milliseconds(50);  // added to the manual's Tx
   int retries = 2;
   bool json = false;
   bool trace = false;
   bool rs485 = false;
   bool rs485_rts_after_send = false;
-  int rs485_delay_before_ms = 0;
-  int rs485_delay_after_ms = 0;
+  Duration rs485_delay_before{};  // whole ms: the kernel's unit
+  Duration rs485_delay_after{};
   bool echo = false;  // 2-wire adapter echoes what it sends
   unsigned silent_interval_k = 1;
-  int delay_td_ms = 5;
+  Duration delay_td = std::chrono::milliseconds(5);
   bool no_silence_wait = false;  // skip the Ts gap before queries (fast twins, benchmarks only)
 };
+
+// A duration the option parser already checked to be whole ms (RS485 delays).
+inline uint32_t whole_ms(Duration d) {
+  return static_cast<uint32_t>(std::chrono::duration_cast<std::chrono::milliseconds>(d).count());
+}
 
 // Set by SIGINT/SIGTERM; waiting operations poll it and stop the axis.
 extern std::atomic<bool> g_interrupted;
@@ -109,7 +114,7 @@ void add_motion_commands(CLI::App& app,
 void add_line_commands(CLI::App& app, Session& session);  // ping, scan, decode, raw, ports, bench
 void add_demo_command(CLI::App& app, Session& session);   // demo
 void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/backup/restore/diff
-void add_sim_command(CLI::App& app);                      // sim (the twin program)
+void add_sim_command(CLI::App& app, const GlobalOptions& globals);    // sim (the twin program)
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
 void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
 

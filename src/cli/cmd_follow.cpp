@@ -18,6 +18,7 @@
 #include <deque>
 
 #include "cli/app.hpp"
+#include "cli/duration_option.hpp"
 #include "cli/move_report.hpp"
 #include "lec6/client/follower.hpp"
 #include "lec6/lec/step_data.hpp"
@@ -30,7 +31,7 @@ struct FollowArgs {
   std::string file = "-";
   std::string speed, accel, decel, in_position;
   unsigned check_every = 8;
-  double timeout_s = 60;
+  Duration timeout = std::chrono::seconds(60);
 };
 
 struct Counts {
@@ -222,10 +223,7 @@ void run_follow(Session& s, const FollowArgs& a) {
   }
   const Duration took = s.client().clock().now() - began;
   std::optional<client::MoveResult> last;
-  with_move_report(s, [&] {
-    last = follower.finish(s.deadline_in(to_duration(FractionalSeconds(a.timeout_s))),
-                           s.wait_options());
-  });
+  with_move_report(s, [&] { last = follower.finish(s.deadline_in(a.timeout), s.wait_options()); });
   report(s, counts, follower.applied(), took, last);
   if (last && !last->succeeded()) throw CommandFailed(exit_code(*last), last->describe());
 }
@@ -251,8 +249,7 @@ void add_follow_command(CLI::App& app, Session& session) {
                 "Read the flags (alarm, servo) after this many setpoints")
       ->capture_default_str()
       ->check(CLI::Range(1u, 1000u));
-  f->add_option("--timeout-s", a->timeout_s, "Deadline for the last move after the input ends")
-      ->capture_default_str();
+  add_deadline_option(f, a->timeout, "Deadline for the last move after the input ends");
   f->callback([&session, a] { run_follow(session, *a); });
 }
 

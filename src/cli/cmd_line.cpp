@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "cli/app.hpp"
+#include "cli/duration_option.hpp"
 #include "lec6/lec/explain.hpp"
 #include "lec6/modbus/crc.hpp"
 #include "lec6/modbus/length.hpp"
@@ -115,7 +116,7 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
 
 struct PingArgs {
   int count = 4;
-  double interval_s = 1.0;
+  Duration interval = std::chrono::seconds(1);
 };
 
 void run_ping(Session& s, const PingArgs& a) {
@@ -137,8 +138,8 @@ void run_ping(Session& s, const PingArgs& a) {
       --sent;
       break;
     }
-    if (seq + 1 != a.count && a.interval_s > 0) {
-      const TimePoint next = c.clock().now() + to_duration(FractionalSeconds(a.interval_s));
+    if (seq + 1 != a.count && a.interval > Duration::zero()) {
+      const TimePoint next = c.clock().now() + a.interval;
       while (c.clock().now() < next && !g_interrupted)
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
@@ -348,9 +349,8 @@ void add_line_commands(CLI::App& app, Session& session) {
   auto* ping = app.add_subcommand("ping", "Echo test (FC08) with round-trip times and statistics");
   ping->add_option("-c,--count", ping_args->count, "How many echoes (0: until Ctrl-C)")
       ->capture_default_str();
-  ping->add_option("-i,--interval", ping_args->interval_s, "Seconds between echoes")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 3600.0));
+  add_duration_option(ping, "-i,--interval", ping_args->interval, "Pause between echoes",
+                      {Duration::zero(), std::chrono::hours(1)}, BareNumber::Seconds);
   ping->callback([&session, ping_args] { run_ping(session, *ping_args); });
 
   auto ids = std::make_shared<std::string>("1-32");

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include "cli/app.hpp"
+#include "cli/duration_option.hpp"
 #include "cli/move_report.hpp"
 #include "cli/views.hpp"
 #include "lec6/lec/step_data.hpp"
@@ -46,7 +47,7 @@ struct MoveArgs {
   std::string to, speed, accel, decel, moving_force, in_position, area, push, trigger, push_speed;
   bool relative = false;
   bool no_wait = false;
-  double timeout_s = 60;
+  Duration timeout = std::chrono::seconds(60);
 };
 
 client::DirectMove direct_move(const MoveArgs& a) {
@@ -91,7 +92,7 @@ void run_move(Session& s, const MoveArgs& a) {
   const client::DirectMove m =
       by_step ? client::DirectMove{} : direct_move(a);  // validate before opening
   auto& axis = s.axis();
-  const auto deadline = s.deadline_in(to_duration(FractionalSeconds(a.timeout_s)));
+  const auto deadline = s.deadline_in(a.timeout);
   auto wait = s.wait_options(progress_printer(s));
   if (a.no_wait) {
     axis.start(m);
@@ -116,19 +117,18 @@ bool stdin_has_input() {
   return ::poll(&p, 1, 0) > 0 && (p.revents & (POLLIN | POLLHUP));
 }
 
-void run_jog(Session& s, const std::string& dir, double seconds) {
+void run_jog(Session& s, const std::string& dir, Duration jog_for) {
   if (dir != "+" && dir != "-")
     throw UsageError(fmt::format("jog: direction must be + or -, got '{}'", dir));
   auto& axis = s.axis();
-  const bool held = seconds <= 0;
+  const bool held = jog_for <= Duration::zero();
   if (held && !s.json())
     fmt::print(stderr, "Jogging {}: press Enter to stop (Ctrl-C stops too, exit 130)\n", dir);
   auto wait = s.wait_options(progress_printer(s));
   if (held && isatty(STDIN_FILENO)) {
     wait.cancel = [] { return g_interrupted.load() || stdin_has_input(); };
   }
-  const TimePoint until =
-      held ? TimePoint::max() : s.deadline_in(to_duration(FractionalSeconds(seconds)));
+  const TimePoint until = held ? TimePoint::max() : s.deadline_in(jog_for);
   const auto r = axis.jog(dir == "+", until, s.deadline_in(std::chrono::hours(24)), wait);
   end_progress(s);
   if (s.json()) {
@@ -151,7 +151,7 @@ void say(const Session& s, const std::string& text, nlohmann::json j = {}) {
 
 void add_motion_commands(CLI::App& app, Session& session) {
   auto value = std::make_shared<std::string>();
-  auto timeout_s = std::make_shared<double>(10.0);
+  auto servo_timeout = std::make_shared<Duration>(std::chrono::seconds(10));
 
   auto* serial = app.add_subcommand("serial", "Serial (on) or parallel (off) input mode: Y30");
   serial->add_option("state", *value, "on|off")->required();
@@ -165,11 +165,11 @@ void add_motion_commands(CLI::App& app, Session& session) {
 
   auto* servo = app.add_subcommand("servo", "Servo on/off (Y19 SVON), waiting for SVRE");
   servo->add_option("state", *value, "on|off")->required();
-  servo->add_option("--timeout-s", *timeout_s, "How long to wait for SVRE")->capture_default_str();
-  servo->callback([&session, value, timeout_s] {
+  add_deadline_option(servo, *servo_timeout, "How long to wait for SVRE");
+  servo->callback([&session, value, servo_timeout] {
     const bool on = parse_on_off(*value, "servo");
     auto& axis = session.axis();
-    const auto deadline = session.deadline_in(to_duration(FractionalSeconds(*timeout_s)));
+    const auto deadline = session.deadline_in(*servo_timeout);
     if (on) {
       axis.servo_on(deadline, session.wait_options());
     } else {
@@ -178,17 +178,15 @@ void add_motion_commands(CLI::App& app, Session& session) {
     say(session, on ? "Servo on (SVRE = 1)" : "Servo off (SVRE = 0)", {{"svre", on}});
   });
 
-  auto home_timeout = std::make_shared<double>(60.0);
+  auto home_timeout = std::make_shared<Duration>(std::chrono::seconds(60));
   auto* home = app.add_subcommand(
       "home", "Return to origin: SETUP, wait for the move to end (SETON, at 0), SETUP off");
-  home->add_option("--timeout-s", *home_timeout, "Deadline for the return to origin")
-      ->capture_default_str();
+  add_deadline_option(home, *home_timeout, "Deadline for the return to origin");
   home->callback([&session, home_timeout] {
     auto& axis = session.axis();
     with_move_report(session, [&] {
-      report_move(session,
-                  axis.home(session.deadline_in(to_duration(FractionalSeconds(*home_timeout))),
-                            session.wait_options(progress_printer(session))));
+      report_move(session, axis.home(session.deadline_in(*home_timeout),
+                                     session.wait_options(progress_printer(session))));
     });
   });
 
@@ -209,15 +207,17 @@ void add_motion_commands(CLI::App& app, Session& session) {
   move->add_option("--trigger", a->trigger, "Trigger level, % (≤ pushing force)");
   move->add_option("--push-speed", a->push_speed, "Pushing speed, mm/s");
   move->add_flag("--no-wait", a->no_wait, "Return right after the start");
-  move->add_option("--timeout-s", a->timeout_s, "Deadline for the move")->capture_default_str();
+  add_deadline_option(move, a->timeout, "Deadline for the move");
   move->callback([&session, a] { run_move(session, *a); });
 
   auto dir = std::make_shared<std::string>();
-  auto jog_for = std::make_shared<double>(0);
+  auto jog_for = std::make_shared<Duration>(Duration::zero());
   auto* jog =
-      app.add_subcommand("jog", "Jog + or - while held (Enter/Ctrl-C stops) or --for SECONDS");
+      app.add_subcommand("jog", "Jog + or - while held (Enter/Ctrl-C stops) or --for DURATION");
   jog->add_option("direction", *dir, "+ or -")->required();
-  jog->add_option("--for", *jog_for, "Jog for this many seconds")->check(CLI::PositiveNumber);
+  add_duration_option(jog, "--for", *jog_for, "Jog for this long, e.g. 500ms (default: while held)",
+                      {std::chrono::milliseconds(1), std::chrono::hours(1)}, BareNumber::Seconds)
+      ->default_str("");
   jog->callback([&session, dir, jog_for] { run_jog(session, *dir, *jog_for); });
 
   auto* hold = app.add_subcommand("hold", "HOLD on (decelerate and suspend) or off (resume)");

@@ -76,12 +76,12 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
   }
   auto& line = c.lines.front();
   line.silent_interval = g.silent_interval_k;
-  line.delay_ms = g.delay_td_ms;
-  line.timeout_margin_ms = g.timeout_margin_ms;
+  line.delay_ms = to_ms(g.delay_td);
+  line.timeout_margin_ms = to_ms(g.reply_margin);
   line.retries = g.retries;
   line.echo = g.echo;
-  line.rs485 = {g.rs485, g.rs485_rts_after_send, static_cast<uint32_t>(g.rs485_delay_before_ms),
-                static_cast<uint32_t>(g.rs485_delay_after_ms)};
+  line.rs485 = {g.rs485, g.rs485_rts_after_send, whole_ms(g.rs485_delay_before),
+                whole_ms(g.rs485_delay_after)};
   return c;
 }
 

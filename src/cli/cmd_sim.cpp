@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "cli/app.hpp"
+#include "cli/duration_option.hpp"
 #include "cli/sim_args.hpp"
 #include "lec6/modbus/timing.hpp"
 #include "lec6/sim/bus.hpp"
@@ -28,6 +29,15 @@ using sim_args::parse_ids;
 using sim_args::parse_mm;
 using sim_args::parse_tcp;
 using sim_args::trim;
+using std::chrono::seconds;
+
+// Options renamed when durations got units: the old name still works (hidden).
+constexpr std::pair<const char*, const char*> kRenamed[] = {
+    {"--delay-ms", "--td"},
+    {"--busy-delay-ms", "--busy-delay"},
+    {"--busy-min-ms", "--busy-min"},
+    {"--extra-delay-ms", "--extra-delay"},
+};
 
 struct SimArgs {
   std::string pty;
@@ -37,15 +47,15 @@ struct SimArgs {
   uint32_t baud = modbus::kDefaultBaud;
   std::string timing = "real";
   unsigned silent_interval_k = modbus::LineTiming{}.silent_interval_k;
-  double delay_ms = to_ms(modbus::LineTiming{}.delay_td);
+  Duration delay_td = modbus::LineTiming{}.delay_td;
   std::string state;
   std::string stroke;
   double max_speed = sim::ActuatorConfig{}.max_speed_mm_s;
   double workpiece = 0.0;
   double initial_position = sim::ActuatorConfig{}.initial_position_mm;
   std::string name = sim::ActuatorConfig{}.equipment_name;
-  double busy_delay_ms = 0.0;
-  double busy_min_ms = 0.0;
+  Duration busy_delay{};
+  Duration busy_min{};
   bool target_update_late = false;
   double noise_rate = 0.0;
   bool trace = false;
@@ -54,7 +64,7 @@ struct SimArgs {
   double corrupt_rate = 0.0;
   double garbage_rate = 0.0;
   double delay_rate = 0.0;
-  double extra_delay_ms = to_ms(sim::FaultConfig{}.extra_delay);
+  Duration extra_delay = sim::FaultConfig{}.extra_delay;
   std::set<std::string> given;  // options on the command line: they override the profile
   bool has(const std::string& option) const { return given.count(option) > 0; }
 };
@@ -136,9 +146,8 @@ twin::FieldProfile settings(const SimArgs& a) {
     }
     config.equipment_name = a.name;
   }
-  if (a.has("--busy-delay-ms"))
-    config.busy_delay = to_duration(FractionalMilliseconds(a.busy_delay_ms));
-  if (a.has("--busy-min-ms")) config.busy_min = to_duration(FractionalMilliseconds(a.busy_min_ms));
+  if (a.has("--busy-delay")) config.busy_delay = a.busy_delay;
+  if (a.has("--busy-min")) config.busy_min = a.busy_min;
   if (a.has("--target-update-late")) config.target_update_late = a.target_update_late;
   if (auto problems = sim::validate(config); !problems.empty()) {
     std::string all;
@@ -149,7 +158,7 @@ twin::FieldProfile settings(const SimArgs& a) {
   sim::LineConfig& line = p.line;
   if (a.has("--baud")) line.line.baud = a.baud;
   if (a.has("--silent-interval")) line.line.silent_interval_k = a.silent_interval_k;
-  if (a.has("--delay-ms")) line.line.delay_td = to_duration(FractionalMilliseconds(a.delay_ms));
+  if (a.has("--td")) line.line.delay_td = a.delay_td;
   if (a.has("--timing")) line.timing = a.timing == "fast" ? sim::Timing::Fast : sim::Timing::Real;
 
   sim::FaultConfig& faults = p.faults;
@@ -158,12 +167,27 @@ twin::FieldProfile settings(const SimArgs& a) {
   if (a.has("--corrupt-rate")) faults.corrupt = a.corrupt_rate;
   if (a.has("--garbage-rate")) faults.garbage = a.garbage_rate;
   if (a.has("--delay-rate")) faults.delay = a.delay_rate;
-  if (a.has("--extra-delay-ms")) {
-    faults.extra_delay = to_duration(FractionalMilliseconds(a.extra_delay_ms));
+  if (a.has("--extra-delay")) {
+    faults.extra_delay = a.extra_delay;
     if (!a.has("--delay-rate")) faults.delay = 1.0;  // a delay given alone applies to every reply
   }
   if (a.has("--noise-rate")) faults.noise_rate = a.noise_rate;
   return p;
+}
+
+// The settings that differ from a factory controller on a quiet line, for the
+// ready line: whoever reads a log sees which quirks the twin played.
+std::string unusual_settings(const twin::FieldProfile& p) {
+  std::string out;
+  if (p.line.line.delay_td != modbus::LineTiming{}.delay_td)
+    out += ", Td " + format_duration(p.line.line.delay_td);
+  if (p.actuator.busy_delay > Duration::zero())
+    out += ", busy-delay " + format_duration(p.actuator.busy_delay);
+  if (p.actuator.busy_min > Duration::zero())
+    out += ", busy-min " + format_duration(p.actuator.busy_min);
+  if (p.actuator.target_update_late) out += ", target-update-late";
+  if (p.faults.noise_rate > 0) out += fmt::format(", noise {}/s", p.faults.noise_rate);
+  return out;
 }
 
 void run_sim(const SimArgs& a) {
@@ -215,16 +239,16 @@ void run_sim(const SimArgs& a) {
     ~Unregister() { g_server = nullptr; }
   } unregister;
 
-  print_line(stdout,
-             fmt::format("lec sim: ready on {} (ids {}, timing {}, {} baud{})", server.endpoints(),
-                         format_ids(ids), line.timing == sim::Timing::Fast ? "fast" : "real",
-                         line.line.baud, p.name.empty() ? "" : ", profile " + p.name));
+  print_line(stdout, fmt::format("lec sim: ready on {} (ids {}, timing {}, {} baud{}{})",
+                                 server.endpoints(), format_ids(ids),
+                                 line.timing == sim::Timing::Fast ? "fast" : "real", line.line.baud,
+                                 p.name.empty() ? "" : ", profile " + p.name, unusual_settings(p)));
   server.run();
 }
 
 }  // namespace
 
-void add_sim_command(CLI::App& app) {
+void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
   auto a = std::make_shared<SimArgs>();
   auto* sim = app.add_subcommand(
       "sim",
@@ -236,7 +260,7 @@ void add_sim_command(CLI::App& app) {
       "(digest §1); fast timing: at once.\n"
       "Prints 'lec sim: ready on ...' once it answers; SIGINT/SIGTERM end it (state saved, link "
       "removed).\n"
-      "Field quirks (--busy-delay-ms, --busy-min-ms, --target-update-late, --noise-rate) make the "
+      "Field quirks (--busy-delay, --busy-min, --target-update-late, --noise-rate) make the "
       "twin as unkind as a real controller; profiles/field-quirks.yaml combines them all "
       "(--profile FILE; options given here override the profile). Profile keys:\n" +
       twin::field_profile_keys());
@@ -260,9 +284,10 @@ void add_sim_command(CLI::App& app) {
                   "Silent interval setting k (Ts = k x 3.5 characters)")
       ->capture_default_str()
       ->check(CLI::Range(1u, 100u));
-  sim->add_option("--delay-ms", a->delay_ms, "Minimum communication delay Td, ms")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 1000.0));
+  add_duration_option(sim, "--td", a->delay_td, "Minimum communication delay Td",
+                      {Duration::zero(), seconds(1)});
+  add_renamed_duration_option(sim, "--delay-ms", "--td", a->delay_td, BareNumber::Milliseconds,
+                              {Duration::zero(), seconds(1)});
   sim->add_option("--state", a->state,
                   "Keep the EEPROM (steps, alarm history, name) in FILE: loaded at start, saved "
                   "atomically as it changes (at most every 200 ms) and at exit")
@@ -298,15 +323,19 @@ void add_sim_command(CLI::App& app) {
       ->capture_default_str();
   sim->add_option("--name", a->name, "Equipment name at D000E (up to 14 ASCII characters)")
       ->capture_default_str();
-  sim->add_option("--busy-delay-ms", a->busy_delay_ms,
-                  "Field quirk: BUSY rises N ms after the controller took a start (DRIVE, D9100, "
-                  "SETUP); until then BUSY, INP and OUT0-5 keep their old values")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 10000.0));
-  sim->add_option("--busy-min-ms", a->busy_min_ms,
-                  "Field quirk: the shortest BUSY pulse, for a move already at its target")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 10000.0));
+  const DurationLimits quirk{Duration::zero(), seconds(10)};
+  add_duration_option(
+      sim, "--busy-delay", a->busy_delay,
+      "Field quirk: BUSY rises this long after the controller took a start "
+      "(DRIVE, D9100, SETUP); until then BUSY, INP and OUT0-5 keep their old values",
+      quirk);
+  add_renamed_duration_option(sim, "--busy-delay-ms", "--busy-delay", a->busy_delay,
+                              BareNumber::Milliseconds, quirk);
+  add_duration_option(sim, "--busy-min", a->busy_min,
+                      "Field quirk: the shortest BUSY pulse, for a move already at its target",
+                      quirk);
+  add_renamed_duration_option(sim, "--busy-min-ms", "--busy-min", a->busy_min,
+                              BareNumber::Milliseconds, quirk);
   sim->add_flag("--target-update-late,!--no-target-update-late", a->target_update_late,
                 "Field quirk: D9004 target and D9006 step change only when BUSY rises");
   sim->add_option("--noise-rate", a->noise_rate,
@@ -328,26 +357,33 @@ void add_sim_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
   sim->add_option("--delay-rate", a->delay_rate,
-                  "Probability a reply starts --extra-delay-ms late "
-                  "(default: 1 if --extra-delay-ms is given, else 0)")
+                  "Probability a reply starts --extra-delay late "
+                  "(default: 1 if --extra-delay is given, else 0)")
       ->check(CLI::Range(0.0, 1.0));
-  sim->add_option("--extra-delay-ms", a->extra_delay_ms, "How late a delayed reply starts, ms")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 60000.0));
+  add_duration_option(sim, "--extra-delay", a->extra_delay, "How late a delayed reply starts",
+                      {Duration::zero(), seconds(60)});
+  add_renamed_duration_option(sim, "--extra-delay-ms", "--extra-delay", a->extra_delay,
+                              BareNumber::Milliseconds, {Duration::zero(), seconds(60)});
 
-  sim->callback([a, &app, sim] {
+  sim->callback([a, &app, &globals, sim] {
     inherit(app, *sim, "--baud", a->baud);
     inherit(app, *sim, "--silent-interval", a->silent_interval_k);
-    if (const CLI::Option* d = app.get_option_no_throw("--delay-ms");
-        d && d->count() > 0 && sim->get_option("--delay-ms")->count() == 0) {
-      a->delay_ms = d->as<double>();
-      a->given.insert("--delay-ms");
+    for (const CLI::Option* o : sim->get_options()) {
+      // By its long name: CLI11's get_name() is empty for a hidden (renamed) option.
+      if (o->count() > 0 && !o->get_lnames().empty()) a->given.insert("--" + o->get_lnames()[0]);
+    }
+    // Old spellings (hidden, deprecated) set the same values as the new ones.
+    for (const auto& [old_name, new_name] : kRenamed) {
+      if (a->given.count(old_name)) a->given.insert(new_name);
+    }
+    const bool td_on_parent =
+        app.get_option("--td")->count() > 0 || app.get_option("--delay-ms")->count() > 0;
+    if (td_on_parent && !a->has("--td")) {
+      a->delay_td = globals.delay_td;
+      a->given.insert("--td");
     }
     if (const CLI::Option* t = app.get_option_no_throw("--trace"); t && t->count() > 0)
       a->trace = true;
-    for (const CLI::Option* o : sim->get_options()) {
-      if (o->count() > 0) a->given.insert(o->get_name());
-    }
     for (const char* parent : {"--baud", "--silent-interval"}) {
       if (const CLI::Option* o = app.get_option_no_throw(parent); o && o->count() > 0)
         a->given.insert(parent);

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "cli/app.hpp"
+#include "cli/duration_option.hpp"
 #include "cli/views.hpp"
 #include "lec6/lec/units.hpp"
 
@@ -47,9 +48,9 @@ void run_status(Session& s) {
 
 struct WatchOptions {
   std::string record;
-  double seconds = 0;  // 0: until Ctrl-C
-  int count = 0;       // 0: no limit
-  int interval_ms = 0;
+  Duration duration{};  // 0: until Ctrl-C
+  int count = 0;        // 0: no limit
+  Duration interval{};
 };
 
 void run_watch(Session& s, const WatchOptions& o) {
@@ -91,9 +92,11 @@ void run_watch(Session& s, const WatchOptions& o) {
                  tty ? "\033[K" : "\n");
     }
     std::fflush(stdout);
-    if ((o.count && samples >= o.count) || (o.seconds > 0 && t >= o.seconds)) break;
-    if (o.interval_ms > 0) {
-      const TimePoint next = c.clock().now() + to_duration(FractionalMilliseconds(o.interval_ms));
+    if ((o.count && samples >= o.count) ||
+        (o.duration > Duration::zero() && t >= to_seconds(o.duration)))
+      break;
+    if (o.interval > Duration::zero()) {
+      const TimePoint next = c.clock().now() + o.interval;
       while (c.clock().now() < next && !g_interrupted)
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
@@ -160,14 +163,15 @@ void add_status_commands(CLI::App& app, Session& session) {
       app.add_subcommand("watch", "Live view of position, speed, thrust and flags until Ctrl-C");
   watch->add_option("--record", watch_opts->record,
                     "Log every sample with a timestamp to a CSV file");
-  watch->add_option("--for", watch_opts->seconds, "Stop after this many seconds")
-      ->check(CLI::PositiveNumber);
+  add_duration_option(watch, "--for", watch_opts->duration, "Stop after this long, e.g. 30s",
+                      {std::chrono::milliseconds(1), std::chrono::hours(24 * 365)},
+                      BareNumber::Seconds)
+      ->default_str("");
   watch->add_option("--count", watch_opts->count, "Stop after this many samples")
       ->check(CLI::Range(1, 1000000000));
-  watch
-      ->add_option("--interval", watch_opts->interval_ms,
-                   "Pause between samples, ms (default: as fast as the line)")
-      ->check(CLI::Range(0, 60000));
+  add_duration_option(watch, "--interval", watch_opts->interval,
+                      "Pause between samples, e.g. 100ms (default: as fast as the line)",
+                      {Duration::zero(), std::chrono::seconds(60)}, BareNumber::Milliseconds);
   watch->callback([&session, watch_opts] { run_watch(session, *watch_opts); });
 
   app.add_subcommand("alarms", "Active alarms and the 16-group history, with meanings")

@@ -3,6 +3,7 @@
 #include <csignal>
 
 #include "cli/app.hpp"
+#include "cli/duration_option.hpp"
 #include "cli/suggest.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
@@ -57,10 +58,17 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
   app.add_option("--id", o.id, "Controller ID (1-255; 0 = broadcast, for writes only)")
       ->capture_default_str()
       ->check(CLI::Range(0, 255));
-  app.add_option("--timeout", o.timeout_margin_ms,
-                 "Margin added to the manual's response time Tx, ms")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 60000));
+  using std::chrono::milliseconds;
+  using std::chrono::seconds;
+  cli::add_duration_option(&app, "--reply-margin", o.reply_margin,
+                           "Margin added to the manual's response time Tx (USB adapters add "
+                           "up to 16 ms)",
+                           {Duration::zero(), seconds(60)});
+  cli::add_renamed_duration_option(
+      &app, "--timeout", "--reply-margin", o.reply_margin, cli::BareNumber::Milliseconds,
+      {Duration::zero(), seconds(60)},
+      " as the reply margin (move, home, servo and follow take --timeout DURATION as their "
+      "deadline)");
   app.add_option("--retries", o.retries, "Retries of reads and absolute writes after a lost reply")
       ->capture_default_str()
       ->check(CLI::Range(0, 10));
@@ -70,19 +78,24 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
   app.add_flag("--rs485", o.rs485, "Kernel RS485 mode (TIOCSRS485): RTS on while sending");
   app.add_flag("--rs485-rts-after-send", o.rs485_rts_after_send,
                "RS485: RTS level after sending is 1");
-  app.add_option("--rs485-delay-before", o.rs485_delay_before_ms, "RS485: delay before send, ms")
-      ->check(CLI::Range(0, 1000));
-  app.add_option("--rs485-delay-after", o.rs485_delay_after_ms, "RS485: delay after send, ms")
-      ->check(CLI::Range(0, 1000));
+  const cli::DurationLimits rs485_delay{Duration::zero(), seconds(1), milliseconds(1)};
+  cli::add_duration_option(&app, "--rs485-delay-before", o.rs485_delay_before,
+                           "RS485: delay before send (whole ms)", rs485_delay,
+                           cli::BareNumber::Milliseconds);
+  cli::add_duration_option(&app, "--rs485-delay-after", o.rs485_delay_after,
+                           "RS485: delay after send (whole ms)", rs485_delay,
+                           cli::BareNumber::Milliseconds);
   app.add_flag("--echo", o.echo,
                "The adapter echoes what it sends (2-wire): verify and discard the echo");
   app.add_option("--silent-interval", o.silent_interval_k,
                  "The controller's silent interval setting k (Ts = k x 3.5 chars)")
       ->capture_default_str()
       ->check(CLI::Range(1, 100));
-  app.add_option("--delay-ms", o.delay_td_ms, "The controller's minimum communication delay Td, ms")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 1000));
+  cli::add_duration_option(&app, "--td", o.delay_td,
+                           "The controller's minimum communication delay Td",
+                           {Duration::zero(), seconds(1)});
+  cli::add_renamed_duration_option(&app, "--delay-ms", "--td", o.delay_td,
+                                   cli::BareNumber::Milliseconds, {Duration::zero(), seconds(1)});
   app.add_flag("--no-silence-wait", o.no_silence_wait,
                "Do not wait Ts of silence before each query (only for a --timing fast twin or TCP; "
                "never on RS485)");
@@ -106,7 +119,7 @@ int main(int argc, char** argv) {
   cli::add_line_commands(app, session);
   cli::add_demo_command(app, session);
   cli::add_step_commands(app, session);
-  cli::add_sim_command(app);
+  cli::add_sim_command(app, options);
   cli::add_serve_command(app, options);
   cli::add_follow_command(app, session);
   install_signal_handlers();

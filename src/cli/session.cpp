@@ -53,14 +53,14 @@ client::Client& Session::client(std::string_view default_port) {
   twin::PortOptions po;
   po.baud = options_.baud;
   po.silent_interval_k = options_.silent_interval_k;
-  po.delay_td = to_duration(FractionalMilliseconds(options_.delay_td_ms));
-  po.timeout_margin = to_duration(FractionalMilliseconds(options_.timeout_margin_ms));
+  po.delay_td = options_.delay_td;
+  po.timeout_margin = options_.reply_margin;
   po.wait_for_silence = !options_.no_silence_wait;
   po.discard_echo = options_.echo;
   po.rs485.enabled = options_.rs485;
   po.rs485.rts_after_send = options_.rs485_rts_after_send;
-  po.rs485.delay_before_send_ms = static_cast<uint32_t>(options_.rs485_delay_before_ms);
-  po.rs485.delay_after_send_ms = static_cast<uint32_t>(options_.rs485_delay_after_ms);
+  po.rs485.delay_before_send_ms = whole_ms(options_.rs485_delay_before);
+  po.rs485.delay_after_send_ms = whole_ms(options_.rs485_delay_after);
   if (options_.trace) po.trace = print_trace_event;
   // Ctrl-C ends every wait on the line at once (exit 130); stop requests still go out.
   po.interrupted = [] { return g_interrupted.load(); };

@@ -40,7 +40,10 @@ refused "id 0 (broadcast) read" "--id 0 is broadcast" "only writes can be broadc
 refused "id 0 (broadcast) move" "--id 0 is broadcast" -- lec --trace --id 0 move --to 10
 refused "id 256" "--id" "0 to 255" -- lec --trace --id 256 status
 refused "baud" "--baud" "38400" -- lec --trace --baud 12345 status
-refused "timeout" "--timeout" "0 to 60000" -- lec --trace --timeout -5 status
+refused "reply margin" "--reply-margin" "0s to 60s" -- lec --trace --reply-margin -5ms status
+refused "old timeout" "--timeout" "0s to 60s" -- lec --trace --timeout -5 status
+refused "duration unit" "--reply-margin" "no known unit" "500ms" -- lec --trace --reply-margin 5parsecs status
+refused "rs485 delay" "--rs485-delay-before" "whole multiple of 1ms" -- lec --trace --rs485-delay-before 0.5ms status
 refused "retries" "--retries" "0 to 10" -- lec --trace --retries 11 status
 refused "silent interval" "--silent-interval" "1 to 100" -- lec --trace --silent-interval 0 status
 refused "no command" "subcommand" -- lec --trace
@@ -51,7 +54,7 @@ refused "scan ids backwards" "--ids" "1-255" -- lec --trace scan --ids 5-2
 refused "bench n" "-n" "1 to" -- lec --trace bench -n 0
 refused "bench op" "--op" "read-state" -- lec --trace bench --op nope
 refused "ping interval" "--interval" "0" -- lec --trace ping -i -1
-refused "watch interval" "--interval" "0 to 60000" -- lec --trace watch --interval -1
+refused "watch interval" "--interval" "0s to 60s" -- lec --trace watch --interval -1
 refused "watch count" "--count" -- lec --trace watch --count 0
 refused "on/off" "serial" "on or off" -- lec --trace serial maybe
 refused "jog direction" "jog" "+ or -" -- lec --trace jog x

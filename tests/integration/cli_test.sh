@@ -80,7 +80,7 @@ expect_exit 2 "blank step" -- lec move --step 9
 contains "blank" "step 9 is blank"
 
 # Jog, hold, watch with a recording.
-expect_exit 0 "jog" -- lec jog + --for 0.4
+expect_exit 0 "jog" -- lec jog + --for 400ms
 contains "jog" "Jog stopped at"
 expect_exit 0 "hold on" -- lec hold on
 expect_exit 0 "hold off" -- lec hold off
@@ -89,8 +89,14 @@ expect_exit 0 "watch" -- lec watch --count 5 --record "$tmp/watch.csv"
 head -1 "$tmp/watch.csv" | grep -q "^time_s,position_mm" && ok || bad "watch.csv header"
 
 # Deadline: a slow move with a short deadline.
-expect_exit 6 "deadline" -- lec move --to 10 --speed 5 --timeout-s 0.3
+expect_exit 6 "deadline" -- lec move --to 10 --speed 5 --timeout 300ms
 expect_exit 0 "stop" -- lec stop
+# The old spelling still works, with a hint naming the new one.
+expect_exit 6 "deadline, old spelling" -- lec move --to 10 --speed 5 --timeout-s 0.3
+contains "deprecation hint" "--timeout-s 0.3 is deprecated; write --timeout 0.3s"
+expect_exit 0 "stop" -- lec stop
+expect_exit 2 "deadline without a unit" -- lec move --to 10 --timeout 30
+contains "needs a unit" "'30' needs a unit"
 
 # Ctrl-C during a waiting move stops the axis before exiting. --trace shows
 # when the move is under way: the first poll that reads BUSY = 1.

@@ -73,7 +73,7 @@ now_ms() { date +%s%3N; }
 for sig in TERM KILL; do
   start_twin "$tmp/pty"
   : >"$tmp/watch.out" # (emptied before the child starts, as in start_twin)
-  timeout 30 "$LEC" --port "$tmp/pty" watch --interval 20 >>"$tmp/watch.out" 2>"$tmp/watch.err" &
+  timeout 30 "$LEC" --port "$tmp/pty" watch --interval 20ms >>"$tmp/watch.out" 2>"$tmp/watch.err" &
   watch=$!
   wait_for 10 "lec watch's first sample" -- watch_polling "$tmp/watch.out" ||
     fail "lec watch printed no sample"
@@ -102,7 +102,7 @@ ok "missing port: exit 3: $(cat "$tmp/gone.err")"
 
 # ---- 3. the controller goes silent, the port stays ------------------------------------
 start_twin "$tmp/pty"
-timeout 30 "$LEC" --port "$tmp/pty" --retries 2 watch --interval 20 >"$tmp/silent.out" 2>"$tmp/silent.err" & # a new file
+timeout 30 "$LEC" --port "$tmp/pty" --retries 2 watch --interval 20ms >"$tmp/silent.out" 2>"$tmp/silent.err" & # a new file
 watch=$!
 wait_for 10 "lec watch's first sample" -- watch_polling "$tmp/silent.out" || fail "lec watch printed no sample"
 t0=$(now_ms)
@@ -172,7 +172,7 @@ EOF
 # Through the proxy: a margin of 300 ms over Tx instead of 50, as the Python
 # proxy adds its own latency; on a loaded machine it would otherwise turn
 # garbled replies into timeouts.
-proxied=(--timeout 300)
+proxied=(--reply-margin 300ms)
 
 start_proxy() {
   : >"$tmp/proxy.out"

@@ -15,7 +15,7 @@ writes_in() { grep -cE ' -> 01 (05|0F|10) ' <<<"$1" || true; }
 
 # ---- lec sim --help names the quirks and the profile --------------------------------
 expect_exit 0 "sim help" -- lec sim --help
-for want in "--busy-delay-ms" "--busy-min-ms" "--target-update-late" "--noise-rate" "--profile" \
+for want in "--busy-delay" "--busy-min" "--target-update-late" "--noise-rate" "--profile" \
   "profiles/field-quirks.yaml"; do
   contains "sim help: $want" "$want"
 done
@@ -126,7 +126,7 @@ contains "noisy line names the cause" "noise on the line"
 (($(now_ms) - t0 < 3000)) && ok || bad "noisy line took $(($(now_ms) - t0)) ms"
 
 # Ctrl-C ends the wait for silence at once, even with a minute of margin.
-"$LEC" --timeout 60000 status >"$tmp/quiet.out" 2>&1 &
+"$LEC" --reply-margin 60s status >"$tmp/quiet.out" 2>&1 &
 waiter=$!
 sleep 0.5
 t0=$(now_ms)

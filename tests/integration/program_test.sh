@@ -15,9 +15,9 @@ RC=0
 HELP=$(timeout 10 "$LEC" sim --help 2>&1) || RC=$?
 check "lec sim --help exits 0" [ "$RC" = 0 ]
 for want in "--ids LIST=1 " "--baud UINT:{9600,19200,38400,57600,115200,230400}=38400" \
-  "--timing TEXT:{real,fast}=real" "=1 " "--delay-ms FLOAT:FLOAT in [0 - 1000]=5" \
+  "--timing TEXT:{real,fast}=real" "=1 " "--td DURATION=5ms" \
   "--stroke MIN:MAX=0:400" "--max-speed MM/S:> 0=1000" "--initial-position MM=10" \
-  "--name TEXT=LEC6-TWIN" "--seed UINT=1" "--extra-delay-ms" "--drop-rate" "--state" \
+  "--name TEXT=LEC6-TWIN" "--seed UINT=1" "--extra-delay DURATION" "--drop-rate" "--state" \
   "--trace" "--pty" "--tcp" "--workpiece"; do
   check "help shows '$want'" grep -qF -- "$want" <<<"$HELP"
 done
@@ -42,7 +42,7 @@ bad_value --ids --pty "$TMP/bad" --ids 256
 bad_value --ids --pty "$TMP/bad" --ids 5-2
 bad_value --ids --pty "$TMP/bad" --ids 1,x
 bad_value --silent-interval --pty "$TMP/bad" --silent-interval 0
-bad_value --delay-ms --pty "$TMP/bad" --delay-ms -1
+bad_value --td --pty "$TMP/bad" --td -1ms
 bad_value --stroke --pty "$TMP/bad" --stroke 5:400
 bad_value --stroke --pty "$TMP/bad" --stroke 400
 bad_value --max-speed --pty "$TMP/bad" --max-speed 0
@@ -185,7 +185,8 @@ if start_twin timing --pty "$PORT"; then
   run_peer "real timing at 38400, k 1, Td 5 ms" pymodbus "$PORT" timing 38400 1 5 40 1.0 1.5
   stop_twin "$TWIN_PID"
 fi
-if start_twin timing2 --pty "$PORT" --baud 9600 --silent-interval 3 --delay-ms 12; then
+if start_twin timing2 --pty "$PORT" --baud 9600 --silent-interval 3 --td 12ms; then
+  check_sh "the ready line names Td: $READY" '[[ $READY == *", Td 12ms)" ]]'
   run_peer "real timing at 9600, k 3, Td 12 ms" pymodbus "$PORT" timing 9600 3 12 25 1.0 1.5
   stop_twin "$TWIN_PID"
 fi
@@ -194,6 +195,18 @@ if start_twin fast --pty "$PORT" --timing fast; then
   # Fast timing answers below the limit, which a real-timing reply never does.
   run_peer "fast timing: the best round trip under half the limit" \
     pymodbus "$PORT" timing 38400 1 5 40 0 0.5
+  stop_twin "$TWIN_PID"
+fi
+
+# The spellings from before durations had units still work, with a hint.
+if start_twin oldnames --pty "$PORT" --delay-ms 7 --busy-delay-ms 15 --busy-min-ms 60 \
+  --extra-delay-ms 2 --delay-rate 0; then
+  check_sh "old option names apply: $READY" \
+    '[[ $READY == *", Td 7ms, busy-delay 15ms, busy-min 60ms)" ]]'
+  check_sh "each old name gets a hint" \
+    '[[ $(grep -c "is deprecated; write --" "$TMP/oldnames.err") == 4 ]]'
+  check_sh "the hint names the new spelling" \
+    'grep -qF -- "--busy-delay-ms 15 is deprecated; write --busy-delay 15ms" "$TMP/oldnames.err"'
   stop_twin "$TWIN_PID"
 fi
 

@@ -13,7 +13,7 @@ slave_log=$(mktemp)
 slave=$!
 trap 'kill $slave 2>/dev/null || true; rm -f "$slave_log"' EXIT
 
-lec() { "$LEC" --port "rtu+tcp://127.0.0.1:$port" --timeout 200 "$@"; }
+lec() { "$LEC" --port "rtu+tcp://127.0.0.1:$port" --reply-margin 200ms "$@"; }
 # Wait (<= 10 s) for the slave to answer: it prints no ready line, so the
 # event is its first reply.
 answers() { lec name >/dev/null 2>&1; }

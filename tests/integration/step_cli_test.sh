@@ -100,7 +100,7 @@ counter_growth() {
 run() {
   local want=$1 got=0
   shift
-  "$LEC" --timeout 500 "$@" >"$WORK/out" 2>"$WORK/err" || got=$?
+  "$LEC" --reply-margin 500ms "$@" >"$WORK/out" 2>"$WORK/err" || got=$?
   OUT=$(cat "$WORK/out")
   ERR=$(cat "$WORK/err")
   if [[ $got != "$want" ]]; then

@@ -68,7 +68,8 @@ wait_bounded() {
 
 # start_twin NAME ARGS...: runs `$LEC sim ARGS...` with stdout into
 # $TMP/NAME.out and stderr into $TMP/NAME.err; waits for the ready line
-# (≤ 10 s). Sets TWIN_PID and READY (the line). Returns 1 if it never came.
+# (≤ 10 s). Sets TWIN_PID and READY (the line). If it never came: counts a
+# failure and returns 1.
 start_twin() {
   local name=$1
   shift
@@ -83,7 +84,8 @@ start_twin() {
   READY=""
   if ! IFS= read -r -t 10 -u "$fd" READY || [[ $READY != "lec sim: ready on "* ]]; then
     exec {fd}<&-
-    echo "twin '$name' did not get ready within 10 s; ready line: '$READY'; stderr:" >&2
+    # A failure, not a skip: the checks that needed this twin do not run.
+    fail "twin '$name' did not get ready within 10 s; ready line: '$READY'"
     cat "$TMP/$name.err" >&2
     return 1
   fi
