@@ -152,37 +152,80 @@ HttpRequestReader::Status HttpRequestReader::refuse(const boost::system::error_c
   return fail(400, parse_error_text(ec));
 }
 
+// Beast parses the start line on its first put, then waits for the end of
+// the header before it looks again, and counts its header limit from where
+// its last put stopped. Fed in pieces, a bad start line was refused at once
+// (505 for "HTTP/2.1"); fed whole with the header unfinished, the same bytes
+// ended "cut short" (fuzz finding http-505-or-cut-short). So Beast gets a
+// header in one piece, once it is whole within the limit; the limit, a lone
+// LF and the end of input are decided here. Then the answer depends on the
+// bytes only, never on how the network cut them.
+HttpRequestReader::HeaderCut HttpRequestReader::header_cut() const {
+  const std::string_view head =
+      std::string_view(buffer_).substr(0, std::min(buffer_.size(), limits_.header_bytes));
+  const auto eom = head.find("\r\n\r\n");
+  const std::string_view header = eom == std::string_view::npos ? head : head.substr(0, eom + 4);
+  for (auto nl = header.find('\n'); nl != std::string_view::npos; nl = header.find('\n', nl + 1)) {
+    if (nl == 0 || header[nl - 1] != '\r') return HeaderCut::LoneLf;
+  }
+  if (eom != std::string_view::npos) return HeaderCut::Whole;
+  return buffer_.size() >= limits_.header_bytes ? HeaderCut::OverLimit : HeaderCut::Incomplete;
+}
+
+// What Beast leaves to us once a header is parsed: the version, Host, the
+// target's form, and whether the client waits for a 100 Continue (not if
+// body bytes came with the header).
+HttpRequestReader::Status HttpRequestReader::check_header() {
+  auto& p = parser_->p;
+  const auto& m = p.get();
+  if (m.version() != 10 && m.version() != 11) {
+    return fail(505, "HTTP/" + std::to_string(m.version() / 10) + "." +
+                         std::to_string(m.version() % 10) +
+                         " is not supported (lec serve speaks HTTP/1.0 and 1.1)");
+  }
+  if (m.version() == 11 && m.find(http::field::host) == m.end())
+    return fail(400, "an HTTP/1.1 request needs a Host field");
+  parser_->target = split_target(std::string_view(m.target().data(), m.target().size()));
+  if (!parser_->target) return fail(400, "the request target is not a path, or has a bad %-escape");
+  const auto expect = m.find(http::field::expect);
+  if (expect != m.end() && m.version() == 11 && !p.is_done() && buffer_.empty() &&
+      !continue_sent_ &&
+      iequals(std::string_view(expect->value().data(), expect->value().size()), "100-continue"))
+    continue_pending_ = true;
+  return status_;
+}
+
 HttpRequestReader::Status HttpRequestReader::feed(std::string_view bytes) {
   buffer_.append(bytes);
   if (status_ != Status::NeedMore) return status_;
   auto& p = parser_->p;
+  if (!p.got_some()) {
+    switch (header_cut()) {
+      case HeaderCut::Incomplete:
+        return status_;
+      case HeaderCut::LoneLf:
+        return fail(400, parse_error_text(http::error::bad_line_ending));
+      case HeaderCut::OverLimit:
+        return refuse_header_limit();
+      case HeaderCut::Whole:
+        break;
+    }
+  }
   while (!p.is_done() && !buffer_.empty()) {
     const bool had_header = p.is_header_done();
     boost::system::error_code ec;
-    const std::size_t used = p.put(boost::asio::buffer(buffer_.data(), buffer_.size()), ec);
+    // The header alone first: with the body in the same put Beast would merge
+    // a chunked body's trailer fields into the header before we check it.
+    const std::size_t eom = had_header ? std::string::npos : buffer_.find("\r\n\r\n");
+    const std::size_t n = eom == std::string::npos ? buffer_.size() : eom + 4;
+    const std::size_t used = p.put(boost::asio::buffer(buffer_.data(), n), ec);
     if (!p.is_header_done()) header_seen_.append(buffer_, 0, used);
     buffer_.erase(0, used);
+    if (!had_header && p.is_header_done() && check_header() == Status::Error) return status_;
     if (ec == http::error::header_limit) return refuse_header_limit();
     if (ec == http::error::body_limit)
       return fail(413, "the request's body is larger than " + size_text(limits_.body_bytes));
     if (ec && ec != http::error::need_more) return refuse(ec, header_seen_ + buffer_);
-    if (!had_header && p.is_header_done()) {
-      const auto& m = p.get();
-      if (m.version() != 10 && m.version() != 11) {
-        return fail(505, "HTTP/" + std::to_string(m.version() / 10) + "." +
-                             std::to_string(m.version() % 10) +
-                             " is not supported (lec serve speaks HTTP/1.0 and 1.1)");
-      }
-      if (m.version() == 11 && m.find(http::field::host) == m.end())
-        return fail(400, "an HTTP/1.1 request needs a Host field");
-      parser_->target = split_target(std::string_view(m.target().data(), m.target().size()));
-      if (!parser_->target)
-        return fail(400, "the request target is not a path, or has a bad %-escape");
-      const auto expect = m.find(http::field::expect);
-      if (expect != m.end() && m.version() == 11 && !p.is_done() && !continue_sent_ &&
-          iequals(std::string_view(expect->value().data(), expect->value().size()), "100-continue"))
-        continue_pending_ = true;
-    }
     if (ec == http::error::need_more || used == 0) break;
   }
   if (p.is_done()) status_ = Status::Complete;
@@ -191,8 +234,15 @@ HttpRequestReader::Status HttpRequestReader::feed(std::string_view bytes) {
 
 HttpRequestReader::Status HttpRequestReader::end_of_input() {
   if (status_ != Status::NeedMore || !in_request()) return status_;
-  // Bytes still buffered are an unfinished header or body.
+  // A header never handed to Beast gets its one parse now: a bad start line
+  // is refused as such, as it would be fed in any other cut.
   boost::system::error_code ec;
+  if (!parser_->p.got_some() && !buffer_.empty()) {
+    parser_->p.put(boost::asio::buffer(buffer_.data(), buffer_.size()), ec);
+    if (ec && ec != http::error::need_more && ec != http::error::header_limit)
+      return refuse(ec, buffer_);
+  }
+  // Bytes still buffered are an unfinished header or body.
   parser_->p.put_eof(ec);
   if (ec || !buffer_.empty() || !parser_->p.is_done())
     return fail(400, "the request was cut short");

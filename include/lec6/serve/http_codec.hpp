@@ -73,6 +73,9 @@ class HttpRequestReader {
   void restart();
   Status refuse(const boost::system::error_code& ec, std::string_view request);
   Status refuse_header_limit();
+  enum class HeaderCut { Incomplete, Whole, OverLimit, LoneLf };
+  HeaderCut header_cut() const;
+  Status check_header();
   Status fail(int status, std::string reason);
 
   HttpLimits limits_;
