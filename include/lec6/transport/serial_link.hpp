@@ -4,8 +4,9 @@
 //
 // Why our own code and not a portable serial library: we need the Linux RS485
 // ioctls (TIOCSRS485: kernel-driven transmit enable), exact timing (write
-// returns only after tcdrain, reads wait with poll() on a deadline, no polling
-// loops or hidden read timeouts), local-echo control for 2-wire adapters, and
+// returns only after tcdrain, reads wait with poll() on a deadline, no hidden
+// read timeouts; only read_some_exact polls, for its last
+// spin_before_deadline), local-echo control for 2-wire adapters, and
 // the low-latency / USB latency_timer knobs. Portable libraries hide or lack
 // all of these.
 //
