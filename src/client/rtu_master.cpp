@@ -65,7 +65,10 @@ void RtuMaster::wait_for_silence(bool interruptible) {
                       to_ms(quiet), to_ms(give_up - began)));
     }
     check_interrupt(interruptible, "waiting for the line to fall silent; nothing was sent");
-    const std::size_t n = read_some(sink, std::min(quiet_at, give_up), interruptible);
+    // The end of Ts is an instant to keep (every late microsecond is lost
+    // line time, issue 12); the give-up bound is not.
+    const std::size_t n =
+        read_some(sink, std::min(quiet_at, give_up), interruptible, quiet_at <= give_up);
     if (n > 0) {
       stats_.bytes_discarded += n;
       line_busy_until_ = link_.clock().now();
@@ -80,10 +83,13 @@ void RtuMaster::check_interrupt(bool interruptible, std::string_view during) {
   }
 }
 
-std::size_t RtuMaster::read_some(std::span<uint8_t> buffer, TimePoint deadline,
-                                 bool interruptible) {
-  if (interruptible) deadline = std::min(deadline, link_.clock().now() + kInterruptCheck);
-  return link_.read_some(buffer, deadline);
+std::size_t RtuMaster::read_some(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible,
+                                 bool exact) {
+  if (interruptible) {
+    const TimePoint check = link_.clock().now() + kInterruptCheck;
+    if (check < deadline) deadline = check, exact = false;  // only a check, not the instant
+  }
+  return exact ? link_.read_some_exact(buffer, deadline) : link_.read_some(buffer, deadline);
 }
 
 void RtuMaster::idle_until(TimePoint t) {

@@ -312,6 +312,19 @@ std::size_t SerialLink::read_some(std::span<uint8_t> buffer, TimePoint deadline)
   }
 }
 
+std::size_t SerialLink::read_some_exact(std::span<uint8_t> buffer, TimePoint deadline) {
+  const TimePoint wake = deadline - options_.spin_before_deadline;
+  if (clock_.now() < wake) {
+    if (const std::size_t n = read_some(buffer, wake); n > 0) return n;
+  }
+  // The last stretch: a zero-timeout poll per turn (read_some with a
+  // deadline already past checks the descriptor once), until the deadline.
+  for (;;) {
+    const bool last = clock_.now() >= deadline;
+    if (const std::size_t n = read_some(buffer, TimePoint{}); n > 0 || last) return n;
+  }
+}
+
 void SerialLink::discard_input() {
   if (::tcflush(fd_.get(), TCIFLUSH) != 0) fail("tcflush", errno);
 }

@@ -106,6 +106,43 @@ TEST(Silence, IdleUntilListensToTheLine) {
   EXPECT_GT(f.client->stats().bytes_discarded, 100u);
 }
 
+// Passes everything to the twin's link and notes the waits that asked to end
+// at an exact instant (Link::read_some_exact).
+class ExactWaits final : public Link {
+ public:
+  explicit ExactWaits(Link& inner) : inner_(inner) {}
+  void write(std::span<const uint8_t> bytes) override { inner_.write(bytes); }
+  std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline) override {
+    return inner_.read_some(buffer, deadline);
+  }
+  std::size_t read_some_exact(std::span<uint8_t> buffer, TimePoint deadline) override {
+    exact.push_back(deadline);
+    return inner_.read_some(buffer, deadline);
+  }
+  void discard_input() override { inner_.discard_input(); }
+  const Clock& clock() const override { return inner_.clock(); }
+  uint32_t baud() const override { return inner_.baud(); }
+  std::string describe() const override { return inner_.describe(); }
+
+  std::vector<TimePoint> exact;
+
+ private:
+  Link& inner_;
+};
+
+TEST(Silence, TheEndOfTsIsWaitedForExactlyAndTheReplyIsNot) {
+  SimFixture f;
+  ExactWaits link(*f.link);
+  RtuMaster master(link);
+  const modbus::RequestFrame read{1, modbus::ReadRegistersRequest{0x9000, 7}};
+  master.exchange(read);  // the first query listens for Ts too
+  ASSERT_EQ(link.exact.size(), 1u);
+  const TimePoint reply_done = f.clock.now();
+  master.exchange(read);
+  ASSERT_EQ(link.exact.size(), 2u);  // one per query: none while awaiting the reply
+  EXPECT_EQ(link.exact[1], reply_done + master.line_timing().silent_interval());
+}
+
 TEST(Broadcast, AReadToIdZeroIsRefusedUnsent) {
   SimFixture f;
   f.client->set_id(0);

@@ -180,6 +180,40 @@ TEST(SerialLink, ReadSomeReturnsAsSoonAsBytesArriveWithoutWaitingForMore) {
   EXPECT_LT(kClock.now(), deadline - 9s);
 }
 
+TEST(SerialLink, ReadSomeExactReturnsZeroOnlyOnceTheDeadlineHasPassed) {
+  Pty pty;
+  SerialLink link(pty.slave_path());  // sleeps, then polls the last 200 µs
+  uint8_t buffer[16];
+  const TimePoint deadline = from_now(30ms);
+  EXPECT_EQ(link.read_some_exact(buffer, deadline), 0u);
+  EXPECT_GE(link.clock().now(), deadline);
+}
+
+TEST(SerialLink, ReadSomeExactReturnsBytesThatArriveWhilePolling) {
+  Pty pty;
+  SerialOptions o;
+  o.spin_before_deadline = 10s;  // the whole wait is the polling stretch
+  SerialLink link(pty.slave_path(), o);
+  write_fd(pty.master_fd(), Bytes{0x01, 0x03});
+  uint8_t buffer[64];
+  const TimePoint deadline = from_now(10s);
+  EXPECT_EQ(link.read_some_exact(buffer, deadline), 2u);
+  EXPECT_LT(kClock.now(), deadline - 9s);
+}
+
+TEST(SerialLink, ReadSomeExactWithoutSpinIsReadSome) {
+  Pty pty;
+  SerialOptions o;
+  o.spin_before_deadline = Duration::zero();
+  SerialLink link(pty.slave_path(), o);
+  uint8_t buffer[16];
+  const TimePoint deadline = from_now(20ms);
+  EXPECT_EQ(link.read_some_exact(buffer, deadline), 0u);
+  EXPECT_GE(link.clock().now(), deadline);
+  write_fd(pty.master_fd(), Bytes{0x05});
+  EXPECT_EQ(link.read_some_exact(buffer, from_now(10s)), 1u);
+}
+
 TEST(SerialLink, DiscardInputDropsStaleBytes) {
   Pty pty;
   SerialLink link(pty.slave_path());

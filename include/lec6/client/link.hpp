@@ -46,6 +46,14 @@ class Link {
   // Returns 0 on timeout. Throws LinkError.
   virtual std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline) = 0;
 
+  // read_some for a deadline that is an instant to keep, not a bound (the
+  // end of the silent interval before a query): a link whose timers wake
+  // late may sleep until shortly before it and poll the rest without
+  // sleeping. Same contract as read_some otherwise.
+  virtual std::size_t read_some_exact(std::span<uint8_t> buffer, TimePoint deadline) {
+    return read_some(buffer, deadline);
+  }
+
   // Drops whatever input is buffered (stale bytes from an earlier transaction).
   virtual void discard_input() = 0;
 

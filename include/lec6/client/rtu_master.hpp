@@ -53,8 +53,10 @@ class RtuMaster final : public Master {
 
  private:
   void wait_for_silence(bool interruptible);
-  // read_some with the deadline cut to the next interrupt check.
-  std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible);
+  // read_some with the deadline cut to the next interrupt check; `exact`:
+  // the deadline is an instant to keep (Link::read_some_exact).
+  std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible,
+                        bool exact = false);
   void check_interrupt(bool interruptible, std::string_view during);
   void trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
              const modbus::RequestFrame& request, const modbus::ResponseFrame* response);

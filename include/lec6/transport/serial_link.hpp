@@ -4,8 +4,9 @@
 //
 // Why our own code and not a portable serial library: we need the Linux RS485
 // ioctls (TIOCSRS485: kernel-driven transmit enable), exact timing (write
-// returns only after tcdrain, reads wait with poll() on a deadline, no polling
-// loops or hidden read timeouts), local-echo control for 2-wire adapters, and
+// returns only after tcdrain, reads wait with poll() on a deadline, no hidden
+// read timeouts; only read_some_exact polls, for its last
+// spin_before_deadline), local-echo control for 2-wire adapters, and
 // the low-latency / USB latency_timer knobs. Portable libraries hide or lack
 // all of these.
 //
@@ -53,6 +54,12 @@ struct SerialOptions {
   // Refuse other openers while we hold the port (TIOCEXCL plus an flock, which
   // also holds against root). Released on close.
   bool exclusive = true;
+  // Timer wake-ups come tens of microseconds late (hundreds on a busy VM,
+  // even with 1 ns timer slack). read_some_exact() sleeps until this much
+  // before its deadline and polls the descriptor without sleeping for the
+  // rest, so the wait for Ts before a query ends at its instant. Zero:
+  // sleep only. Costs at most this much CPU per query.
+  Duration spin_before_deadline = std::chrono::microseconds(200);
   // Root of sysfs, for the USB latency_timer check (tests point it elsewhere).
   std::filesystem::path sysfs_root = "/sys";
 };
@@ -78,6 +85,7 @@ class SerialLink final : public client::Link {
 
   void write(std::span<const uint8_t> bytes) override;
   std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline) override;
+  std::size_t read_some_exact(std::span<uint8_t> buffer, TimePoint deadline) override;
   void discard_input() override;
   const Clock& clock() const override { return clock_; }
   uint32_t baud() const override { return options_.baud; }
