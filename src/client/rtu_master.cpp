@@ -65,7 +65,10 @@ void RtuMaster::wait_for_silence(bool interruptible) {
                       to_ms(quiet), to_ms(give_up - began)));
     }
     check_interrupt(interruptible, "waiting for the line to fall silent; nothing was sent");
-    const std::size_t n = read_some(sink, std::min(quiet_at, give_up), interruptible);
+    // Sleep until the spin begins, then poll with no timeout (spin_before_send).
+    const TimePoint wake = quiet_at - options_.spin_before_send;
+    const TimePoint until = now < wake ? wake : now;
+    const std::size_t n = read_some(sink, std::min(until, give_up), interruptible);
     if (n > 0) {
       stats_.bytes_discarded += n;
       line_busy_until_ = link_.clock().now();

@@ -23,6 +23,12 @@ struct RtuOptions {
   // peers that frame by length (a `--timing fast` twin, software benchmarks),
   // where it would measure the line rule rather than the software.
   bool wait_for_silence = true;
+  // The last stretch of that wait is spent polling the line without sleeping:
+  // a timer wakes tens of microseconds late (hundreds on a loaded machine),
+  // and on a saturated line every microsecond of it is lost line time. Costs
+  // this much CPU per query; zero: sleep only. Only for links on the wall
+  // clock (the poll must see time pass).
+  Duration spin_before_send{};
   TraceSink trace{};  // every frame, when set
   // Ctrl-C: when set and true, the waits of an exchange (the silence before
   // it, the reply after it) end at once with Cancelled, checked at least
