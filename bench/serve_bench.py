@@ -81,6 +81,12 @@ def metric(http, name):
     raise KeyError(name)
 
 
+def metric_sum(http, name):
+    """The sum over every device of a per-device counter."""
+    text = urllib.request.urlopen(http + "/metrics").read().decode()
+    return sum(float(line.rsplit(" ", 1)[1]) for line in text.splitlines() if line.startswith(name + "{"))
+
+
 def post(http, path, body):
     req = urllib.request.Request(http + path, data=json.dumps(body).encode(), method="POST")
     try:
@@ -164,7 +170,10 @@ def mixed_load(tmp):
         mover = threading.Thread(target=moves)
         mover.start()
         echo = struct.pack(">BHH", 8, 0, 0x1234)
+        faults = [metric_sum(http, f"lec6_device_{k}_total") for k in ("timeouts", "crc_errors", "framing_errors")]
         poll_clients(mb, 3, 12, echo)  # the window of /metrics is 10 s
+        faults = [metric_sum(http, f"lec6_device_{k}_total") - f for k, f in
+                  zip(("timeouts", "crc_errors", "framing_errors"), faults)]
         util = metric(http, "lec6_line_utilisation_ratio")
         busy = metric(http, "lec6_line_busy_ratio")
         tps = metric(http, "lec6_line_transactions_per_second")
@@ -173,7 +182,10 @@ def mixed_load(tmp):
     finally:
         stop(serve)
         stop(twin)
-    return {"utilisation": util, "busy": busy, "transactions_per_s": tps}
+    # Line faults in the window (timeouts, CRC, framing): a run with any is a
+    # run where the guest stalled the twin or the daemon past the reply margin.
+    return {"utilisation": util, "busy": busy, "transactions_per_s": tps,
+            "timeouts": faults[0], "crc_errors": faults[1], "framing_errors": faults[2]}
 
 
 def fifty_clients(tmp):
