@@ -84,9 +84,11 @@ set -e
 grep -q "before the target 380.00 mm" "$tmp/mover.out" && ok || bad "stopped message: $(cat "$tmp/mover.out")"
 
 # Ctrl-C during a move: the axis is stopped, exit 130, the JSON carries the outcome.
-"$LEC" move --to 10 --speed 20 --json >"$tmp/int.out" 2>&1 &
+# --trace (on stderr) shows when the move is under way: the first poll with BUSY = 1.
+"$LEC" --trace move --to 10 --speed 20 --json >"$tmp/int.out" 2>"$tmp/int.err" &
 mover=$!
-sleep 0.6
+moving() { grep -q "X40–X4F: BUSY" "$tmp/int.err"; }
+wait_for 10 "the move to be under way (BUSY = 1)" -- moving || bad "the move did not start: $(tail -n 5 "$tmp/int.err")"
 kill -INT $mover
 set +e
 wait $mover
