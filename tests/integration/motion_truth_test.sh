@@ -130,7 +130,13 @@ contains "noisy line names the cause" "noise on the line"
 # Ctrl-C ends the wait for silence at once, even with a minute of margin.
 "$LEC" --reply-margin 60s status >"$tmp/quiet.out" 2>&1 &
 waiter=$!
-sleep 0.5
+# Signalled once it holds the port (it then waits for silence, forever on this
+# line), never before its handler is in place: a background job of a script
+# starts with SIGINT ignored, so an early signal would be lost.
+holds_port() {
+  ls -l "/proc/$waiter/fd" 2>/dev/null | grep -qF -- "-> $(readlink -f "$LEC_PORT")"
+}
+wait_for 10 "lec to open the noisy port" -- holds_port || bad "lec did not open the port: $(cat "$tmp/quiet.out")"
 t0=$(now_ms)
 kill -INT $waiter
 set +e
