@@ -39,6 +39,11 @@ std::string_view bare_suffix(BareNumber bare) {
   return bare == BareNumber::Seconds ? "s" : "ms";
 }
 
+// How the old spelling reads in the new syntax: "5" → "5s".
+std::string in_unit(const std::string& text, BareNumber bare) {
+  return text + std::string(bare_suffix(bare));
+}
+
 void check_limits(const std::string& name, const std::string& text, Duration d,
                   const DurationLimits& limits) {
   if (d < limits.min || d > limits.max) {
@@ -108,17 +113,17 @@ CLI::Option* add_duration_option(CLI::App* app, const std::string& name, Duratio
       throw CLI::ValidationError(name, e.what());
     }
     // A bare 0 is the same in every unit, so it needs none.
-    if (!t.had_unit && t.number != 0.0) {
-      if (bare == BareNumber::Refused) {
-        throw CLI::ValidationError(name, fmt::format("'{}' needs a unit: {}", text, kForms));
-      }
-      t.value = to_duration(t.number * bare_unit(bare));
-      const std::string typed = text + std::string(bare_suffix(bare));
-      check_limits(name, typed, t.value, limits);
+    const bool old_spelling = !t.had_unit && t.number != 0.0;
+    if (old_spelling && bare == BareNumber::Refused) {
+      throw CLI::ValidationError(name, fmt::format("'{}' needs a unit: {}", text, kForms));
+    }
+    const std::string typed = old_spelling ? in_unit(text, bare) : text;
+    if (old_spelling) t.value = to_duration(t.number * bare_unit(bare));
+    check_limits(name, typed, t.value, limits);
+    if (old_spelling) {
       warn_deprecated(fmt::format("'{} {}' (a number without a unit)", name, text),
                       fmt::format("{} {}", name, typed), "");
     }
-    check_limits(name, text, t.value, limits);
     out = t.value;
   };
   return app->add_option_function<std::string>(name, parse, help)
@@ -138,7 +143,7 @@ CLI::Option* add_renamed_duration_option(CLI::App* app, const std::string& old_n
           old_name, fmt::format("{} ({} is deprecated: use {})", e.what(), old_name, new_name));
     }
     // The old option took a number in `unit`; a unit given anyway is honoured.
-    const std::string typed = t.had_unit ? text : text + std::string(bare_suffix(unit));
+    const std::string typed = t.had_unit ? text : in_unit(text, unit);
     const Duration d = t.had_unit ? t.value : to_duration(t.number * bare_unit(unit));
     check_limits(old_name, typed, d, limits);
     warn_deprecated(fmt::format("{} {}", old_name, text), fmt::format("{} {}", new_name, typed),
