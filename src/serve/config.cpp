@@ -84,7 +84,7 @@ LineConfig read_line(const Reader& r, const YAML::Node& n, const std::string& pa
   r.keys(n, path,
          {"name", "port", "baud", "silent_interval", "delay_ms", "timeout_margin_ms", "retries",
           "echo", "silence_wait", "rs485", "sim", "axes", "cache_max_age_ms", "offline_after",
-          "probe_interval_ms", "allow_broadcast", "modbus_tcp", "rtu_tcp"});
+          "probe_interval_ms", "poll_max_wait_ms", "allow_broadcast", "modbus_tcp", "rtu_tcp"});
   LineConfig l;
   if (!n["port"])
     r.fail(n, path, "every line needs a port: /dev/ttyUSB0, sim, or rtu+tcp://host:port");
@@ -127,6 +127,7 @@ LineConfig read_line(const Reader& r, const YAML::Node& n, const std::string& pa
       r.integer(n["offline_after"], path + ".offline_after", 3, 1, 100, "1 to 100"));
   l.probe_interval_ms =
       r.number(n["probe_interval_ms"], path + ".probe_interval_ms", 2000, 10, 3.6e6);
+  l.poll_max_wait_ms = r.number(n["poll_max_wait_ms"], path + ".poll_max_wait_ms", 100, 0, 60000);
   l.allow_broadcast = r.get<bool>(n["allow_broadcast"], path + ".allow_broadcast", false);
   read_listener(r, n["modbus_tcp"], path + ".modbus_tcp", l.modbus_tcp, 1502);
   read_listener(r, n["rtu_tcp"], path + ".rtu_tcp", l.rtu_tcp, 1503);

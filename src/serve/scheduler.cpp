@@ -35,15 +35,6 @@ ExchangeResult result_of(TransportErrorKind k) {
   }
 }
 
-// A read the scheduler makes itself (telemetry, probes, alarm history): no
-// client waits for it.
-Job internal_read(Priority p, uint8_t id, Block b) {
-  Job j;
-  j.priority = p;
-  j.frame = {id, block_request(b)};
-  return j;
-}
-
 bool is_line_fault(TransportErrorKind k) {
   return k == TransportErrorKind::Timeout || k == TransportErrorKind::Crc ||
          k == TransportErrorKind::Framing || k == TransportErrorKind::EchoMismatch ||
@@ -51,6 +42,13 @@ bool is_line_fault(TransportErrorKind k) {
 }
 
 }  // namespace
+
+Job Scheduler::internal_read(Priority p, uint8_t id, Block b) {
+  Job j;
+  j.priority = p;
+  j.frame = {id, block_request(b)};
+  return j;
+}
 
 std::string_view failure_name(Failure f) noexcept {
   switch (f) {
@@ -155,96 +153,6 @@ bool Scheduler::cancel(JobId id, TimePoint now) {
     return true;
   }
   return false;
-}
-
-std::optional<Dispatch> Scheduler::dispatch(Queued q, bool internal, TimePoint) {
-  Dispatch d{q.id, q.job.frame, q.job.priority};
-  flight_ = Flight{q.id, std::move(q.job), q.submitted, internal};
-  return d;
-}
-
-std::optional<Dispatch> Scheduler::next(TimePoint now) {
-  if (flight_ || !line_down_.empty() || shutting_down_) return std::nullopt;
-  for (Priority p :
-       {Priority::Emergency, Priority::Command, Priority::Completion, Priority::Telemetry}) {
-    auto& q = queues_[index(p)];
-    if (q.empty()) continue;
-    Queued front = std::move(q.front());
-    q.pop_front();
-    return dispatch(std::move(front), false, now);
-  }
-  // Background reads age: one that waited long enough goes before telemetry,
-  // so a line saturated by telemetry still reads its alarm histories.
-  auto& background = queues_[index(Priority::Background)];
-  const bool aged =
-      !background.empty() && now - background.front().submitted >= config_.background_max_wait;
-  if (!aged) {
-    if (auto d = next_telemetry(now)) return d;
-  }
-  while (!background.empty()) {
-    Queued front = std::move(background.front());
-    background.pop_front();
-    const auto h = health_.find(front.job.frame.id);
-    const bool internal = !front.job.done;
-    if (internal && h != health_.end() && h->second.offline) continue;  // skip, not a probe
-    return dispatch(std::move(front), internal, now);
-  }
-  return std::nullopt;
-}
-
-void Scheduler::start_pass(Telemetry& t, TimePoint now) {
-  t.pass.clear();
-  const uint8_t id = t.schedule.id;
-  if (health_[id].offline) {
-    t.pass.push_back(Block::Flags);  // the probe: one short read
-    return;
-  }
-  // Blocks another client read recently are fresh enough: skip them.
-  const Duration fresh = t.schedule.telemetry_period / 2;
-  for (Block b : {Block::Flags, Block::State}) {
-    const auto age = cache_.age(id, b, now);
-    if (!age || *age >= fresh) t.pass.push_back(b);
-  }
-  const auto controls_age = cache_.age(id, Block::Controls, now);
-  if (!controls_age || *controls_age >= config_.controls_period) t.pass.push_back(Block::Controls);
-}
-
-std::optional<Dispatch> Scheduler::next_telemetry(TimePoint now) {
-  Telemetry* pick = nullptr;
-  TimePoint pick_at = TimePoint::max();
-  for (auto& [id, t] : telemetry_) {
-    const DeviceHealth& h = health_[id];
-    if (t.schedule.telemetry_period <= Duration{} && !h.offline) continue;
-    if (!t.pass.empty()) {  // a pass under way goes on first
-      pick = &t;
-      break;
-    }
-    const TimePoint at = h.offline ? h.next_probe : t.due;
-    if (at <= now && at < pick_at) pick = &t, pick_at = at;
-  }
-  if (!pick) return std::nullopt;
-  if (pick->pass.empty()) start_pass(*pick, now);
-  if (pick->pass.empty()) {  // everything fresh: this period's sample is the cache's
-    pick->due += pick->schedule.telemetry_period;
-    return next_telemetry(now);
-  }
-  const Block b = pick->pass.front();
-  pick->pass.erase(pick->pass.begin());
-  const TimePoint submitted = health_[pick->schedule.id].offline ? now : std::min(pick->due, now);
-  return dispatch(Queued{0, internal_read(Priority::Telemetry, pick->schedule.id, b), submitted},
-                  true, now);
-}
-
-std::optional<TimePoint> Scheduler::wake_at() const {
-  std::optional<TimePoint> at;
-  for (const auto& [id, t] : telemetry_) {
-    const auto h = health_.find(id);
-    const bool offline = h != health_.end() && h->second.offline;
-    if (t.schedule.telemetry_period <= Duration{} && !offline) continue;
-    const TimePoint due = offline ? h->second.next_probe : t.due;
-    if (!at || due < *at) at = due;
-  }
-  return at;
 }
 
 void Scheduler::record(const Flight& f, TimePoint start, TimePoint end, ExchangeResult r) {

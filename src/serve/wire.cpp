@@ -96,6 +96,7 @@ SchedulerConfig scheduler_config(const LineConfig& line) {
   }
   s.offline_after = line.offline_after;
   s.probe_interval = to_duration(FractionalMilliseconds(line.probe_interval_ms));
+  s.poll_max_wait = to_duration(FractionalMilliseconds(line.poll_max_wait_ms));
   s.timing.baud = line.baud;
   s.timing.silent_interval_k = line.silent_interval;
   s.timing.delay_td = to_duration(FractionalMilliseconds(line.delay_ms));

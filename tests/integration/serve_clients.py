@@ -3,6 +3,9 @@
 
     serve_clients.py pymodbus-steps PORT UNIT   write a step with Debian's pymodbus, read it back
     serve_clients.py poll PORT CLIENTS SECONDS  CLIENTS connections polling D9000x7 of units 1-4
+    serve_clients.py echo PORT CLIENTS SECONDS UNIT
+                                                CLIENTS connections sending FC08 to UNIT back to
+                                                back (they fill the line); "ready", then JSON
     serve_clients.py bad-mbap PORT              a broken MBAP frame closes that connection only
     serve_clients.py pipeline PORT N            N writes pipelined on one connection, answers by tid
     serve_clients.py hold PORT N                N reads sent, then wait to be killed (SIGKILL test)
@@ -67,30 +70,41 @@ def pymodbus_steps(port, unit):
     return 0
 
 
-def poll(port, clients, seconds):
+def poll(port, clients, seconds, pdu=read_regs_pdu(*STATE), expect=b"\x03\x0e", unit_of=None,
+         ready=None):
+    """CLIENTS connections sending `pdu` back to back for SECONDS; an answer
+    counts when it starts with `expect`. `ready` (a barrier) is met once every
+    client has its first answer."""
     counts = [0] * clients
     errors = [0] * clients
     bad = [0] * clients
+    unit_of = unit_of or (lambda i: 1 + i % 4)
 
     def run(i):
-        unit = 1 + i % 4
+        unit = unit_of(i)
         try:
             s = connect(port)
-            end = time.monotonic() + seconds
+            end = None
             tid = 0
-            while time.monotonic() < end:
+            while end is None or time.monotonic() < end:
                 tid = (tid + 1) & 0xFFFF
-                s.sendall(mbap(tid, unit, read_regs_pdu(*STATE)))
-                rtid, runit, pdu = recv_adu(s)
+                s.sendall(mbap(tid, unit, pdu))
+                rtid, runit, answer = recv_adu(s)
                 if rtid != tid or runit != unit:
                     bad[i] += 1
-                elif pdu[0] == 3 and pdu[1] == 14:
+                elif answer.startswith(expect):
                     counts[i] += 1
                 else:
                     errors[i] += 1
+                if end is None:
+                    if ready:
+                        ready.wait()
+                    end = time.monotonic() + seconds
             s.close()
         except Exception:
             errors[i] += 1
+            if ready:
+                ready.abort()
 
     threads = [threading.Thread(target=run, args=(i,)) for i in range(clients)]
     for t in threads:
@@ -99,6 +113,22 @@ def poll(port, clients, seconds):
         t.join()
     print(json.dumps({"min_answers": min(counts), "total": sum(counts),
                       "errors": sum(errors), "mismatched": sum(bad)}))
+    return 0
+
+
+def echo(port, clients, seconds, unit):
+    """CLIENTS connections sending FC08 (never cached) to UNIT back to back:
+    they fill the line. Prints "ready" once each has its first answer."""
+    pdu = struct.pack(">BHH", 8, 0, 0x1234)
+    ready = threading.Barrier(clients + 1)
+    done = threading.Thread(target=poll, args=(port, clients, seconds, pdu, pdu, lambda i: unit, ready))
+    done.start()
+    try:
+        ready.wait(timeout=30)
+        print("ready", flush=True)
+    except threading.BrokenBarrierError:
+        print("not ready", flush=True)
+    done.join()
     return 0
 
 
@@ -154,6 +184,8 @@ def main():
         return pymodbus_steps(port, int(sys.argv[3]))
     if what == "poll":
         return poll(port, int(sys.argv[3]), float(sys.argv[4]))
+    if what == "echo":
+        return echo(port, int(sys.argv[3]), float(sys.argv[4]), int(sys.argv[5]))
     if what == "bad-mbap":
         return bad_mbap(port)
     if what == "pipeline":

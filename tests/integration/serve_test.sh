@@ -109,13 +109,42 @@ check "curl: the HTTP move of axis4 reached 75.50 mm: $last" \
 check "the step pymodbus wrote reads back through lec" \
   grep -q "123.45" <(L --id 3 step get 5)
 
+# per_s COUNT-BEFORE COUNT-AFTER T-BEFORE T-AFTER: a counter's rate over a window.
+per_s() {
+  $PY -c 'import sys; a, b, t, u = map(float, sys.argv[1:]); print(round((b - a) / (u - t), 1))' "$@"
+}
+
+# ---- clients that fill the line leave a move and the telemetry their turn ----------
+# Three clients send FC08 (never cached) to ID 1 back to back for 10 s: the line is
+# full of client commands. A move of axis4 started then must end (its completion
+# polls take turns with them) while they still poll, and ID 2's telemetry go on.
+ids2() { curl -s "$HTTP/metrics" | awk -F'[ "]' '/^lec6_device_transactions_total/ && $4 == 2 {print $NF}'; }
+mkfifo "$TMP/echo.fifo"
+$CLIENTS echo "$MB" 3 10 1 >"$TMP/echo.fifo" &
+ECHO=$!
+PIDS+=("$ECHO")
+exec 7<"$TMP/echo.fifo"
+read -r -t 30 -u 7 echo_ready
+c0=$(ids2); s0=$EPOCHREALTIME
+moved=$(curl -s -XPOST "$HTTP/api/axes/axis4/move" -d '{"position_mm": 380, "speed_mm_s": 100}')
+c1=$(ids2); s1=$EPOCHREALTIME
+kill -0 $ECHO 2>/dev/null && still=polling || still=gone
+echo_out=$(cat <&7); exec 7<&-
+wait $ECHO
+check "three echo clients filled the line ($echo_ready): $echo_out" \
+  test "$echo_ready $(jget "$echo_out" 'd["errors"] == 0 and d["min_answers"] > 20')" = "ready True"
+check "a move under them reached 380 mm while they still polled ($still): $moved" \
+  test "$(jget "$moved" 'd["outcome"] + " " + str(d["position_mm"])') $still" = "reached 380.0 polling"
+t2=$(per_s "$c0" "$c1" "$s0" "$s1")
+# The line carries ~60 exchanges/s; the clients keep a third to half of it, the
+# move's polls and the telemetry of four axes share the rest (strict priority: ~0/s).
+check "ID 2's telemetry went on meanwhile: $t2 reads/s (asked: 5 Hz x flags, state, ~12/s)" \
+  $PY -c 'import sys; sys.exit(float(sys.argv[1]) < 4)' "$t2"
+
 # ---- the cache: fifty clients polling cost the line (almost) nothing --------------
 rate() { curl -s "$HTTP/metrics" | awk '/^lec6_line_transactions_total/ {print $2}'; }
 # Per second of the window: starting fifty clients on a loaded machine makes
 # their window longer than the 3 s they poll, and the telemetry goes on meanwhile.
-per_s() { # per_s COUNT-BEFORE COUNT-AFTER T-BEFORE T-AFTER
-  $PY -c 'import sys; a, b, t, u = map(float, sys.argv[1:]); print(round((b - a) / (u - t), 1))' "$@"
-}
 t0=$(rate); s0=$EPOCHREALTIME; $CLIENTS poll "$MB" 1 3 >/dev/null; t1=$(rate); s1=$EPOCHREALTIME
 quiet=$(per_s "$t0" "$t1" "$s0" "$s1")
 t0=$(rate); s0=$EPOCHREALTIME; $CLIENTS poll "$MB" 50 3 >"$TMP/poll.out"; t1=$(rate); s1=$EPOCHREALTIME

@@ -28,6 +28,7 @@ lines:
     baud: 115200
     silent_interval: 2
     delay_ms: 3
+    poll_max_wait_ms: 250
     sim: {timing: fast, workpiece_mm: 350}
     axes:
       - {id: 1, name: x, telemetry_hz: 20}
@@ -42,6 +43,7 @@ mqtt: {broker: "mqtt://127.0.0.1:1883", prefix: plant}
   const auto& l = c.lines[0];
   EXPECT_EQ(l.name, "press");
   EXPECT_EQ(l.baud, 115200u);
+  EXPECT_EQ(l.poll_max_wait_ms, 250);
   EXPECT_TRUE(l.sim.fast);
   EXPECT_EQ(l.sim.workpiece_mm, 350.0);
   ASSERT_EQ(l.axes.size(), 2u);
@@ -80,6 +82,8 @@ TEST(ServeConfig, MistakesNameTheFileTheLineAndTheRule) {
               HasSubstr("reachable from other machines: set http.token"));
   EXPECT_THAT(error_of("lines:\n  - port: sim\n    axes: [{id: 1}]\n    delay_ms: fast\n"),
               HasSubstr("lines[0].delay_ms: 'fast' is not a number"));
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    axes: [{id: 1}]\n    poll_max_wait_ms: -1\n"),
+              HasSubstr("lec6.yaml:4: lines[0].poll_max_wait_ms: -1 is outside 0 to 60000"));
 }
 
 TEST(ServeConfig, AMissingFileIsNamed) {

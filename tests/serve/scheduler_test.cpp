@@ -140,6 +140,86 @@ TEST(Scheduler, CommandsGoBetweenTelemetryReads) {
   EXPECT_EQ(d->priority, Priority::Command);
 }
 
+// Three clients that always have a command queued (SCADA polling uncached
+// registers back to back) would otherwise fill the line for good; and a move
+// that polls for its end back to back would take the line from telemetry.
+// Runs 4 s of such a line (10 ms per exchange) and counts what each kind
+// got from 2 s on: after the first lag and the alarm histories (background,
+// aged at 1 s).
+struct FullLine {
+  std::map<Priority, int> sent;
+  Duration first_poll{};
+};
+FullLine fill_the_line(bool with_a_move) {
+  SchedulerConfig c;
+  c.controls_period = 1h;
+  c.axes.push_back({1, 100ms});
+  c.axes.push_back({2, 100ms});
+  Harness h(c);
+  std::size_t commands = 0;
+  bool polling = false;
+  // The clients and the move: each resubmits as soon as its answer is in.
+  const auto keep_queued = [&] {
+    for (; commands < h.results.size() + 3; ++commands) {
+      h.s.submit(h.job(Priority::Command, 3), h.clock.now());
+    }
+    if (polling || !with_a_move) return;
+    Job poll = h.job(Priority::Completion, 4);
+    poll.done = [&](const JobResult&) { polling = false; };
+    h.s.submit(std::move(poll), h.clock.now());
+    polling = true;
+  };
+  FullLine out;
+  const TimePoint t0 = h.clock.now();
+  while (h.clock.now() < t0 + 4s) {
+    keep_queued();
+    const auto d = h.step();
+    if (!d) break;
+    if (d->priority == Priority::Completion && out.first_poll == Duration{}) {
+      out.first_poll = h.clock.now() - t0;
+    }
+    if (h.clock.now() > t0 + 2s) ++out.sent[d->priority];
+  }
+  return out;
+}
+
+TEST(Scheduler, CommandsThatFillTheLineLeaveTelemetryItsRate) {
+  auto [sent, first_poll] = fill_the_line(false);
+  // Telemetry keeps its rate, 100 ms late: 2 axes × 10 Hz × (flags + state) × 2 s, ± one pass.
+  EXPECT_NEAR(sent[Priority::Telemetry], 2 * 10 * 2 * 2, 2);
+  // The clients have the rest: 200 exchanges of 10 ms in all.
+  EXPECT_EQ(sent[Priority::Command] + sent[Priority::Telemetry], 200);
+}
+
+TEST(Scheduler, AFullLineIsSharedByClientsAMoveAndTelemetry) {
+  auto [sent, first_poll] = fill_the_line(true);
+  // The move's first completion poll waited its 100 ms, then had its turn.
+  EXPECT_GT(first_poll, Duration{});
+  EXPECT_LE(first_poll, 100ms + 3 * 10ms);
+  // Then clients, the move and telemetry take turns: a third each.
+  for (Priority p : {Priority::Command, Priority::Completion, Priority::Telemetry}) {
+    EXPECT_GE(sent[p], 200 / 3 - 2) << static_cast<int>(p);
+  }
+  EXPECT_EQ(sent[Priority::Command] + sent[Priority::Completion] + sent[Priority::Telemetry], 200);
+}
+
+TEST(Scheduler, AShortBurstOfCommandsStillGoesFirst) {
+  SchedulerConfig c;
+  c.controls_period = 1h;
+  c.axes.push_back({1, 100ms});
+  Harness h(c);
+  h.run_for(150ms);       // the first pass is done; the next is due at 200 ms
+  h.clock.advance(60ms);  // now it is 10 ms late
+  for (int i = 0; i < 5; ++i) h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  std::vector<Priority> order;
+  for (int i = 0; i < 7; ++i) order.push_back(h.step()->priority);
+  // 5 × 10 ms stays under poll_max_wait: the commands go first, in one run.
+  const std::vector<Priority> expected{Priority::Command,  Priority::Command, Priority::Command,
+                                       Priority::Command,  Priority::Command, Priority::Telemetry,
+                                       Priority::Telemetry};
+  EXPECT_EQ(order, expected);
+}
+
 TEST(Scheduler, ADeadControllerIsBackedOffAndProbed) {
   SchedulerConfig c;
   c.offline_after = 3;

@@ -81,6 +81,9 @@ struct LineConfig {
   std::optional<double> cache_max_age_ms;
   unsigned offline_after = 3;
   double probe_interval_ms = 2000;
+  // A poll (move completion, telemetry, probe) that waited this long takes
+  // turns with client commands (scheduler.hpp).
+  double poll_max_wait_ms = 100;
   bool allow_broadcast = false;  // unit id 0 from Modbus TCP: a broadcast write
   std::optional<ListenerConfig> modbus_tcp;
   std::optional<ListenerConfig> rtu_tcp;

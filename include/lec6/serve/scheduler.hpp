@@ -7,6 +7,17 @@
 // background reads. A request never splits: a write of several registers is
 // one FC10, one transaction.
 //
+// Nothing starves: once a completion poll, a due telemetry read or a probe
+// has waited `poll_max_wait` (a background read: `background_max_wait`),
+// client commands, completion polls and reads (telemetry, probes, background;
+// whichever waited longer first) take turns, one transaction each, skipping
+// a kind with nothing queued (reads: nothing due), until nothing has waited
+// that long.
+// Otherwise clients that keep the line full (SCADA polling uncached
+// registers) would stop every move from ever seeing its end and every axis's
+// telemetry with it, and a move's back-to-back completion polls would take
+// the line from the other axes' telemetry. Emergency writes never wait.
+//
 // A controller that stops answering is backed off: after `offline_after`
 // consecutive failed exchanges it is offline; requests for it fail at once
 // (Failure::Offline) and it is probed once per `probe_interval` until it
@@ -94,6 +105,7 @@ struct SchedulerConfig {
   Duration probe_interval = std::chrono::seconds(2);          // of an offline controller
   Duration controls_period = std::chrono::milliseconds(500);  // Y10–Y30 within telemetry
   Duration background_max_wait = std::chrono::seconds(1);     // then it goes before telemetry
+  Duration poll_max_wait = std::chrono::milliseconds(100);    // then polls take turns with commands
   modbus::LineTiming timing;                                  // for the utilisation figure
 };
 
@@ -184,7 +196,22 @@ class Scheduler {
     std::vector<Block> pass;  // blocks still to read in the pass under way
   };
 
+  // A read the scheduler makes itself (telemetry, probes, alarm history): no
+  // client waits for it.
+  static Job internal_read(Priority p, uint8_t id, Block b);
   std::optional<Dispatch> dispatch(Queued q, bool internal, TimePoint now);
+  std::optional<Dispatch> pop(Priority p, TimePoint now);
+  // Who goes when a poll waited too long: these take turns, in this order.
+  enum class Turn : uint8_t { Command, Completion, Reads };  // Reads: telemetry, background
+  static constexpr int kTurns = 3;
+  struct Starved {
+    bool completion = false;        // a completion poll waited poll_max_wait
+    std::optional<Priority> reads;  // Telemetry or Background: which waited longer
+  };
+  Starved starved(TimePoint now) const;
+  std::optional<Dispatch> take_turn(Turn turn, std::optional<Priority> reads, TimePoint now);
+  std::optional<Dispatch> next_read(TimePoint now, std::optional<Priority> first);
+  std::optional<Dispatch> next_background(TimePoint now);
   std::optional<Dispatch> next_telemetry(TimePoint now);
   void start_pass(Telemetry& t, TimePoint now);
   void finish(JobResult result);
@@ -208,6 +235,7 @@ class Scheduler {
   std::vector<TelemetryEvent> events_;
   std::string line_down_;  // non-empty: why the line is down
   bool shutting_down_ = false;
+  Turn last_turn_ = Turn::Reads;  // the kind of the last dispatch (for taking turns)
   JobId next_id_ = 1;
 };
 
