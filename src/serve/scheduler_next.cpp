@@ -16,10 +16,14 @@ std::optional<Dispatch> Scheduler::dispatch(Queued q, bool internal, TimePoint) 
 
 std::optional<Dispatch> Scheduler::pop(Priority p, TimePoint now) {
   auto& q = queues_[index(p)];
-  if (q.empty()) return std::nullopt;
-  Queued front = std::move(q.front());
-  q.pop_front();
-  return dispatch(std::move(front), false, now);
+  while (!q.empty()) {
+    Queued front = std::move(q.front());
+    q.pop_front();
+    // The block it reads may have come in while it waited.
+    if (answer_from_cache(front.job, front.submitted, now)) continue;
+    return dispatch(std::move(front), false, now);
+  }
+  return std::nullopt;
 }
 
 std::optional<Dispatch> Scheduler::next(TimePoint now) {

@@ -319,6 +319,33 @@ TEST(Scheduler, StateReadsAreServedFromAFreshCacheAndNeverAfterAWrite) {
   EXPECT_EQ(h.s.queue_depth()[index(Priority::Command)], 1u);
 }
 
+TEST(Scheduler, ClientsThatMissTheCacheTogetherCostTheLineOneRead) {
+  Harness h;  // no telemetry: the cache is empty
+  for (int i = 0; i < 50; ++i) {
+    Job j = h.job(Priority::Command, 1);
+    j.max_cache_age = 200ms;
+    h.s.submit(std::move(j), h.clock.now());
+  }
+  // A write queued behind them must still see the line, and the reads after it too.
+  h.s.submit(h.job(Priority::Command, 1, modbus::WriteCoilRequest{0x19, modbus::kCoilOn}),
+             h.clock.now());
+  Job after = h.job(Priority::Command, 1);
+  after.max_cache_age = 200ms;
+  h.s.submit(std::move(after), h.clock.now());
+  std::vector<Dispatch> sent;
+  while (auto d = h.step()) sent.push_back(*d);
+  for (auto& x : h.s.take_completions()) x.done(x.result);
+  ASSERT_EQ(sent.size(), 3u);  // the first read, the write, the read after the write
+  EXPECT_TRUE(std::holds_alternative<ReadRegistersRequest>(sent[0].frame.pdu));
+  EXPECT_TRUE(std::holds_alternative<modbus::WriteCoilRequest>(sent[1].frame.pdu));
+  EXPECT_TRUE(std::holds_alternative<ReadRegistersRequest>(sent[2].frame.pdu));
+  ASSERT_EQ(h.results.size(), 52u);
+  int from_cache = 0;
+  for (const auto& r : h.results) from_cache += r.from_cache;
+  EXPECT_EQ(from_cache, 49);  // every read but the first and the one after the write
+  EXPECT_EQ(h.s.stats(h.clock.now()).cache_hits, 49u);
+}
+
 TEST(Scheduler, CancelledJobsNeverReachTheLine) {
   Harness h;
   const JobId a = h.s.submit(h.job(Priority::Command, 1), h.clock.now());

@@ -58,7 +58,11 @@ TEST(NoiseOnThePty, AMasterHearsItWhileIdle) {
 TEST(NoiseOnThePty, ACompliantMasterWorksThroughIt) {
   Served twin(50);
   transport::SerialLink link(twin.path(), transport::SerialOptions{.baud = 38400});
-  client::Client c(link);
+  // Four retries, not the default two: a twin woken late on a loaded machine
+  // lays the noise of the time it slept just before the query it then reads,
+  // and three such queries in a row failed once in a `make test` run (6 stray
+  // bytes, no reply). On a real line noise comes in real time.
+  client::Client c(link, client::ClientOptions{.retries = 4});
   for (int i = 0; i < 60; ++i) EXPECT_NO_THROW(c.read_state());
   EXPECT_GT(c.stats().bytes_discarded, 0u);
 }

@@ -25,7 +25,9 @@
 // interval.
 //
 // Reads of the telemetry blocks may be answered from the cache
-// (telemetry_cache.hpp) when the request allows it (Job::max_cache_age).
+// (telemetry_cache.hpp) when the request allows it (Job::max_cache_age):
+// at submit, and again when their turn comes (what they read may have come
+// in meanwhile, e.g. by another client's read of the same block).
 //
 // The scheduler never reads a clock, never blocks, never calls back while it
 // runs: completions and telemetry events are collected and handed out by
@@ -222,6 +224,7 @@ class Scheduler {
   void fail_queued(uint8_t id, Failure why, const std::string& text, TimePoint now);
   void fail_all_queued(Failure why, const std::string& text, TimePoint now);
   std::optional<JobResult> refuse_now(const Job& job, TimePoint now) const;
+  bool answer_from_cache(Job& job, TimePoint submitted, TimePoint now);
   void complete(Job& job, JobResult result);
 
   SchedulerConfig config_;
