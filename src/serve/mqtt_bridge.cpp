@@ -121,17 +121,20 @@ void MqttBridge::Core::stop() {
   log(LogLevel::Info, "mqtt: offline published, disconnected");
 }
 
-// On the client's thread: subscribe, say online, and have the event loop
-// republish every retained topic (the broker may have restarted empty).
+// On the client's thread: subscribe, and have the event loop republish every
+// retained topic (the broker may have restarted empty), then say online: a
+// subscriber that waits for "online" finds the retained state already there.
 void MqttBridge::Core::connected() {
   std::vector<std::string> filters;
   for (const auto& a : out) filters.push_back(a->cmd);
   client->subscribe(filters);
-  client->publish(topics.status(), "online", 1, true);
   log(LogLevel::Info, fmt::format("mqtt: connected to {} as {}; {}/... online", config.broker,
                                   mqtt_client_id(config), topics.prefix()));
   asio::post(io, [weak = weak_from_this()] {
-    if (auto c = weak.lock(); c && !c->stopped) c->republish();
+    auto c = weak.lock();
+    if (!c || c->stopped) return;
+    c->republish();
+    c->client->publish(c->topics.status(), "online", 1, true);
   });
 }
 
