@@ -108,10 +108,7 @@ Scheduler::Starved Scheduler::starved(TimePoint now) const {
     oldest = from;
   };
   for (const auto& [id, t] : telemetry_) {
-    const auto h = health_.find(id);
-    const bool offline = h != health_.end() && h->second.offline;
-    if (t.schedule.telemetry_period <= Duration{} && !offline) continue;
-    consider(Priority::Telemetry, offline && t.pass.empty() ? h->second.next_probe : t.due);
+    if (const auto due = read_due(id, t)) consider(Priority::Telemetry, *due);
   }
   if (const auto& q = queues_[index(Priority::Background)]; !q.empty()) {
     const Duration extra =
@@ -119,6 +116,15 @@ Scheduler::Starved Scheduler::starved(TimePoint now) const {
     consider(Priority::Background, q.front().submitted + extra);
   }
   return s;
+}
+
+// When an axis's next read is due: the pass under way's or its period's (an
+// offline one: its probe's); nothing when it has no telemetry and answers.
+std::optional<TimePoint> Scheduler::read_due(uint8_t id, const Telemetry& t) const {
+  const auto h = health_.find(id);
+  const bool offline = h != health_.end() && h->second.offline;
+  if (t.schedule.telemetry_period <= Duration{} && !offline) return std::nullopt;
+  return offline && t.pass.empty() ? h->second.next_probe : t.due;
 }
 
 void Scheduler::start_pass(Telemetry& t, TimePoint now) {
@@ -142,14 +148,13 @@ std::optional<Dispatch> Scheduler::next_telemetry(TimePoint now) {
   Telemetry* pick = nullptr;
   TimePoint pick_at = TimePoint::max();
   for (auto& [id, t] : telemetry_) {
-    const DeviceHealth& h = health_[id];
-    if (t.schedule.telemetry_period <= Duration{} && !h.offline) continue;
+    const auto at = read_due(id, t);
+    if (!at) continue;
     if (!t.pass.empty()) {  // a pass under way goes on first
       pick = &t;
       break;
     }
-    const TimePoint at = h.offline ? h.next_probe : t.due;
-    if (at <= now && at < pick_at) pick = &t, pick_at = at;
+    if (*at <= now && *at < pick_at) pick = &t, pick_at = *at;
   }
   if (!pick) return std::nullopt;
   if (pick->pass.empty()) start_pass(*pick, now);
@@ -167,11 +172,8 @@ std::optional<Dispatch> Scheduler::next_telemetry(TimePoint now) {
 std::optional<TimePoint> Scheduler::wake_at() const {
   std::optional<TimePoint> at;
   for (const auto& [id, t] : telemetry_) {
-    const auto h = health_.find(id);
-    const bool offline = h != health_.end() && h->second.offline;
-    if (t.schedule.telemetry_period <= Duration{} && !offline) continue;
-    const TimePoint due = offline ? h->second.next_probe : t.due;
-    if (!at || due < *at) at = due;
+    const auto due = read_due(id, t);
+    if (due && (!at || *due < *at)) at = due;
   }
   return at;
 }

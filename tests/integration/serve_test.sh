@@ -118,16 +118,17 @@ per_s() {
 # Three clients send FC08 (never cached) to ID 1 back to back for 10 s: the line is
 # full of client commands. A move of axis4 started then must end (its completion
 # polls take turns with them) while they still poll, and ID 2's telemetry go on.
-ids2() { curl -s "$HTTP/metrics" | awk -F'[ "]' '/^lec6_device_transactions_total/ && $4 == 2 {print $NF}'; }
+# answers ID: the exchanges with controller ID so far.
+answers() { curl -s "$HTTP/metrics" | awk -v id="$1" -F'[ "]' '/^lec6_device_transactions_total/ && $4 == id {print $NF}'; }
 mkfifo "$TMP/echo.fifo"
 $CLIENTS echo "$MB" 3 10 1 >"$TMP/echo.fifo" &
 ECHO=$!
 PIDS+=("$ECHO")
 exec 7<"$TMP/echo.fifo"
 read -r -t 30 -u 7 echo_ready
-c0=$(ids2); s0=$EPOCHREALTIME
+c0=$(answers 2); s0=$EPOCHREALTIME
 moved=$(curl -s -XPOST "$HTTP/api/axes/axis4/move" -d '{"position_mm": 380, "speed_mm_s": 100}')
-c1=$(ids2); s1=$EPOCHREALTIME
+c1=$(answers 2); s1=$EPOCHREALTIME
 kill -0 $ECHO 2>/dev/null && still=polling || still=gone
 echo_out=$(cat <&7); exec 7<&-
 wait $ECHO
@@ -160,7 +161,6 @@ check "50 clients: $to_line of their $answered reads reached the line (at most 1
   test $((to_line * 100)) -le "$answered"
 
 # ---- a dead controller is backed off and costs the others nothing much -------------
-answers() { curl -s "$HTTP/metrics" | awk -v id="$1" -F'[ "]' '/^lec6_device_transactions_total/ && $4 == id {print $NF}'; }
 declare -A before
 for id in 1 2 3 4; do before[$id]=$(answers $id); done
 t_start=$(date +%s%N)

@@ -215,6 +215,7 @@ class Scheduler {
   std::optional<Dispatch> next_read(TimePoint now, std::optional<Priority> first);
   std::optional<Dispatch> next_background(TimePoint now);
   std::optional<Dispatch> next_telemetry(TimePoint now);
+  std::optional<TimePoint> read_due(uint8_t id, const Telemetry& t) const;
   void start_pass(Telemetry& t, TimePoint now);
   void finish(JobResult result);
   void record(const Flight& f, TimePoint start, TimePoint end, ExchangeResult r);
