@@ -105,14 +105,6 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
     return;
   }
   serve::Daemon daemon(std::move(config), log_line);
-  for (const auto& l : daemon.config().lines) {
-    std::string ids;
-    for (const auto& ax : l.axes)
-      ids += fmt::format("{}{}={}", ids.empty() ? "" : ", ", ax.name, ax.id);
-    const auto* line = daemon.line(l.name);
-    log_line(serve::LogLevel::Info,
-             fmt::format("line {} on {} ({} baud): {}", l.name, line->describe(), l.baud, ids));
-  }
   std::string where;
   for (const auto& e : daemon.endpoints()) where += (where.empty() ? "" : ", ") + e;
   fmt::print("lec serve: ready on {}\n", where.empty() ? "(no listener)" : where);

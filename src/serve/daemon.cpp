@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "lec6/serve/http_api.hpp"
 #include "lec6/serve/http_server.hpp"
 #include "lec6/serve/modbus_tcp_server.hpp"
@@ -57,6 +59,15 @@ void Daemon::start_lines() {
     o.scheduler = scheduler_config(lc);
     auto line = std::make_unique<Line>(
         o, [lc] { return open_wire(lc); }, kClock);
+    std::string ids;
+    for (const auto& a : lc.axes)
+      ids += fmt::format("{}{}={}", ids.empty() ? "" : ", ", a.name, a.id);
+    // A port describes itself as "PATH @ BAUD"; the in-process twin has no baud of its own.
+    const std::string port = line->describe();
+    const std::string baud =
+        port.find(" @ ") == std::string::npos ? fmt::format(" @ {}", lc.baud) : "";
+    log_(LogLevel::Info, fmt::format("line {} on {}{} baud: {}", lc.name, port, baud, ids));
+    warn_if_telemetry_overfills(lc, o.scheduler);
     if (line->is_down()) {
       log_(LogLevel::Warning,
            fmt::format("line {} is down, retrying every second: {}", lc.name, line->down_reason()));
@@ -65,6 +76,21 @@ void Daemon::start_lines() {
     line->start();
     lines_.emplace(lc.name, std::move(line));
   }
+}
+
+// Asking more telemetry than the line carries is legal (the scheduler shares
+// what there is, and commands take turns with it), but then the configured
+// rates are not what the axes get: say so, in numbers, at start.
+void Daemon::warn_if_telemetry_overfills(const LineConfig& lc, const SchedulerConfig& s) {
+  const double demand = telemetry_demand(s);
+  if (demand <= 1.0) return;
+  double fastest_hz = 0;
+  for (const AxisConfig& a : lc.axes) fastest_hz = std::max(fastest_hz, a.telemetry_hz);
+  log_(LogLevel::Info,
+       fmt::format("line {}: telemetry at these rates needs {:.0f} % of the line at {} baud ({} "
+                   "axes, up to {:g} Hz each): each axis refreshes at about {:.0f} % of its "
+                   "telemetry_hz, and commands take turns with it",
+                   lc.name, 100 * demand, lc.baud, lc.axes.size(), fastest_hz, 100 / demand));
 }
 
 void Daemon::start_listeners() {

@@ -351,6 +351,20 @@ std::array<std::size_t, kPriorities> Scheduler::queue_depth() const {
   return d;
 }
 
+double telemetry_demand(const SchedulerConfig& config) {
+  const auto limit = [&](uint8_t id, Block b) {
+    return to_seconds(limit_of(config.timing, {id, block_request(b)}));
+  };
+  double share = 0;
+  for (const AxisSchedule& a : config.axes) {
+    if (a.telemetry_period <= Duration{}) continue;
+    share +=
+        (limit(a.id, Block::Flags) + limit(a.id, Block::State)) / to_seconds(a.telemetry_period);
+    share += limit(a.id, Block::Controls) / to_seconds(config.controls_period);
+  }
+  return share;
+}
+
 LineStatsSnapshot Scheduler::stats(TimePoint now) const {
   return stats_.snapshot(now, queue_depth());
 }

@@ -105,9 +105,18 @@ struct OtherSpelling {
   std::string_view ours;
 };
 constexpr OtherSpelling kOtherSpellings[] = {
-    {"rtu://", "rtu+tcp://"},     {"tcp+rtu://", "rtu+tcp://"},    {"rtutcp://", "rtu+tcp://"},
-    {"rtu-tcp://", "rtu+tcp://"}, {"rtuovertcp://", "rtu+tcp://"}, {"modbus://", "tcp://"},
-    {"modbus+tcp://", "tcp://"},  {"mbap://", "tcp://"},           {"modbustcp://", "tcp://"},
+    {"rtu://", "rtu+tcp://"},
+    {"tcp+rtu://", "rtu+tcp://"},
+    {"rtutcp://", "rtu+tcp://"},
+    {"rtu-tcp://", "rtu+tcp://"},
+    {"rtuovertcp://", "rtu+tcp://"},
+    {"modbus://", "tcp://"},
+    {"modbus+tcp://", "tcp://"},
+    {"mbap://", "tcp://"},
+    {"modbustcp://", "tcp://"},
+    // Ours without the slashes (tcp://host:port and rtu+tcp:// were tried before).
+    {"tcp:", "tcp://"},
+    {"rtu+tcp:", "rtu+tcp://"},
 };
 
 [[noreturn]] void other_spelling(std::string_view text) {

@@ -72,6 +72,10 @@ RTU=$(grep -o 'rtu+tcp://127.0.0.1:[0-9]*' <<<"$READY" | sed 's|.*:||')
 HTTP=http://$(grep -o 'http://[0-9.:]*' <<<"$READY" | sed 's|http://||')
 echo "serve: $READY"
 L() { "$LEC" --port "tcp://127.0.0.1:$MB" "$@"; }
+check "the start says which port and axes each line has" \
+  grep -q "line line1 on $TMP/pty @ 38400 baud: axis1=1, axis2=2, axis3=3, axis4=4, axis5=5" "$TMP/serve.err"
+check "5 IDs at 5 Hz fit the line: no telemetry note" \
+  bash -c "! grep -q 'telemetry at these rates' '$TMP/serve.err'"
 
 # ---- four clients at once -------------------------------------------------------
 L --id 1 serial on >/dev/null && L --id 1 servo on >/dev/null && L --id 1 home >/dev/null
@@ -201,6 +205,13 @@ check "an ID the daemon does not have: exit 3, exception 0A named: $out" \
   test $st -eq 3 -a -n "$(grep -o 'no controller with ID 9' <<<"$out")"
 out=$("$LEC" --port "127.0.0.1:$MB" status 2>&1)
 check "a URL without protocol gets the hint: $out" grep -q "tcp://127.0.0.1:$MB for Modbus TCP" <<<"$out"
+
+# ---- telemetry that overfills the line is said at start --------------------------
+start busy serve --port sim --ids 1-4 --telemetry-hz 10 --modbus-tcp 127.0.0.1:0 --http "" || exit 1
+kill -TERM "$PID"
+stop_wait "$PID" 10
+check "4 axes at 10 Hz at 38400: the start says the line carries about 70 % of it" \
+  grep -q "telemetry at these rates needs 143 % of the line at 38400 baud (4 axes, up to 10 Hz each): each axis refreshes at about 70 % of its telemetry_hz" "$TMP/busy.err"
 
 # ---- SIGTERM: queued requests answered with an error, exit 0 -----------------------
 mkfifo "$TMP/pipeline.fifo"

@@ -412,5 +412,53 @@ TEST(Scheduler, UtilisationIsTheShareOfTheLineLimitUsed) {
   EXPECT_EQ(st.devices.at(1).answers, 100u);
 }
 
+// The limit of one exchange of a compliant master (the utilisation's unit):
+// an 8-byte query, the reply, and the silent interval before the next query.
+Duration exchange_limit(const modbus::LineTiming& t, std::size_t reply_bytes) {
+  return t.transaction_limit(8, reply_bytes) + t.silent_interval();
+}
+
+TEST(Scheduler, TelemetryDemandIsTheShareOfTheLineItsRatesNeed) {
+  SchedulerConfig c;
+  c.timing.baud = 38400;
+  for (uint8_t id = 1; id <= 4; ++id) c.axes.push_back({id, 100ms});
+  c.axes.push_back({5, Duration{}});  // no telemetry: costs nothing
+  // Each axis every 100 ms: flags (FC02 ×16, a 7-byte reply) and state (FC03
+  // ×7, 19 bytes); every 500 ms its controls (FC01 ×33, 10 bytes).
+  const auto& t = c.timing;
+  const double per_axis = to_seconds(exchange_limit(t, 7) + exchange_limit(t, 19)) * 10 +
+                          to_seconds(exchange_limit(t, 10)) * 2;
+  EXPECT_NEAR(telemetry_demand(c), 4 * per_axis, 1e-9);
+  EXPECT_GT(telemetry_demand(c), 1.4) << "4 axes at 10 Hz overfill a 38400 line";
+  c.axes.resize(1);
+  EXPECT_LT(telemetry_demand(c), 0.4);
+}
+
+// What the start-up message promises when the rates overfill the line: each
+// axis refreshes at about its rate / demand, and all alike.
+TEST(Scheduler, AnOverfilledLineRefreshesEachAxisAtItsRateOverTheDemand) {
+  SchedulerConfig c;
+  c.timing.baud = 38400;
+  for (uint8_t id = 1; id <= 4; ++id) c.axes.push_back({id, 100ms});
+  const double demand = telemetry_demand(c);
+  VirtualClock clock{TimePoint{} + 1s};
+  Scheduler s(c, clock.now());
+  std::map<uint8_t, int> flag_reads;
+  const TimePoint end = clock.now() + 20s;
+  while (clock.now() < end) {
+    const auto d = s.next(clock.now());
+    ASSERT_TRUE(d) << "an overfilled line is never idle";
+    const auto* bits = std::get_if<ReadBitsRequest>(&d->frame.pdu);
+    const std::size_t reply = bits ? (bits->count + 7u) / 8u + 5u : 19u;
+    const TimePoint start = clock.now();
+    clock.advance(exchange_limit(c.timing, reply));
+    s.completed(answer(*d), start, clock.now());
+    if (bits && bits->function == modbus::FunctionCode::ReadInputs) ++flag_reads[d->frame.id];
+  }
+  for (uint8_t id = 1; id <= 4; ++id) {
+    EXPECT_NEAR(flag_reads[id] / 20.0, 10.0 / demand, 0.05 * 10.0 / demand) << int(id);
+  }
+}
+
 }  // namespace
 }  // namespace lec6::serve

@@ -94,6 +94,13 @@ INSTANTIATE_TEST_SUITE_P(
         std::pair{std::string("modbus://plc:502"),
                   std::string("unknown port 'modbus://plc:502': did you mean tcp://plc:502? "
                               "(tcp:// is Modbus TCP, rtu+tcp:// is Modbus RTU frames over TCP)")},
+        std::pair{std::string("tcp:127.0.0.1:1502"),
+                  std::string("unknown port 'tcp:127.0.0.1:1502': did you mean "
+                              "tcp://127.0.0.1:1502? (tcp:// is Modbus TCP, rtu+tcp:// is Modbus "
+                              "RTU frames over TCP)")},
+        std::pair{std::string("rtu+tcp:gw:4001"),
+                  std::string("unknown port 'rtu+tcp:gw:4001': did you mean rtu+tcp://gw:4001? "
+                              "(tcp:// is Modbus TCP, rtu+tcp:// is Modbus RTU frames over TCP)")},
         std::pair{std::string("127.0.0.1:1502"),
                   std::string("unknown port '127.0.0.1:1502': a TCP address needs its protocol, "
                               "tcp://127.0.0.1:1502 for Modbus TCP (e.g. lec serve) or "

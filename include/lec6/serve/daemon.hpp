@@ -70,6 +70,7 @@ class Daemon {
 
  private:
   void start_lines();
+  void warn_if_telemetry_overfills(const LineConfig& lc, const SchedulerConfig& s);
   void start_listeners();
   void begin_stop();
   void tick_stats();

@@ -111,6 +111,12 @@ struct SchedulerConfig {
   modbus::LineTiming timing;                                  // for the utilisation figure
 };
 
+// The share of the line's limit that telemetry asks for at the configured
+// rates: flags and state of each axis every period, its controls every
+// controls_period. Above 1 the line cannot carry it: each axis gets about
+// its rate / demand, and client commands take turns with it.
+double telemetry_demand(const SchedulerConfig& config);
+
 // The job now on the wire.
 struct Dispatch {
   JobId id = 0;
