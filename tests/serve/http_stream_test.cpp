@@ -130,9 +130,11 @@ TEST_F(SseTest, AStreamOutlivesTheIdleTimeoutAndGetsHeartbeats) {
   StreamCatcher catcher;
   start(catcher.router(), options);
   TestClient c(port());
+  // Timed from the request (the server's heartbeat timer starts after it):
+  // six heartbeats 50 ms apart, well past the 100 ms idle timeout.
+  const auto opened = std::chrono::steady_clock::now();
   c.send(get("/events"));
   EventStream s = catcher.wait();
-  const auto opened = std::chrono::steady_clock::now();
   for (int i = 0; i < 6; ++i) {
     ASSERT_TRUE(c.read_until(": ping\n\n")) << "heartbeat " << i;
     c.buffer().erase(0, c.buffer().find(": ping\n\n") + 8);
