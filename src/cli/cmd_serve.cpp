@@ -124,7 +124,9 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
                   "YAML config: lines, axes, listeners (docs/serve.md); or use --port and --ids");
   cmd->add_option("--ids", args->ids, "Controller IDs on the line, e.g. 1-4 or 1,3,5")
       ->capture_default_str();
-  cmd->add_option("--telemetry-hz", args->telemetry_hz, "State polling rate per axis")
+  cmd->add_option("--telemetry-hz", args->telemetry_hz,
+                  "State polling rate per axis (more than the line carries: every axis gets the "
+                  "same share, and the start says how much)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1000.0));
   cmd->add_option("--modbus-tcp", args->modbus_tcp,
