@@ -62,11 +62,8 @@ void Daemon::start_lines() {
     std::string ids;
     for (const auto& a : lc.axes)
       ids += fmt::format("{}{}={}", ids.empty() ? "" : ", ", a.name, a.id);
-    // A port describes itself as "PATH @ BAUD"; the in-process twin has no baud of its own.
-    const std::string port = line->describe();
-    const std::string baud =
-        port.find(" @ ") == std::string::npos ? fmt::format(" @ {}", lc.baud) : "";
-    log_(LogLevel::Info, fmt::format("line {} on {}{} baud: {}", lc.name, port, baud, ids));
+    log_(LogLevel::Info,
+         fmt::format("line {} on {} @ {} baud: {}", lc.name, lc.port, lc.baud, ids));
     warn_if_telemetry_overfills(lc, o.scheduler);
     if (line->is_down()) {
       log_(LogLevel::Warning,
