@@ -41,7 +41,7 @@ test-fast: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) -E '$(SHOWN_TESTS)'
 	cd $(BUILD) && ctest -V -R '$(SHOWN_TESTS)'
 
-# The sanitizer tree is clang's: it compiles it in about half gcc's time, and
+# The sanitizer tree is clang's: it compiles it in about 60 % of gcc's time, and
 # it also builds the libFuzzer harnesses there (LEC6_FUZZ), so that they cannot
 # rot, without a third tree of the libraries. The browser and Python suites run
 # in test-fast; under the sanitizers the C++ they drive (serve/, client/, twin/)
