@@ -9,9 +9,10 @@
 namespace lec6::serve {
 
 std::optional<Dispatch> Scheduler::dispatch(Queued q, bool internal, TimePoint) {
-  Dispatch d{q.id, q.job.frame, q.job.priority};
-  flight_ = Flight{q.id, std::move(q.job), q.submitted, internal};
-  return d;
+  // The dispatch is built from the flight, not kept in a local beside it:
+  // GCC 12 at -O3 took the local's copy of the frame for uninitialised.
+  const Flight& f = flight_.emplace(Flight{q.id, std::move(q.job), q.submitted, internal});
+  return Dispatch{f.id, f.job.frame, f.job.priority};
 }
 
 std::optional<Dispatch> Scheduler::pop(Priority p, TimePoint now) {
