@@ -35,7 +35,7 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
   if (!n) return s;
   r.keys(n, path,
          {"timing", "workpiece_mm", "stroke_max_mm", "initial_position_mm", "drop_rate",
-          "corrupt_rate", "garbage_rate", "seed"});
+          "corrupt_rate", "garbage_rate", "seed", "absent_ids"});
   const std::string timing = r.get<std::string>(n["timing"], path + ".timing", "real");
   if (timing != "real" && timing != "fast") {
     r.fail(n["timing"], path + ".timing", fmt::format("'{}' is not real or fast", timing));
@@ -50,6 +50,15 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
   s.corrupt_rate = r.number(n["corrupt_rate"], path + ".corrupt_rate", 0, 0, 1);
   s.garbage_rate = r.number(n["garbage_rate"], path + ".garbage_rate", 0, 0, 1);
   s.seed = r.get<uint64_t>(n["seed"], path + ".seed", 1);
+  if (const auto absent = n["absent_ids"]) {
+    if (!absent.IsSequence()) {
+      r.fail(absent, path + ".absent_ids", "a list of controller IDs, e.g. [9]");
+    }
+    for (std::size_t i = 0; i < absent.size(); ++i) {
+      s.absent_ids.insert(static_cast<uint8_t>(
+          r.number(absent[i], fmt::format("{}.absent_ids[{}]", path, i), 1, 1, 255)));
+    }
+  }
   return s;
 }
 

@@ -37,7 +37,9 @@ std::shared_ptr<SimWire> make_twin(const LineConfig& line) {
   ac.stroke_max_mm = line.sim.stroke_max_mm;
   ac.initial_position_mm = line.sim.initial_position_mm;
   ac.workpiece_mm = line.sim.workpiece_mm;
-  for (const auto& axis : line.axes) twin->bus->add(axis.id, ac, twin->clock.now());
+  for (const auto& axis : line.axes) {
+    if (!line.sim.absent_ids.contains(axis.id)) twin->bus->add(axis.id, ac, twin->clock.now());
+  }
   twin->link = std::make_unique<twin::SimLink>(*twin->bus, twin->clock);
   return twin;
 }

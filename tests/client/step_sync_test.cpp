@@ -416,6 +416,35 @@ TEST_F(StepSync, CancelStopsBetweenSteps) {
   EXPECT_THAT(written_steps(), ElementsAre(1u));
 }
 
+// Ctrl-C that lands while a step's FC10 is on the wire (sent, reply not yet
+// in): reported as cancelled, the step as possibly written, the rest not
+// attempted; nothing escapes as an exception.
+TEST_F(StepSync, ACancelMidTransactionIsReportedWithWhatMayBeWritten) {
+  StepTable want = backup_steps(*f.client);
+  for (unsigned n : {1u, 2u, 3u}) want.steps[n].speed_mm_s = 10;
+  const RestorePlan plan = plan_restore(*f.client, want);
+  bool interrupted = false;
+  ClientOptions o;
+  o.interrupted = [&] { return interrupted; };
+  f.reconnect(o);
+  int step_writes = 0;
+  f.on_trace = [&](const TraceEvent& e) {
+    // The second step's write is on the wire: Ctrl-C now.
+    if (e.outgoing && e.bytes.size() > 1 && e.bytes[1] == 0x10 && ++step_writes == 2) {
+      interrupted = true;
+    }
+  };
+  RestoreReport r;
+  ASSERT_NO_THROW(r = apply_restore(*f.client, plan));
+  EXPECT_EQ(r.failure, FailureKind::Cancelled);
+  EXPECT_THAT(r.steps_with(StepOutcome::Written), ElementsAre(1u));
+  EXPECT_THAT(r.steps_with(StepOutcome::Failed), ElementsAre(2u));
+  EXPECT_THAT(r.steps_with(StepOutcome::NotAttempted), ElementsAre(3u));
+  EXPECT_TRUE(r.steps[2].maybe_written);
+  EXPECT_THAT(r.steps[2].error, HasSubstr("interrupted"));
+  EXPECT_THAT(r.summary(), HasSubstr("1 failed"));
+}
+
 TEST_F(StepSync, ABadFileGivesNoTableAndSoNothingToSend) {
   const auto t = read_table_file(data_path("bad_row.csv"));
   ASSERT_FALSE(t);

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,8 @@ struct SimLineConfig {
   double initial_position_mm = 10;
   double drop_rate = 0, corrupt_rate = 0, garbage_rate = 0;
   uint64_t seed = 1;
+  // Axes configured on the line but not on the twin: a dead ID (nothing answers).
+  std::set<uint8_t> absent_ids;
 };
 
 struct LineConfig {
