@@ -2,6 +2,8 @@
 // Ctrl-C and the line: which requests an interrupt must not stop. A stop
 // after Ctrl-C is made of requests, and they must reach the controller even
 // while the interrupt is still pending (RtuMaster's `interrupted` hook).
+//
+// Thread safety: a pure function of its argument, safe from any thread.
 
 #include "lec6/modbus/pdu.hpp"
 
