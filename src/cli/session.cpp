@@ -70,7 +70,6 @@ client::Client& Session::client(std::string_view default_port) {
   client::ClientOptions co;
   co.id = static_cast<uint8_t>(options_.id);
   co.retries = options_.retries;
-  co.timeout_margin = po.timeout_margin;  // `lec raw` reads it for its reply window
   impl->client = std::make_unique<client::Client>(impl->port->master(), co);
   impl->axis = std::make_unique<client::Actuator>(*impl->client);
   impl_ = std::move(impl);

@@ -122,7 +122,7 @@ MoveResult Actuator::home(TimePoint deadline, const WaitOptions& wait) {
   client_.write_coil(Coil::SETUP, true);
   MoveGoal goal;
   goal.operation = Operation::Home;
-  goal.band_001mm = kPositionTolerance001mm;
+  goal.in_position_001mm = kPositionTolerance001mm;
   return this->wait(
       StartedMove{MoveStart{goal, before.flags, before.state, false, client_.clock().now()}},
       deadline, wait);

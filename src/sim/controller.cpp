@@ -180,42 +180,40 @@ void Controller::fire(const Event& e) {
       inp_ = inp;
       return;
     }
-    case EventKind::Contact: {
+    case EventKind::Contact:
       // The carriage stops dead against the workpiece.
       profile_ = MotionProfile::hold(now_, *config_.workpiece_mm);
-      switch (op_.kind) {
-        case OpKind::Homing:
-          op_.kind = OpKind::Stalled;
-          op_.stall_alarm = lec::alarm::kOriginTimeout;
-          op_.stall_alarm_at = now_ + config_.stall_alarm_delay;
-          op_.stall_thrust = behaviour::kHomingThrustPct;
-          return;
-        case OpKind::Move:
-          if (op_.phase == MovePhase::Push) {
-            pressing_ = true;
-            pressing_force_ = op_.move.pushing_force;
-            // Thrust = pushing force ≥ trigger level (validated at start): INP at once.
-            complete(pressing_force_ >= op_.move.trigger_level);
-          } else {
-            op_.kind = OpKind::Stalled;
-            op_.stall_alarm = lec::alarm::kPositioningTimeout;
-            op_.stall_alarm_at = now_ + config_.stall_alarm_delay;
-            op_.stall_thrust = op_.move.moving_force;
-          }
-          return;
-        case OpKind::Jog:
-        case OpKind::JogStop:
-          busy_ = false;
-          op_ = Op{};
-          return;
-        case OpKind::Stalled:
-        case OpKind::None:
-          return;
-      }
-      return;
-    }
+      break;
     case EventKind::PhaseEnd:
       break;
+  }
+  // A jog ends where the carriage stopped, against a workpiece as at the end
+  // of its profile (its ramp down, a stroke end): BUSY falls, INP is not judged.
+  if (op_.kind == OpKind::Jog || op_.kind == OpKind::JogStop) {
+    busy_ = false;
+    op_ = Op{};
+    return;
+  }
+  if (e.kind == EventKind::Contact) {
+    if (op_.kind == OpKind::Homing) {
+      op_.kind = OpKind::Stalled;
+      op_.stall_alarm = lec::alarm::kOriginTimeout;
+      op_.stall_alarm_at = now_ + config_.stall_alarm_delay;
+      op_.stall_thrust = behaviour::kHomingThrustPct;
+    } else if (op_.kind == OpKind::Move) {
+      if (op_.phase == MovePhase::Push) {
+        pressing_ = true;
+        pressing_force_ = op_.move.pushing_force;
+        // Thrust = pushing force ≥ trigger level (validated at start): INP at once.
+        complete(pressing_force_ >= op_.move.trigger_level);
+      } else {
+        op_.kind = OpKind::Stalled;
+        op_.stall_alarm = lec::alarm::kPositioningTimeout;
+        op_.stall_alarm_at = now_ + config_.stall_alarm_delay;
+        op_.stall_thrust = op_.move.moving_force;
+      }
+    }
+    return;
   }
   // PhaseEnd: the current profile has ended at its target.
   switch (op_.kind) {
@@ -243,11 +241,8 @@ void Controller::fire(const Event& e) {
       // Pushing phase ended without meeting the workpiece: pushing missed, INP 0.
       complete(op_.phase == MovePhase::Approach);
       return;
-    case OpKind::Jog:
+    case OpKind::Jog:  // ended above
     case OpKind::JogStop:
-      busy_ = false;
-      op_ = Op{};
-      return;
     case OpKind::Stalled:
     case OpKind::None:
       return;

@@ -282,34 +282,20 @@ void SerialLink::swallow_echo(std::span<const uint8_t> sent) {
 }
 
 std::size_t SerialLink::read_some(std::span<uint8_t> buffer, TimePoint deadline) {
-  if (buffer.empty()) return 0;
   const int fd = fd_.get();
-  for (;;) {
-    short revents = 0;
-    try {
-      revents = poll_until(fd, POLLIN, deadline, clock_);
-    } catch (const SystemError& e) {
-      fail("poll", e.code().value());
-    }
-    if (revents == 0) return 0;
-    if (revents & POLLNVAL) fail("read", EBADF);
-    const ssize_t n = ::read(fd, buffer.data(), buffer.size());
-    if (n > 0) return static_cast<std::size_t>(n);
-    // VMIN=1 and O_NONBLOCK: 0 bytes is end of file, i.e. a hung-up tty.
-    if (n == 0) {
-      throw LinkError(LinkErrorKind::PortLost,
-                      fmt::format("the serial port {} went away (hung up)", path_));
-    }
-    const int err = errno;
-    if (err == EAGAIN || err == EINTR) {
-      if (revents & (POLLHUP | POLLERR)) {
-        throw LinkError(LinkErrorKind::PortLost,
-                        fmt::format("the serial port {} went away (hung up)", path_));
-      }
-      continue;  // spurious wake-up: wait again
-    }
-    fail("read", err);
+  ReadSome got;
+  try {
+    got = read_until(fd, buffer, deadline, clock_,
+                     [fd](uint8_t* p, std::size_t n) { return ::read(fd, p, n); });
+  } catch (const SystemError& e) {
+    fail(e.call().c_str(), e.code().value());
   }
+  // VMIN=1 and O_NONBLOCK: 0 bytes is end of file, i.e. a hung-up tty.
+  if (got.closed) {
+    throw LinkError(LinkErrorKind::PortLost,
+                    fmt::format("the serial port {} went away (hung up)", path_));
+  }
+  return got.bytes;
 }
 
 std::size_t SerialLink::read_some_exact(std::span<uint8_t> buffer, TimePoint deadline) {

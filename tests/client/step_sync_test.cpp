@@ -19,6 +19,7 @@
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/modbus/crc.hpp"
 #include "lec6/transport/file.hpp"
+#include "lec6/transport/step_table_file.hpp"
 
 namespace lec6::client {
 namespace {
@@ -30,17 +31,9 @@ using ::testing::AllOf;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-// Tables in files, as `lec step` keeps them (cli/step_files.cpp).
-Expected<StepTable, lec::TableErrors> read_table_file(const std::filesystem::path& path) {
-  auto text = transport::read_file(path);
-  if (!text) return unexpected(lec::TableErrors{text.error()});
-  return lec::parse_table(*text, lec::table_format_for_path(path.string()));
-}
-Expected<void, std::string> write_table_file(const std::filesystem::path& path,
-                                             const StepTable& table) {
-  return transport::write_file_atomically(
-      path, lec::format_table(table, lec::table_format_for_path(path.string())));
-}
+// Tables in files, as `lec step backup/restore` keeps them.
+using transport::read_table_file;
+using transport::write_table_file;
 
 StepData step(int32_t position_001mm, uint16_t speed = 500) {
   StepData s;

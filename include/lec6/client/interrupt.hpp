@@ -5,7 +5,7 @@
 // `interrupted` hook) and by lec serve (they go at Priority::Emergency, ahead
 // of every other client and to a controller that stopped answering).
 //
-// Thread safety: a pure function.
+// Thread safety: a pure function of its argument, safe from any thread.
 
 #include "lec6/modbus/pdu.hpp"
 
@@ -19,7 +19,7 @@ namespace lec6::client {
 //     JOG−, JOG+ ← 1, or HOLD ← 0, which resumes a held operation).
 // IN0–IN5 and Y30 neither stop nor start. Reads, register writes (a D9100
 // start) and coil values other than FF00/0000 (refused: exception 03) are
-// not stops. The table test is tests/client/silence_test.cpp.
+// not stops. The table test is tests/client/stop_rule_test.cpp.
 bool stops_or_releases(const modbus::Request& request) noexcept;
 
 }  // namespace lec6::client

@@ -13,6 +13,12 @@
 //
 // It lives in twin/ because `sim` needs the twin; the other kinds only need
 // transport/.
+//
+// Thread safety and lifetime: open_port may be called from any thread. An
+// OpenPort owns everything behind its master (link, clock, in-process twin) and
+// must outlive every Client made on master(); its master is used by one thread
+// at a time (client::SharedMaster shares it between threads). The twin() of a
+// `sim` port is touched only between exchanges, by the thread using the master.
 
 #include <functional>
 #include <memory>
