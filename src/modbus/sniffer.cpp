@@ -12,9 +12,14 @@ namespace {
 
 constexpr uint8_t kChunkFirst = 1;
 constexpr uint8_t kChunkLast = 2;
-// Above this share of frames arriving in another frame's chunk, the adapter
-// is taken to deliver in lumps (moving average over about ten frames).
-constexpr double kLumpyRatio = 0.3;
+// The share of frames arriving in a chunk that other bytes began (a moving
+// average over about fifty frames): above 10 % the adapter is taken to
+// deliver in lumps, until it falls below 2 % again. An adapter without a
+// latency timer merges frames only when the reader falls behind (rarely);
+// a 16 ms timer merges a third of them or more.
+constexpr double kMergedWeight = 0.02;
+constexpr double kLumpyOn = 0.10;
+constexpr double kLumpyOff = 0.02;
 
 uint16_t word_at(std::span<const uint8_t> b, std::size_t i) {
   return static_cast<uint16_t>(b[i] << 8 | b[i + 1]);
@@ -25,8 +30,56 @@ std::size_t reply_length_for(std::span<const uint8_t> q) {
   switch (q[1]) {
     case 0x01:
     case 0x02: return 5 + (word_at(q, 4) + 7u) / 8u;
-    case 0x03: return 5 + 2u * word_at(q, 4);
+    case 0x03:
+    case 0x04: return 5 + 2u * word_at(q, 4);
+    case 0x07: return 5;
+    case 0x16: return 10;
+    case 0x17: return 5 + 2u * word_at(q, 6);
+    case 0x0C:
+    case 0x11: return 0;  // variable: any length the reply's byte count gives
     default: return 8;
+  }
+}
+
+// Standard Modbus functions the LEC does not have (length.hpp sizes only the
+// LEC's): a master may still send them, and the controller answers exception 01.
+FrameLength other_request_length(std::span<const uint8_t> head) {
+  switch (head[1]) {
+    case 0x04:  // read input registers
+    case 0x06:  // write single register
+      return FrameLength::known(8);
+    case 0x07:  // read exception status
+    case 0x0B:  // get comm event counter
+    case 0x0C:  // get comm event log
+    case 0x11:  // report server ID
+      return FrameLength::known(4);
+    case 0x16:  // mask write register
+      return FrameLength::known(10);
+    case 0x17:  // read/write multiple registers
+      if (head.size() < 11) return FrameLength::need_more();
+      return FrameLength::known(13u + head[10]);
+    default:
+      return FrameLength::unknown();
+  }
+}
+
+FrameLength other_response_length(std::span<const uint8_t> head) {
+  switch (head[1]) {
+    case 0x06:
+    case 0x0B:
+      return FrameLength::known(8);
+    case 0x07:
+      return FrameLength::known(5);
+    case 0x16:
+      return FrameLength::known(10);
+    case 0x04:
+    case 0x0C:
+    case 0x11:
+    case 0x17:
+      if (head.size() < 3) return FrameLength::need_more();
+      return FrameLength::known(5u + head[2]);
+    default:
+      return FrameLength::unknown();
   }
 }
 
@@ -43,7 +96,8 @@ Duration response_percentile(const SniffIdStats& s, double p) {
 Sniffer::Sniffer(const SnifferOptions& options) : options_(options) {}
 
 Sniffer::Reading Sniffer::try_query(std::span<const uint8_t> head, std::size_t& length) const {
-  const FrameLength l = request_length(head);
+  FrameLength l = request_length(head);
+  if (l.status == FrameLength::Status::Unknown) l = other_request_length(head);
   if (l.status == FrameLength::Status::NeedMore) return Reading::Incomplete;
   if (l.status == FrameLength::Status::Unknown) return Reading::Failed;
   length = l.bytes;
@@ -52,7 +106,8 @@ Sniffer::Reading Sniffer::try_query(std::span<const uint8_t> head, std::size_t& 
 }
 
 Sniffer::Reading Sniffer::try_reply(std::span<const uint8_t> head, std::size_t& length) const {
-  const FrameLength l = response_length(head);
+  FrameLength l = response_length(head);
+  if (l.status == FrameLength::Status::Unknown) l = other_response_length(head);
   if (l.status == FrameLength::Status::NeedMore) return Reading::Incomplete;
   if (l.status == FrameLength::Status::Unknown) return Reading::Failed;
   length = l.bytes;
@@ -66,7 +121,8 @@ bool Sniffer::matches_pending(std::span<const uint8_t> frame) const {
   if (!pending_ || frame.size() < 2 || frame[0] != pending_->query[0]) return false;
   const uint8_t fc = pending_->query[1];
   if (frame[1] == (fc | kExceptionFlag)) return true;
-  return frame[1] == fc && frame.size() == pending_->reply_length;
+  return frame[1] == fc &&
+         (pending_->reply_length == 0 || frame.size() == pending_->reply_length);
 }
 
 bool Sniffer::timed_frame(std::size_t first, std::size_t length) const {
@@ -76,8 +132,8 @@ bool Sniffer::timed_frame(std::size_t first, std::size_t length) const {
 
 void Sniffer::note_frame_boundary(std::size_t first) {
   const double merged = (marks_[first] & kChunkFirst) ? 0.0 : 1.0;
-  merged_ratio_ = 0.9 * merged_ratio_ + 0.1 * merged;
-  lumpy_now_ = merged_ratio_ > kLumpyRatio;
+  merged_ratio_ = (1 - kMergedWeight) * merged_ratio_ + kMergedWeight * merged;
+  lumpy_now_ = merged_ratio_ > (lumpy_now_ ? kLumpyOff : kLumpyOn);
   if (lumpy_now_) stats_.lumpy = true;
 }
 
@@ -122,7 +178,8 @@ void Sniffer::emit_query(std::size_t length) {
   if (pending_) {
     // Within the controller's response time of the waiting query: no single
     // master would send now.
-    if (start < pending_->end + options_.timing.response_time(pending_->reply_length)) {
+    if (start < pending_->end + options_.timing.response_time(std::max<std::size_t>(
+                                    pending_->reply_length, kExceptionLength))) {
       e.flags |= kSniffSecondMaster;
       ++stats_.second_master;
     }

@@ -237,5 +237,21 @@ TEST(Sniffer, LumpsStopTimingJudgement) {
   for (const auto& ev : e) EXPECT_FALSE(ev.has(kSniffLate) || ev.has(kSniffShortSilence));
 }
 
+TEST(Sniffer, FramesFunctionsTheLecDoesNotHave) {
+  // libmodbus's FC04 and a FC06: the LEC answers exception 01; both are frames.
+  Line l;
+  const Bytes fc04 = frame({0x01, 0x04, 0x90, 0x00, 0x00, 0x02});
+  const Bytes fc06 = frame({0x01, 0x06, 0x04, 0x22, 0x00, 0x07});
+  l.at(t0 + 1ms, cat({fc04, frame({0x01, 0x84, 0x01}), fc06, frame({0x01, 0x86, 0x01})}));
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[0].bytes, fc04);
+  EXPECT_EQ(e[1].query, fc04);
+  EXPECT_EQ(e[2].bytes, fc06);
+  EXPECT_EQ(e[3].query, fc06);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).exceptions, 2u);
+  EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
+}
+
 }  // namespace
 }  // namespace lec6::modbus

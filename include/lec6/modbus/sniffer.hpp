@@ -16,7 +16,8 @@
 //     nothing after such a silence can complete them.
 // Timing is judged only where it can be measured: a frame delivered in a
 // chunk of its own. When frames keep arriving in shared chunks (an adapter
-// with a latency timer) timing checks stop, and stats().lumpy says so.
+// with a latency timer: over 10 % of the last ~50 frames) timing checks stop
+// until that falls below 2 %, and stats().lumpy says so.
 //
 // Thread safety: one thread at a time.
 
