@@ -122,6 +122,7 @@ int main(int argc, char** argv) {
   cli::add_sim_command(app, options);
   cli::add_serve_command(app, options);
   cli::add_follow_command(app, session);
+  cli::add_sniff_command(app, options);
   install_signal_handlers();
 
   try {
