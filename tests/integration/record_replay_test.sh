@@ -90,6 +90,34 @@ contains "calibrate foreign" "foreign.jsonl, line 1"
 expect_exit 2 "record Modbus TCP" -- lec --port tcp://127.0.0.1:1 --record "$tmp/x.jsonl" status
 contains "record Modbus TCP" "lec serve --record"
 
+# ---- lec serve --record: the daemon's line, telemetry and a client's command ----------
+mkfifo "$tmp/serve.fifo"
+"$LEC" serve --port sim --ids 1 --telemetry-hz 5 --modbus-tcp 127.0.0.1:0 --http "" \
+  --record "$tmp/serve.jsonl" >"$tmp/serve.fifo" 2>"$tmp/serve.err" &
+serve_pid=$!
+twin_pids+=("$serve_pid")
+exec {sfd}<"$tmp/serve.fifo"
+ready=""
+read -r -t 10 -u "$sfd" ready || true
+cat <&"$sfd" >"$tmp/serve.out" &
+exec {sfd}<&-
+mb=$(grep -o '127\.0\.0\.1:[0-9]*' <<<"$ready" | head -1)
+[[ -n $mb ]] && ok || bad "lec serve did not start: $ready $(cat "$tmp/serve.err")"
+grep -q "recording every frame to $tmp/serve.jsonl" "$tmp/serve.err" && ok || bad "serve log: $(cat "$tmp/serve.err")"
+expect_exit 0 "a client's command through serve" -- lec --port "tcp://$mb" serial on
+sleep 1
+kill -TERM "$serve_pid"
+wait "$serve_pid" 2>/dev/null || true
+grep -q '"source":"serve"' "$tmp/serve.jsonl" && ok || bad "serve capture header: $(head -1 "$tmp/serve.jsonl")"
+grep -q '"dir":"query","hex":"01050030ff00' "$tmp/serve.jsonl" && ok || bad "the client's Y30 write is not in the capture"
+served=$(grep -c '"dir":"reply"' "$tmp/serve.jsonl" || true)
+[[ $served -ge 3 ]] && ok || bad "serve capture: $served replies"
+set +e
+"$LEC" replay "$tmp/serve.jsonl" --response-tolerance 1000 --position-tolerance 1 >"$tmp/serve-replay.out" 2>&1
+code=$?
+set -e
+[[ $code -eq 0 ]] && ok || bad "replay of the serve capture: exit $code: $(cat "$tmp/serve-replay.out")"
+
 # ---- help says the same as the docs --------------------------------------------------
 expect_exit 0 "lec help" -- lec --help
 contains "--record in lec --help" "--record"
@@ -97,5 +125,7 @@ expect_exit 0 "replay help" -- lec replay --help
 for want in "--against" "--timing" "--profile" "--report" "--position-tolerance"; do contains "replay help $want" "$want"; done
 expect_exit 0 "sim help" -- lec sim --help
 contains "sim help calibrate" "--calibrate"
+expect_exit 0 "serve help" -- lec serve --help
+contains "serve help record" "--record"
 
 finish
