@@ -19,6 +19,7 @@ Usage: /usr/bin/python3 bench/stop_bench.py [--lec build/lec] [--stops 40] [--js
 import argparse
 import json
 import os
+import random
 import sys
 import tempfile
 import time
@@ -39,7 +40,11 @@ def percentile(v, p):
 
 def measure(rig, channel, stops, moving):
     waits = []
+    rng = random.Random(1)
     for i in range(stops):
+        # At a random instant of the telemetry cycle: right after the previous
+        # stop, the telemetry that waited for it would always be on the wire.
+        time.sleep(rng.uniform(0.05, 0.25))
         if moving:  # a move under way at each stop: the last stop ended the previous one
             rig.http("POST", "/api/axes/axis1/move?wait=false",
                      {"position_mm": 390 if i % 2 == 0 else 10, "speed_mm_s": 200})

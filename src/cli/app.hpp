@@ -63,6 +63,7 @@ struct GlobalOptions {
   unsigned silent_interval_k = 1;
   Duration delay_td = std::chrono::milliseconds(5);
   bool no_silence_wait = false;  // skip the Ts gap before queries (fast twins, benchmarks only)
+  std::string record;  // --record FILE: every frame on the line into a capture file
 };
 
 // A duration the option parser already checked to be whole ms (RS485 delays).
@@ -118,5 +119,6 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals);    // sim (th
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
 void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
 void add_sniff_command(CLI::App& app, const GlobalOptions& globals);  // sniff (listen-only)
+void add_replay_command(CLI::App& app, const GlobalOptions& globals);  // replay (a capture)
 
 }  // namespace lec6::cli

@@ -5,6 +5,7 @@
 #include <fmt/chrono.h>
 
 #include <chrono>
+#include <filesystem>
 #include <mutex>
 
 #include "cli/app.hpp"
@@ -25,6 +26,7 @@ struct ServeArgs {
   std::string sim_timing = "real";
   std::string mqtt;  // broker URL: the bridge with its defaults (docs/mqtt.md)
   std::string mqtt_prefix = "lec6";
+  std::string record;  // --record FILE (also the global --record)
   bool check = false;
 };
 
@@ -104,6 +106,17 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
         "es");
     return;
   }
+  // --record FILE: one capture per line (FILE with one line, FILE-<line>.jsonl with more).
+  if (const std::string& rec = a.record.empty() ? g.record : a.record; !rec.empty()) {
+    const std::filesystem::path path(rec);
+    for (auto& l : config.lines) {
+      l.record = config.lines.size() == 1
+                     ? rec
+                     : (path.parent_path() /
+                        (path.stem().string() + "-" + l.name + path.extension().string()))
+                           .string();
+    }
+  }
   serve::Daemon daemon(std::move(config), log_line);
   std::string where;
   for (const auto& e : daemon.endpoints()) where += (where.empty() ? "" : ", ") + e;
@@ -146,6 +159,10 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
   cmd->add_option("--mqtt-prefix", args->mqtt_prefix, "Topic prefix of the bridge (with --mqtt)")
       ->capture_default_str();
   cmd->add_flag("--check", args->check, "Check the config and exit");
+  cmd->add_option("--record", args->record,
+                  "Write every frame of the line, both directions, with timestamps, to FILE (a "
+                  "capture, docs/capture-format.md; with several lines FILE-<line>.jsonl each); "
+                  "recording costs a transaction no time");
   cmd->callback([&globals, args] { run_serve(globals, *args); });
 }
 

@@ -14,6 +14,7 @@
 #include "cli/app.hpp"
 #include "cli/duration_option.hpp"
 #include "cli/sim_args.hpp"
+#include "cli/sim_calibrate.hpp"
 #include "lec6/modbus/timing.hpp"
 #include "lec6/sim/bus.hpp"
 #include "lec6/twin/field_profile.hpp"
@@ -44,6 +45,7 @@ struct SimArgs {
   std::string tcp;
   std::string ids = "1";
   std::string profile;
+  std::string calibrate;  // --calibrate FILE: fit a profile to a capture, print it, exit
   uint32_t baud = modbus::kDefaultBaud;
   std::string timing = "real";
   unsigned silent_interval_k = modbus::LineTiming{}.silent_interval_k;
@@ -334,6 +336,10 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
                   "Load the twin's settings from a YAML/JSON field profile (e.g. "
                   "profiles/field-quirks.yaml); options given override it")
       ->type_name("FILE");
+  sim->add_option("--calibrate", a->calibrate,
+                  "Fit the twin to a capture of a real controller (lec --record, lec sniff) and "
+                  "print the profile (YAML, for --profile) on stdout; residuals and what the "
+                  "capture could not determine go to stderr. Nothing else runs");
   sim->add_option("--workpiece", a->workpiece,
                   "A workpiece at this position, mm, for pushing (default: none)")
       ->type_name("MM");
@@ -423,6 +429,10 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
         a->given.insert(parent);
     }
     if (a->given.count("--no-target-update-late")) a->given.insert("--target-update-late");
+    if (!a->calibrate.empty()) {
+      run_calibrate(a->calibrate);
+      return;
+    }
     run_sim(*a);
   });
 }

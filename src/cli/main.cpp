@@ -73,6 +73,9 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(0, 10));
   app.add_flag("--json", o.json, "Machine-readable JSON output");
+  app.add_option("--record", o.record,
+                 "Write every frame on the line, both directions, with timestamps, to FILE (a "
+                 "capture, docs/capture-format.md: lec replay and lec sim --calibrate read it)");
   app.add_flag("--trace", o.trace,
                "Show every frame sent and received (hex and decoded) on stderr");
   app.add_flag("--rs485", o.rs485, "Kernel RS485 mode (TIOCSRS485): RTS on while sending");
@@ -123,6 +126,7 @@ int main(int argc, char** argv) {
   cli::add_serve_command(app, options);
   cli::add_follow_command(app, session);
   cli::add_sniff_command(app, options);
+  cli::add_replay_command(app, options);
   install_signal_handlers();
 
   try {

@@ -10,6 +10,7 @@
 #include "lec6/serve/mqtt_bridge.hpp"
 #include "lec6/serve/operations.hpp"
 #include "lec6/serve/wire.hpp"
+#include "lec6/twin/line_recorder.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -57,8 +58,15 @@ void Daemon::start_lines() {
     o.name = lc.name;
     o.port = lc.port;
     o.scheduler = scheduler_config(lc);
+    // --record: one capture per line for the daemon's life (reopens append to it).
+    transport::LineTap record;
+    if (!lc.record.empty()) {
+      auto rec = std::make_shared<twin::LineRecorder>(lc.record, "serve", lc.baud, lc.port, kClock);
+      record = [rec, tap = rec->tap()](transport::LineChunk&& c) { tap(std::move(c)); };
+      log_(LogLevel::Info, fmt::format("line {}: recording every frame to {}", lc.name, lc.record));
+    }
     auto line = std::make_unique<Line>(
-        o, [lc] { return open_wire(lc); }, kClock);
+        o, [lc, record] { return open_wire(lc, record); }, kClock);
     std::string ids;
     for (const auto& a : lc.axes)
       ids += fmt::format("{}{}={}", ids.empty() ? "" : ", ", a.name, a.id);

@@ -46,7 +46,7 @@ std::shared_ptr<SimWire> make_twin(const LineConfig& line) {
 
 }  // namespace
 
-Wire open_wire(const LineConfig& line) {
+Wire open_wire(const LineConfig& line, transport::LineTap record) {
   const auto spec = transport::parse_port_spec(line.port);
   Wire w;
   client::Link* link = nullptr;
@@ -82,6 +82,17 @@ Wire open_wire(const LineConfig& line) {
     }
     case transport::PortKind::Tcp:
       throw InvalidArgument("a line is driven in Modbus RTU, not Modbus TCP: " + line.port);
+  }
+  if (record) {  // the recording link keeps what the link needed alive
+    struct Recorded {
+      std::shared_ptr<void> inner;
+      std::unique_ptr<transport::RecordingLink> link;
+    };
+    auto r = std::make_shared<Recorded>();
+    r->inner = std::move(w.keep);
+    r->link = std::make_unique<transport::RecordingLink>(*link, std::move(record));
+    link = r->link.get();
+    w.keep = r;
   }
   const bool fast_twin = spec.kind == transport::PortKind::Sim && line.sim.fast;
   w.master = std::make_unique<client::RtuMaster>(*link, rtu_options(line, fast_twin));

@@ -1,3 +1,5 @@
+// The twin on the line (timing, exceptions, faults): rows R-TIME-* and R-EXC-* of
+// docs/twin-fidelity.md name this file.
 #include "lec6/sim/bus.hpp"
 #include "lec6/error.hpp"
 

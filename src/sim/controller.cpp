@@ -2,7 +2,8 @@
 // rising, phase ends, contact with the workpiece, stall alarms) and what the
 // master reads (flags, state data). Operations started by the inputs are in
 // controller_operations.cpp; the Modbus memory map onto those inputs and
-// outputs is register_adapter.cpp.
+// outputs is register_adapter.cpp. Each behaviour a master can observe is a row of
+// docs/twin-fidelity.md (its source and how to confirm it on a real controller).
 
 #include <fmt/format.h>
 

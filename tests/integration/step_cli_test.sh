@@ -124,7 +124,7 @@ start_twin a
 run 0 -p "$A" step restore "$DATA/spreadsheet_saved.csv"
 expect_out "3 steps written, 1 unchanged (60 steps not in the file)"
 run 2 -p "$A" step set 10 mode=abs speed=300 position=200.00
-expect_err "step 10 is blank: also give accel, decel, push-speed, in-position, or copy a step with --from M"
+expect_err "step 10 is blank: also give accel, decel, push-speed, or copy a step with --from M"
 run 2 -p "$A" step set 10 postion=200 speed=70000
 expect_err "unknown field 'postion': did you mean 'position'?"
 expect_err "allowed 1 to 65535"

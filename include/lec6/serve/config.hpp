@@ -90,6 +90,9 @@ struct LineConfig {
   bool allow_broadcast = false;  // unit id 0 from Modbus TCP: a broadcast write
   std::optional<ListenerConfig> modbus_tcp;
   std::optional<ListenerConfig> rtu_tcp;
+  // `lec serve --record FILE`: every frame of this line into a capture file
+  // (docs/capture-format.md); empty: none.
+  std::string record;
 
   Duration cache_max_age() const;
 };

@@ -6,6 +6,11 @@
 // fixed decisions ("assumed" in the digest, docs/protocol-decisions.md), each
 // citing the digest section it implements.
 //
+// docs/twin-fidelity.md (the fidelity ledger) lists every behaviour a master
+// can observe, with its source (manual, field evidence, or assumption), the
+// code that implements it and how to confirm it with a capture of a real
+// controller. A change here changes a ledger row: update both.
+//
 // Thread safety: value types and pure functions; const objects may be shared between threads,
 // writes need the caller's synchronisation.
 
@@ -124,6 +129,13 @@ namespace behaviour {
 // Checks on a start, first failing wins: alarm present → refused (no new
 // alarm); SVRE = 0 → 98; blank step → 51; lec::validate → 48; ABS before
 // homing → 99; target beyond the stroke → 52/62.
+
+// Decision (field, issue 24; ledger R-FLAG-INP0, R-RANGE-INP): in position 0
+// (D9110) is valid, although the manual prints 1…2147483647: a published driver
+// written against real LECP6 hardware sends 0 and its move completes. With a
+// band of 0, INP rises only exactly on the target (0.01 mm units), which is
+// where every positioning profile ends; a pushing distance of 0 ends the push
+// at once (INP only if the workpiece is exactly at the pushing start).
 
 // Decision (assumed): RESET clears the alarm when lec::alarm_resettable() says
 // so (48–99); other codes (149) clear only with RESET while the servo is off
