@@ -28,6 +28,8 @@ enum ExitCode : int {
   kException = 4,      // the controller answered with an exception (01/02/03)
   kAlarm = 5,          // the controller raised an alarm
   kDeadline = 6,       // a wait ran past its deadline
+  kDegraded = 7,       // lec doctor: the line works, but slower or less reliable than it could
+  kBroken = 8,         // lec doctor: something on the line does not work
   kInterrupted = 130,  // Ctrl-C (the axis was stopped first)
 };
 
@@ -117,5 +119,6 @@ void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/b
 void add_sim_command(CLI::App& app, const GlobalOptions& globals);    // sim (the twin program)
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
 void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
+void add_doctor_command(CLI::App& app, Session& session);  // doctor (diagnose the line)
 
 }  // namespace lec6::cli
