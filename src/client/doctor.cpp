@@ -311,23 +311,32 @@ void Builder::line_quality() {
   const auto& b = o_.burst;
   if (b.exchanges == 0) return;
   // Duplicate IDs: replies garbled though they carry the ID asked, on one ID
-  // much more than the others, with a quiet line.
-  std::vector<uint8_t> dup;
-  for (const auto& [id, n] : b.per_id_exchanges) {
+  // far more than on the others (noise hits every ID alike); with one ID
+  // only, on an otherwise quiet line.
+  auto garbled_rate = [&](uint8_t id) {
     const auto g = b.per_id_garbled.find(id);
     const int garbled = g == b.per_id_garbled.end() ? 0 : g->second;
-    if (n >= 5 && garbled * 10 >= n) dup.push_back(id);
+    return static_cast<double>(garbled) / std::max(1, b.per_id_exchanges.at(id));
+  };
+  std::vector<uint8_t> dup;
+  for (const auto& [id, n] : b.per_id_exchanges) {
+    if (n < 5 || garbled_rate(id) < 0.1) continue;
+    double others = 0;
+    for (const auto& [other, m] : b.per_id_exchanges)
+      if (other != id && m >= 5) others = std::max(others, garbled_rate(other));
+    const bool alone = b.per_id_exchanges.size() == 1;
+    const bool quiet = b.noise_bytes * 4 <= static_cast<uint64_t>(b.exchanges);
+    if (alone ? quiet : others * 4 <= garbled_rate(id)) dup.push_back(id);
   }
-  const bool quiet = b.noise_bytes * 20 <= static_cast<uint64_t>(b.exchanges);
-  const bool all_ids = dup.size() == b.per_id_exchanges.size() && b.per_id_exchanges.size() > 1;
-  if (!dup.empty() && quiet && !all_ids) {
+  if (!dup.empty()) {
     for (uint8_t id : dup) {
       const int n = b.per_id_exchanges.at(id);
       const int g = b.per_id_garbled.at(id);
       add("duplicate-id", Severity::Error,
-          fmt::format("{} of {} replies from ID {} garbled, with ID {} in their first byte, on "
-                      "an otherwise quiet line",
-                      g, n, id, id),
+          fmt::format("{} of {} replies from ID {} garbled, with ID {} in their first byte{}",
+                      g, n, id, id,
+                      b.per_id_exchanges.size() > 1 ? ", the other IDs' replies sound"
+                                                    : ", on an otherwise quiet line"),
           fmt::format("two controllers answer ID {}: their replies collide on the line", id),
           fmt::format("give one of them another ID (controller setting software, or its ID "
                       "switch), then run lec doctor again"),

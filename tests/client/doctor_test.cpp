@@ -232,6 +232,17 @@ TEST(DoctorDiagnose, CollisionsOnOneIdOnAQuietLineAreADuplicateId) {
   EXPECT_EQ(find(r, "line-quality"), nullptr);
 }
 
+TEST(DoctorDiagnose, NoiseOnEveryIdIsNoDuplicate) {
+  Observations o = clean();
+  o.burst.per_id_exchanges = {{1, 50}, {3, 50}};
+  o.burst.per_id_garbled = {{1, 10}, {3, 12}};
+  o.burst.crc = 22;
+  o.burst.noise_bytes = 60;
+  const Report r = diagnose(o);
+  EXPECT_EQ(find(r, "duplicate-id"), nullptr);
+  ASSERT_NE(find(r, "line-quality"), nullptr);
+}
+
 TEST(DoctorDiagnose, AnotherMastersQueriesAreNamed) {
   Observations o = clean();
   o.listened = milliseconds(500);
