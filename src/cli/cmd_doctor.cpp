@@ -400,6 +400,8 @@ void add_doctor_command(CLI::App& app, Session& session) {
       "Diagnose the line: baud and IDs, echo, USB latency, timing, noise, another master, "
       "duplicate IDs, each controller's state; says what to do (never moves anything)");
   cmd->footer(
+      "Example: lec doctor --port /dev/ttyUSB0 (no other option needed; --json for data; "
+      "docs/doctor.md).\n"
       "Checks, each with its own deadline (a full run takes seconds, under 30 s at worst): the "
       "baud rate (9600 ... 230400, the first that answers, starting at --baud) and the IDs that "
       "answer; a 2-wire adapter's echo (and that --echo fixes it); the USB latency timer "
