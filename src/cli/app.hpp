@@ -28,6 +28,8 @@ enum ExitCode : int {
   kException = 4,      // the controller answered with an exception (01/02/03)
   kAlarm = 5,          // the controller raised an alarm
   kDeadline = 6,       // a wait ran past its deadline
+  kDegraded = 7,       // lec doctor: the line works, but slower or less reliable than it could
+  kBroken = 8,         // lec doctor: something on the line does not work
   kInterrupted = 130,  // Ctrl-C (the axis was stopped first)
 };
 
@@ -120,5 +122,6 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (
 void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
 void add_sniff_command(CLI::App& app, const GlobalOptions& globals);  // sniff (listen-only)
 void add_replay_command(CLI::App& app, const GlobalOptions& globals);  // replay (a capture)
+void add_doctor_command(CLI::App& app, Session& session);  // doctor (diagnose the line)
 
 }  // namespace lec6::cli

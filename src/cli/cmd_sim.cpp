@@ -70,6 +70,10 @@ struct SimArgs {
   Duration usb_latency{};
   std::string tap;
   Duration tap_latency{};
+  bool echo_adapter = false;  // lec doctor's faults: see add_sim_command
+  bool strict_baud = false;
+  std::string duplicate_ids;
+  double other_master_hz = 0.0;
   std::set<std::string> given;  // options on the command line: they override the profile
   bool has(const std::string& option) const { return given.count(option) > 0; }
 };
@@ -177,6 +181,7 @@ twin::FieldProfile settings(const SimArgs& a) {
     if (!a.has("--delay-rate")) faults.delay = 1.0;  // a delay given alone applies to every reply
   }
   if (a.has("--noise-rate")) faults.noise_rate = a.noise_rate;
+  if (a.has("--duplicate-ids")) faults.duplicate_ids = parse_ids(a.duplicate_ids);
   return p;
 }
 
@@ -192,6 +197,8 @@ std::string unusual_settings(const twin::FieldProfile& p) {
     out += ", busy-min " + format_duration(p.actuator.busy_min);
   if (p.actuator.target_update_late) out += ", target-update-late";
   if (p.faults.noise_rate > 0) out += fmt::format(", noise {}/s", p.faults.noise_rate);
+  if (!p.faults.duplicate_ids.empty())
+    out += ", duplicate ids " + format_ids(p.faults.duplicate_ids);
   return out;
 }
 
@@ -203,6 +210,9 @@ std::string adapter_settings(const SimArgs& a) {
   if (!a.tap.empty()) out += ", tap " + a.tap + " listen-only";
   if (!a.tap.empty() && a.tap_latency > Duration::zero())
     out += ", tap-latency " + format_duration(a.tap_latency);
+  if (a.echo_adapter) out += ", echo adapter";
+  if (a.strict_baud) out += ", strict baud";
+  if (a.other_master_hz > 0) out += fmt::format(", other master {}/s", a.other_master_hz);
   return out;
 }
 
@@ -251,6 +261,12 @@ void run_sim(const SimArgs& a) {
   }
   if (a.trace) so.trace = [](const std::string& l) { print_line(stderr, "lec sim: " + l); };
   so.warn = [](const std::string& l) { print_line(stderr, "lec sim: warning: " + l); };
+  so.echo_adapter = a.echo_adapter;
+  so.strict_baud = a.strict_baud;
+  if (a.other_master_hz > 0) {
+    so.other_master_period = Duration(static_cast<int64_t>(1e9 / a.other_master_hz));
+    so.other_master_id = ids.front();
+  }
 
   install_stop_handlers();
   twin::SimServer server(bus, std::move(so));
@@ -369,6 +385,20 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
                   "and controller)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e9));
+  sim->add_flag("--echo-adapter", a->echo_adapter,
+                "Line fault (pty): a 2-wire adapter that echoes every byte the master sends");
+  sim->add_flag("--strict-baud", a->strict_baud,
+                "Line fault (pty): answer only a master whose port is set to --baud; at other "
+                "rates its bytes arrive as garbage, as on a real line");
+  sim->add_option("--duplicate-ids", a->duplicate_ids,
+                  "Line fault: these IDs are each set on two controllers; both answer and half "
+                  "of the replies collide (garbled, the ID intact)")
+      ->type_name("LIST");
+  sim->add_option("--other-master", a->other_master_hz,
+                  "Line fault (pty): a second master reads D9000 of the first ID this many times "
+                  "a second; every master hears its queries and the replies")
+      ->type_name("HZ")
+      ->check(CLI::Range(0.0, 1000.0));
   sim->add_flag("--trace", a->trace, "Print every frame, decoded, with timestamps, on stderr");
   sim->add_option("--seed", a->seed, "Seed of the fault generator (runs are reproducible)")
       ->capture_default_str();

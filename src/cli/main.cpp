@@ -26,6 +26,8 @@ constexpr const char* kExitCodes = R"(Exit codes:
   4  the controller answered with an exception (01/02/03)
   5  the controller raised an alarm
   6  a wait ran past its deadline
+  7  lec doctor: degraded (the line works, but slower or less reliable than it could)
+  8  lec doctor: broken (something on the line does not work)
   130 interrupted by Ctrl-C (a moving axis is stopped first)
 
 Ports: --port /dev/ttyUSB0 | tcp://host:502 (Modbus TCP, e.g. lec serve) | rtu+tcp://host:4001
@@ -127,6 +129,7 @@ int main(int argc, char** argv) {
   cli::add_follow_command(app, session);
   cli::add_sniff_command(app, options);
   cli::add_replay_command(app, options);
+  cli::add_doctor_command(app, session);
   install_signal_handlers();
 
   try {

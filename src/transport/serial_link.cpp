@@ -2,6 +2,7 @@
 // low-latency ioctls. See the header for why this is our own code.
 
 #include "lec6/transport/serial_link.hpp"
+#include "lec6/transport/port_holder.hpp"
 #include "lec6/error.hpp"
 
 #include <fcntl.h>
@@ -98,9 +99,7 @@ SerialLink::SerialLink(std::string path, SerialOptions options)
   if (fd < 0) {
     const int err = errno;
     if (err == EBUSY) {
-      throw LinkError(
-          LinkErrorKind::PortUnavailable,
-          fmt::format("cannot open {}: port busy (another program has it open)", path_));
+      throw LinkError(LinkErrorKind::PortUnavailable, port_busy_message(path_));
     }
     if (err == EACCES) {
       throw LinkError(LinkErrorKind::PortUnavailable,
@@ -122,9 +121,8 @@ SerialLink::SerialLink(std::string path, SerialOptions options)
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
       const int err = errno;
       if (err == EWOULDBLOCK) {
-        throw LinkError(
-            LinkErrorKind::PortUnavailable,
-            fmt::format("cannot open {}: port busy (another program has it open)", path_));
+        fd_.reset();  // not ours: do not name ourselves as a holder
+        throw LinkError(LinkErrorKind::PortUnavailable, port_busy_message(path_));
       }
       // Some file systems do not support locks; TIOCEXCL still applies.
     }

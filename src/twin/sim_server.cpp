@@ -8,6 +8,7 @@
 #include <sys/eventfd.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -23,6 +24,8 @@
 #include <fmt/format.h>
 
 #include "lec6/client/link.hpp"
+#include "lec6/lec/memory_map.hpp"
+#include "lec6/modbus/pdu.hpp"
 #include "twin/lumped_writer.hpp"
 #include "twin/state_saver.hpp"
 #include "twin/trace_mirror.hpp"
@@ -39,6 +42,31 @@ using transport::UniqueFd;
 constexpr int kPtySource = 0;
 constexpr int kNoSource = -1;
 constexpr int kEverySource = -2;  // idle-line noise: every master hears it
+constexpr int kOtherMaster = -4;  // SimServerOptions::other_master_period
+
+speed_t speed_of(uint32_t baud) {
+  switch (baud) {
+    case 9600:
+      return B9600;
+    case 19200:
+      return B19200;
+    case 38400:
+      return B38400;
+    case 57600:
+      return B57600;
+    case 115200:
+      return B115200;
+    default:
+      return B230400;
+  }
+}
+
+// What a UART at the wrong speed makes of bytes: fewer of them, none the same.
+modbus::Bytes garble(std::span<const uint8_t> bytes) {
+  modbus::Bytes out;
+  for (std::size_t i = 0; i < bytes.size(); i += 2) out.push_back(static_cast<uint8_t>(bytes[i] ^ 0x5A));
+  return out;
+}
 
 timespec to_timespec(Duration d) {
   if (d < Duration::zero()) d = Duration::zero();
@@ -97,6 +125,9 @@ struct SimServer::Impl {
   int next_source = kPtySource + 1;
   bool pty_full_warned = false;
 
+  std::optional<TimePoint> next_other_query;  // SimServerOptions::other_master_period
+  modbus::Bytes other_query;
+
   std::optional<TraceMirror> mirror;  // --trace
   std::optional<LumpedWriter> tap;    // --tap
   std::optional<LumpedWriter> usb;    // --usb-latency: the master pty's replies
@@ -111,6 +142,12 @@ struct SimServer::Impl {
         bus(b),
         options(o),
         saver(b, {o.state_file, o.save_interval, o.state_carry, o.warn}) {
+    if (options.other_master_period > Duration::zero()) {
+      next_other_query = clock.now() + options.other_master_period;
+      other_query = *modbus::encode_request(
+          {options.other_master_id,
+           modbus::ReadRegistersRequest{lec::kStateData, lec::kStateDataRegisters}});
+    }
     if (options.trace) {
       mirror.emplace(bus.line().line.silent_interval(),
                      real ? modbus::FrameEnd::Silence : modbus::FrameEnd::LengthOrSilence, origin,
@@ -238,14 +275,34 @@ struct SimServer::Impl {
     }
   }
 
+  // strict_baud: whether the master set its port to a rate other than the line's.
+  bool master_at_wrong_baud() const {
+    if (!options.strict_baud || !self.pty_) return false;
+    termios t{};
+    if (::tcgetattr(self.pty_->master_fd(), &t) != 0) return false;
+    return cfgetospeed(&t) != speed_of(bus.line().line.baud);
+  }
+
+  // Bytes the pty's master hears (garbled when it listens at the wrong rate).
+  ssize_t to_pty(const modbus::Bytes& bytes) {
+    const modbus::Bytes heard = master_at_wrong_baud() ? garble(bytes) : bytes;
+    const ssize_t n = ::write(self.pty_->master_fd(), heard.data(), heard.size());
+    return n == static_cast<ssize_t>(heard.size()) ? static_cast<ssize_t>(bytes.size()) : n;
+  }
+
   bool deliver(const Outgoing& o) {
+    if (o.owner == kOtherMaster) {  // the other master's reply: every master hears it
+      spread(o.bytes);
+      return true;
+    }
     if (o.owner == kPtySource && self.pty_ && usb) {
-      usb->put(o.bytes, o.at);  // written at the adapter's tick (flush_writers)
+      // written at the adapter's tick (flush_writers), garbled at a wrong baud
+      usb->put(master_at_wrong_baud() ? garble(o.bytes) : o.bytes, o.at);
       ++replies_sent;
       return true;
     }
     if (o.owner == kPtySource && self.pty_) {
-      const ssize_t n = ::write(self.pty_->master_fd(), o.bytes.data(), o.bytes.size());
+      const ssize_t n = to_pty(o.bytes);
       if (n == static_cast<ssize_t>(o.bytes.size())) {
         ++replies_sent;
         return true;
@@ -276,10 +333,9 @@ struct SimServer::Impl {
   // Noise goes to every master, best effort (not traced, not counted as replies).
   void spread(const modbus::Bytes& bytes) {
     if (self.pty_ && usb) {
-      usb->put(bytes, clock.now());
+      usb->put(master_at_wrong_baud() ? garble(bytes) : bytes, clock.now());
     } else if (self.pty_) {
-      [[maybe_unused]] const ssize_t n =
-          ::write(self.pty_->master_fd(), bytes.data(), bytes.size());
+      [[maybe_unused]] const ssize_t n = to_pty(bytes);
     }
     for (auto& [source, c] : connections)
       c.pending.insert(c.pending.end(), bytes.begin(), bytes.end());
@@ -307,7 +363,16 @@ struct SimServer::Impl {
 
   // ---- the loop --------------------------------------------------------------
 
+  // The other master's next query, when due: on the line, and heard by every master.
+  void poll_other_master(TimePoint now) {
+    if (!next_other_query || *next_other_query > now) return;
+    next_other_query = now + options.other_master_period;
+    ingest(other_query, now, kOtherMaster);
+    spread(other_query);
+  }
+
   void step(TimePoint now) {
+    poll_other_master(now);
     advance(now);
     collect(now);
     // The last moments before a reply's instant: spin, the timer would be late
@@ -331,6 +396,7 @@ struct SimServer::Impl {
     min_into(d, saver.due());
     if (tap) min_into(d, tap->deadline());
     if (usb) min_into(d, usb->deadline());
+    min_into(d, next_other_query);
     return d;
   }
 
@@ -339,8 +405,17 @@ struct SimServer::Impl {
     for (;;) {
       const ssize_t n = ::read(self.pty_->master_fd(), buf.data(), buf.size());
       if (n > 0) {
-        ingest(std::span<const uint8_t>(buf.data(), static_cast<std::size_t>(n)), clock.now(),
-               kPtySource);
+        const std::span<const uint8_t> bytes(buf.data(), static_cast<std::size_t>(n));
+        const TimePoint now = clock.now();
+        if (options.echo_adapter) {  // the adapter hears itself (best effort, as noise)
+          [[maybe_unused]] const ssize_t e = ::write(self.pty_->master_fd(), buf.data(), bytes.size());
+        }
+        if (master_at_wrong_baud()) {
+          const modbus::Bytes heard = garble(bytes);
+          ingest(heard, now, kPtySource);
+        } else {
+          ingest(bytes, now, kPtySource);
+        }
         continue;
       }
       if (n < 0 && errno == EINTR) continue;

@@ -97,6 +97,17 @@ struct SimServerOptions {
   // lumps with a non-zero `tap_latency`). What is written to it is discarded.
   std::filesystem::path tap_link;
   Duration tap_latency{};
+  // Line faults the pty plays (lec doctor's test bench; TCP clients are not affected):
+  // a 2-wire adapter that echoes: every byte the master writes comes back to it at once;
+  bool echo_adapter = false;
+  // the controllers answer only at the line's baud: a master whose port is set to
+  // another rate (its termios, read on the pty's master side) is heard as
+  // garbage, as a UART at the wrong speed would hear it, and hears garbage;
+  bool strict_baud = false;
+  // a second master on the line, reading D9000 of `other_master_id` every
+  // `other_master_period` (0: none): its queries and the replies reach every master.
+  Duration other_master_period{};
+  uint8_t other_master_id = 1;
 };
 
 class SimServer {
