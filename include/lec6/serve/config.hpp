@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "lec6/clock.hpp"
@@ -42,6 +43,9 @@ struct AxisConfig {
   uint8_t id = 1;
   std::string name;          // unique across lines; "axis<ID>" by default
   double telemetry_hz = 10;  // 0: no telemetry polling
+  // soft_limits_mm: [MIN, MAX]: moves to a target outside are refused before
+  // anything is written (client::SoftLimits). Empty: none.
+  std::optional<std::pair<int32_t, int32_t>> soft_limits_001mm;
 };
 
 struct Rs485Config {
