@@ -143,6 +143,15 @@ def table(ck, tmp, procs):
                  f"{name}: a target beyond the soft limits is refused", refused)
         ck.check(not serve.axis(axis)["flags"]["alarm"],
                  f"{name}: nothing reached the controller (no alarm 62)", serve.axis(axis))
+        # Messages in the interface they appear in: the way to serial mode is
+        # this interface's own action, not `lec serial on` (but for the CLI).
+        serve.http("POST", f"/api/axes/{axis}/serial", {"on": False})
+        refused = move({"to": 50})
+        want = {"cli": "`lec serial on`", "http": "`POST /api/axes/", "mqtt": "`POST /api/axes/",
+                "python": "`axis.set_serial_mode(True)`"}[name]
+        ck.check(want in refused and (name == "cli" or "`lec " not in refused),
+                 f"{name}: the refusal names this interface's action ({want})", refused)
+        serve.http("POST", f"/api/axes/{axis}/serial", {"on": True})
 
 
 if __name__ == "__main__":
