@@ -174,7 +174,7 @@ function fmt(v: number | null, decimals: number, unit: string): string {
 }
 
 // Time axes read as clock time, the same in every locale (issue 27):
-// "14:05:37", and tenths when the ticks are closer than a second.
+// "14:05:37", and tenths or hundredths when the ticks are closer than a second.
 export function clockTime(epochS: number, decimals = 0): string {
   const d = new Date(epochS * 1000);
   const p2 = (n: number) => String(n).padStart(2, "0");
@@ -183,5 +183,7 @@ export function clockTime(epochS: number, decimals = 0): string {
 }
 
 export const clockAxis: uPlot.Axis = {
-  values: (_u, ticks, _axis, _space, incr) => ticks.map((t) => clockTime(t, incr < 1 ? 1 : 0)),
+  space: 90, // px between ticks: room for "14:05:37.25"
+  values: (_u, ticks, _axis, _space, incr) =>
+    ticks.map((t) => clockTime(t, incr < 0.1 ? 2 : incr < 1 ? 1 : 0)),
 };

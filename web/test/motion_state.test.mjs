@@ -41,7 +41,8 @@ test("a refused move (alarm 62) then RESET: the page follows the daemon, not its
   const notes = await page.locator(".controls .reason").allTextContents();
   assert.ok(!notes.some((n) => /running/.test(n)), `notes still say a move runs: ${JSON.stringify(notes)}`);
   await shot(page, "motion-state-after-reset");
-  assert.deepEqual(page.errors, []);
+  // The refused move's 422 is the browser's own log line, not the page's error.
+  assert.deepEqual(page.errors.filter((e) => !/status of 422/.test(e)), []);
 });
 
 test("the form says what the next move will use, the in-position band included", async () => {
