@@ -60,3 +60,15 @@ install(FILES ${PROJECT_SOURCE_DIR}/tools/completion/lec.bash
         DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions RENAME lec)
 # Under the prefix (/usr in the package): /usr/lib/systemd/system.
 install(FILES ${PROJECT_SOURCE_DIR}/docs/lec-serve.service DESTINATION lib/systemd/system)
+
+# /usr/share/doc/lec6: the copyright file and the changelog (gzip -9n: the same
+# bytes at every build), as every Debian package has them.
+set(LEC6_CHANGELOG ${PROJECT_BINARY_DIR}/changelog.gz)
+add_custom_command(
+  OUTPUT ${LEC6_CHANGELOG}
+  COMMAND gzip -9nc ${PROJECT_SOURCE_DIR}/cmake/deb/changelog > ${LEC6_CHANGELOG}
+  DEPENDS ${PROJECT_SOURCE_DIR}/cmake/deb/changelog
+  COMMENT "Compressing the changelog")
+add_custom_target(lec6_changelog ALL DEPENDS ${LEC6_CHANGELOG})
+install(FILES ${PROJECT_SOURCE_DIR}/cmake/deb/copyright ${LEC6_CHANGELOG}
+        DESTINATION ${CMAKE_INSTALL_DOCDIR})

@@ -1,4 +1,4 @@
-#!/usr/bin/python3
+#!/usr/bin/env python3
 """Step table backup and restore, in the files of `lec step backup`.
 
 Backs the controller's 64 steps up to FILE (CSV, or JSON for *.json), changes

@@ -1,4 +1,4 @@
-#!/usr/bin/python3
+#!/usr/bin/env python3
 """Manual, operation example 1: running with specified step data (§4).
 
 Serial mode (Y30), servo on (Y19, wait SVRE), return to origin (Y1C, wait

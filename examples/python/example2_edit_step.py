@@ -1,4 +1,4 @@
-#!/usr/bin/python3
+#!/usr/bin/env python3
 """Manual, operation example 2: editing step data (§5).
 
 Sets step No.1's position to 150.00 mm: one write of D0412-D0413 (only the

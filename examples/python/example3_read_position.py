@@ -1,4 +1,4 @@
-#!/usr/bin/python3
+#!/usr/bin/env python3
 """Manual, operation example 3: reading position and speed data (§6).
 
 D9000-D9006 in one read: position (0.01 mm in the registers, mm here), speed,

@@ -1,4 +1,4 @@
-#!/usr/bin/python3
+#!/usr/bin/env python3
 """Manual, operation example 4: direct instruction of position and speed (§7).
 
 Serial mode, servo on, return to origin, then direct operation to 300.00 mm

@@ -276,12 +276,14 @@ class Axis:
     def servo_off(self, *, timeout: float = 5.0) -> None: ...
     def home(self, *, timeout: float = 60.0, progress: Optional[_Progress] = None,
              cancel: Optional[_Cancel] = None) -> MoveResult: ...
+    soft_limits: Optional[Tuple[float, float]]
     def move(self, to: _Number, *, relative: bool = False, speed: Optional[_Number] = None,
              accel: Optional[_Number] = None, decel: Optional[_Number] = None,
              moving_force: Optional[_Number] = None, in_position: Optional[_Number] = None,
              area: Optional[Tuple[_Number, _Number]] = None, push: Optional[_Number] = None,
              trigger: Optional[_Number] = None, push_speed: Optional[_Number] = None,
-             wait: bool = True, timeout: float = 60.0, progress: Optional[_Progress] = None,
+             keep: bool = False, wait: bool = True, timeout: float = 60.0,
+             progress: Optional[_Progress] = None,
              cancel: Optional[_Cancel] = None) -> MoveResult: ...
     def run_step(self, step: int, *, timeout: float = 60.0, progress: Optional[_Progress] = None,
                  cancel: Optional[_Cancel] = None) -> MoveResult: ...

@@ -27,11 +27,13 @@ std::optional<int32_t> i32(StepField f, const py::object& v, std::string_view ke
 struct MoveArgs {
   py::object to, speed, accel, decel, moving_force, in_position, area, push, trigger, push_speed;
   bool relative = false;
+  bool keep = false;
 };
 
 client::DirectMove direct_move(const MoveArgs& a) {
   client::DirectMove m;
   m.relative = a.relative;
+  m.keep = a.keep;
   m.position_001mm = i32(StepField::Position, a.to, "to");
   m.speed_mm_s = u16(StepField::Speed, a.speed, "speed");
   m.acceleration_mm_s2 = u16(StepField::Acceleration, a.accel, "accel");
@@ -180,11 +182,11 @@ void bind_motion(py::class_<Axis>& c) {
           "move",
           [](Axis& self, py::object to, bool relative, py::object speed, py::object accel,
              py::object decel, py::object moving_force, py::object in_position, py::object area,
-             py::object push, py::object trigger, py::object push_speed, bool wait, double timeout,
-             py::object progress, py::object cancel) {
+             py::object push, py::object trigger, py::object push_speed, bool keep, bool wait,
+             double timeout, py::object progress, py::object cancel) {
             const client::DirectMove m =
                 direct_move({to, speed, accel, decel, moving_force, in_position, area, push,
-                             trigger, push_speed, relative});
+                             trigger, push_speed, relative, keep});
             const Duration limit = seconds_arg(timeout, "timeout");
             return finished(self.wait_call(progress, cancel, kStopped,
                                            [&](client::Client& c, client::Actuator& a,
@@ -199,11 +201,13 @@ void bind_motion(py::class_<Axis>& c) {
           py::arg("moving_force") = py::none(), py::arg("in_position") = py::none(),
           py::arg("area") = py::none(), py::arg("push") = py::none(),
           py::arg("trigger") = py::none(), py::arg("push_speed") = py::none(),
-          py::arg("wait") = true, py::arg("timeout") = 60.0, py::arg("progress") = py::none(),
-          py::arg("cancel") = py::none(),
-          "Direct operation to `to` mm (a distance with relative=True). Fields not given keep "
-          "what the controller holds. push=% makes it a pushing move. Waits for BUSY to fall "
-          "(wait=False: returns after the start).")
+          py::arg("keep") = false, py::arg("wait") = true, py::arg("timeout") = 60.0,
+          py::arg("progress") = py::none(), py::arg("cancel") = py::none(),
+          "Direct operation to `to` mm (a distance with relative=True). Fields not given take "
+          "the defaults (100 mm/s, 1000 mm/s², moving force 100 %, in "
+          "position 0.50 mm, pushing speed 20 mm/s); keep=True keeps what the controller holds "
+          "instead, and the result's message names those values. push=% makes it a pushing "
+          "move. Waits for BUSY to fall (wait=False: returns after the start).")
       .def(
           "run_step",
           [](Axis& self, int step, double timeout, py::object progress, py::object cancel) {
@@ -282,6 +286,24 @@ void bind_axis(py::module_& m) {
   c.def_property_readonly("id", &Axis::id).def("__repr__", [](const Axis& a) {
     return fmt::format("Axis({} on {})", a.id(), a.line->describe());
   });
+  c.def_property(
+      "soft_limits",
+      [](const Axis& a) -> py::object {
+        if (!a.soft_limits) return py::none();
+        return py::make_tuple(a.soft_limits->min_001mm / 100.0, a.soft_limits->max_001mm / 100.0);
+      },
+      [](Axis& a, py::object v) {
+        if (v.is_none()) return a.soft_limits.reset();
+        const auto range = v.cast<py::sequence>();
+        if (py::isinstance<py::str>(v) || range.size() != 2)
+          throw client::InvalidRequest("soft_limits: expected (min_mm, max_mm), e.g. (0.0, 400.0)");
+        const auto lo = static_cast<int32_t>(field_value(StepField::Position, py::object(range[0]), "soft_limits"));
+        const auto hi = static_cast<int32_t>(field_value(StepField::Position, py::object(range[1]), "soft_limits"));
+        if (lo > hi) throw client::InvalidRequest("soft_limits: min_mm is above max_mm");
+        a.soft_limits = client::SoftLimits{lo, hi};
+      },
+      "(min_mm, max_mm) or None: moves and steps to a target outside are refused "
+      "(lec6.InvalidRequest) before anything is written; the stroke is not in the memory map.");
   bind_reads(c);
   bind_motion(c);
   add_step_methods(c);

@@ -5,6 +5,7 @@
 // line (line.hpp).
 
 #include <memory>
+#include <optional>
 
 #include "bindings.hpp"
 #include "line.hpp"
@@ -14,6 +15,7 @@ namespace lec6::python {
 struct Axis {
   std::shared_ptr<SharedLine> line;
   client::ClientOptions options;  // id, retries
+  std::optional<client::SoftLimits> soft_limits;  // axis.soft_limits = (min_mm, max_mm)
 
   uint8_t id() const { return options.id; }
 
@@ -24,6 +26,7 @@ struct Axis {
     py::gil_scoped_release nogil;
     client::Client c(*keep, options);
     client::Actuator a(c);
+    a.set_soft_limits(soft_limits);
     struct Count {  // also when f throws: a failed call's retries count too
       SharedLine& line;
       client::Client& c;

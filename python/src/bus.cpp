@@ -94,7 +94,7 @@ void bind_bus(py::module_& m) {
             client::ClientOptions o;
             o.id = static_cast<uint8_t>(id);
             o.retries = b.retries;
-            return Axis{b.line, o};
+            return Axis{b.line, o, std::nullopt};
           },
           py::arg("id") = 1, "The controller with this ID (1-255).")
       .def_property_readonly("port", [](const Bus& b) { return b.line->describe(); })

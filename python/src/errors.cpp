@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include "lec6/client/action_words.hpp"
 #include "bindings.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
@@ -55,7 +56,8 @@ py::object error_class(const char* name) {
 }
 
 py::object make(const char* name, const std::string& message, const py::dict& attributes) {
-  py::object e = error_class(name)(message);
+  // The library's advice names `lec` commands: a script gets the method.
+  py::object e = error_class(name)(client::in_terms_of(message, client::Interface::Python));
   for (auto item : attributes) e.attr(item.first) = item.second;
   return e;
 }

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "lec6/client/action_words.hpp"
 #include "bindings.hpp"
 #include "lec6/lec/units.hpp"
 
@@ -206,7 +207,10 @@ void bind_records(py::module_& m) {
           "evidence", [](const MoveResult& r) { return r.result.evidence; },
           "What showed that the controller started the move (e.g. 'BUSY').")
       .def(
-          "describe", [](const MoveResult& r) { return r.result.describe(); },
+          "describe",
+          [](const MoveResult& r) {
+            return client::in_terms_of(r.result.describe(), client::Interface::Python);
+          },
           "One line in the manual's words, as `lec move` prints it.")
       .def_property_readonly("status",
                              [](const MoveResult& r) {

@@ -66,7 +66,11 @@ struct GlobalOptions {
   Duration delay_td = std::chrono::milliseconds(5);
   bool no_silence_wait = false;  // skip the Ts gap before queries (fast twins, benchmarks only)
   std::string record;  // --record FILE: every frame on the line into a capture file
+  std::string soft_limits;       // --soft-limits MIN:MAX (mm); empty: none
 };
+
+// --soft-limits MIN:MAX (mm) → limits; empty → none. UsageError when malformed.
+std::optional<client::SoftLimits> parse_soft_limits(const std::string& text);
 
 // A duration the option parser already checked to be whole ms (RS485 delays).
 inline uint32_t whole_ms(Duration d) {

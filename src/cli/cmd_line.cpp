@@ -258,7 +258,12 @@ void run_scan(Session& s, const std::string& id_text, bool all_bauds) {
                 {"baud", s.options().baud},
                 {"suggested_baud", better_baud ? nlohmann::json(*better_baud) : nlohmann::json()}});
   } else {
-    fmt::print("Scanned IDs {} at {} baud on {}\n", id_text, s.options().baud, port);
+    // The link's description may carry the baud already ("/dev/ttyUSB0 @ 38400"): say it once.
+    const bool says_baud = port.find(fmt::format("@ {}", s.options().baud)) != std::string::npos;
+    if (says_baud)
+      fmt::print("Scanned IDs {} on {}\n", id_text, port);
+    else
+      fmt::print("Scanned IDs {} at {} baud on {}\n", id_text, s.options().baud, port);
     for (const auto& r : found) {
       if (r.problem.empty()) {
         fmt::print("  ID {:3}  answers  {}\n", r.id, r.name.empty() ? "(no name)" : r.name);

@@ -46,6 +46,7 @@ struct MoveArgs {
   int step = -1;
   std::string to, speed, accel, decel, moving_force, in_position, area, push, trigger, push_speed;
   bool relative = false;
+  bool keep = false;
   bool no_wait = false;
   Duration timeout = std::chrono::seconds(60);
 };
@@ -53,6 +54,7 @@ struct MoveArgs {
 client::DirectMove direct_move(const MoveArgs& a) {
   client::DirectMove m;
   m.relative = a.relative;
+  m.keep = a.keep;
   m.position_001mm = static_cast<int32_t>(field_value(StepField::Position, a.to));
   auto u16 = [](StepField f, const std::string& t) -> std::optional<uint16_t> {
     if (t.empty()) return std::nullopt;
@@ -86,7 +88,8 @@ client::DirectMove direct_move(const MoveArgs& a) {
 void run_move(Session& s, const MoveArgs& a) {
   const bool by_step = a.step >= 0;
   if (by_step == !a.to.empty()) throw UsageError("move: give exactly one of --step N or --to MM");
-  if (by_step && (a.relative || !a.speed.empty() || !a.push.empty() || !a.area.empty())) {
+  if (by_step &&
+      (a.relative || a.keep || !a.speed.empty() || !a.push.empty() || !a.area.empty())) {
     throw UsageError("move --step runs the stored step as it is: edit it with `lec step set`");
   }
   const client::DirectMove m =
@@ -197,15 +200,27 @@ void add_motion_commands(CLI::App& app, Session& session) {
       ->check(CLI::Range(0, 63));
   move->add_option("--to", a->to, "Target position, mm (direct operation, D9102-D9111 + D9100)");
   move->add_flag("--relative", a->relative, "--to is a distance from the last target (INC)");
-  move->add_option("--speed", a->speed, "Speed, mm/s (1-65535)");
-  move->add_option("--accel", a->accel, "Acceleration, mm/s² (1-65535)");
-  move->add_option("--decel", a->decel, "Deceleration, mm/s² (1-65535)");
-  move->add_option("--moving-force", a->moving_force, "Moving force, % (0-300)");
-  move->add_option("--in-position", a->in_position, "In-position width (pushing: distance), mm");
-  move->add_option("--area", a->area, "AREA output range A:B, mm");
-  move->add_option("--push", a->push, "Pushing force, % (1-100): a pushing move");
-  move->add_option("--trigger", a->trigger, "Trigger level, % (≤ pushing force)");
-  move->add_option("--push-speed", a->push_speed, "Pushing speed, mm/s");
+  // The defaults in the help are the library's (one set of defaults).
+  const auto d = client::default_direct_data();
+  move->add_option("--speed", a->speed,
+                   fmt::format("Speed, mm/s (1-65535; default {})", d.speed_mm_s));
+  move->add_option("--accel", a->accel,
+                   fmt::format("Acceleration, mm/s² (1-65535; default {})", d.acceleration_mm_s2));
+  move->add_option("--decel", a->decel,
+                   fmt::format("Deceleration, mm/s² (1-65535; default {})", d.deceleration_mm_s2));
+  move->add_option("--moving-force", a->moving_force,
+                   fmt::format("Moving force, % (0-300; default {})", d.moving_force_pct));
+  move->add_option("--in-position", a->in_position,
+                   fmt::format("In-position width (pushing: distance), mm (default {})",
+                               lec::format_mm(d.in_position_001mm)));
+  move->add_option("--area", a->area, "AREA output range A:B, mm (default 0:0)");
+  move->add_option("--push", a->push, "Pushing force, % (0-100; 0: a positioning move)");
+  move->add_option("--trigger", a->trigger, "Trigger level, % (≤ pushing force; default: = it)");
+  move->add_option("--push-speed", a->push_speed,
+                   fmt::format("Pushing speed, mm/s (default {})", d.pushing_speed_mm_s));
+  move->add_flag("--keep", a->keep,
+                 "Values not given keep what the controller holds (else: the defaults above); "
+                 "the result names them");
   move->add_flag("--no-wait", a->no_wait, "Return right after the start");
   add_deadline_option(move, a->timeout, "Deadline for the move");
   move->callback([&session, a] { run_move(session, *a); });

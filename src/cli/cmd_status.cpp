@@ -1,6 +1,7 @@
 // status, watch, alarms, name: looking at a controller without changing it.
 
 #include <chrono>
+#include <ctime>
 #include <fstream>
 #include <thread>
 
@@ -53,6 +54,19 @@ struct WatchOptions {
   Duration interval{};
 };
 
+// The sample's wall-clock time, to match against a PLC's log (issue 27):
+// ISO 8601, UTC, milliseconds: 2026-11-24T19:22:01.123Z.
+std::string wall_clock_utc() {
+  const auto now = std::chrono::system_clock::now();
+  const auto secs = std::chrono::floor<std::chrono::seconds>(now);
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(now - secs).count();
+  const std::time_t tt = std::chrono::system_clock::to_time_t(secs);
+  std::tm utc{};
+  gmtime_r(&tt, &utc);
+  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z", utc.tm_year + 1900,
+                     utc.tm_mon + 1, utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec, ms);
+}
+
 void run_watch(Session& s, const WatchOptions& o) {
   auto& c = s.client();
   std::ofstream csv;
@@ -60,7 +74,7 @@ void run_watch(Session& s, const WatchOptions& o) {
     csv.open(o.record);
     if (!csv) throw CommandFailed(kFailure, fmt::format("cannot write {}", o.record));
     csv << "time_s,position_mm,speed_mm_s,thrust_pct,target_mm,step,busy,svre,seton,inp,area,warea,"
-           "estop,alarm,out\n";
+           "estop,alarm,out,wall_clock_utc\n";
   }
   const TimePoint start = c.clock().now();
   const bool tty = isatty(fileno(stdout));
@@ -77,11 +91,11 @@ void run_watch(Session& s, const WatchOptions& o) {
     const double t = to_seconds(c.clock().now() - start);
     ++samples;
     if (csv) {
-      csv << fmt::format("{:.4f},{},{},{},{},{},{:d},{:d},{:d},{:d},{:d},{:d},{:d},{:d},{}\n", t,
+      csv << fmt::format("{:.4f},{},{},{},{},{},{:d},{:d},{:d},{:d},{:d},{:d},{:d},{:d},{},{}\n", t,
                          lec::format_mm(state.position_001mm), state.speed_mm_s, state.thrust_pct,
                          lec::format_mm(state.target_001mm), state.step_no, flags.busy(),
                          flags.svre(), flags.seton(), flags.inp(), flags.area(), flags.warea(),
-                         flags.estop(), flags.alarm(), flags.out());
+                         flags.estop(), flags.alarm(), flags.out(), wall_clock_utc());
     }
     if (s.json()) {
       auto j = state_json(state, flags, {});
@@ -162,7 +176,8 @@ void add_status_commands(CLI::App& app, Session& session) {
   auto* watch =
       app.add_subcommand("watch", "Live view of position, speed, thrust and flags until Ctrl-C");
   watch->add_option("--record", watch_opts->record,
-                    "Log every sample with a timestamp to a CSV file");
+                    "Log every sample to a CSV file: time_s from the start, and wall_clock_utc "
+                    "(ISO 8601, ms) to match against a PLC's log");
   add_duration_option(watch, "--for", watch_opts->duration, "Stop after this long, e.g. 30s",
                       {std::chrono::milliseconds(1), std::chrono::hours(24 * 365)},
                       BareNumber::Seconds)

@@ -13,6 +13,8 @@
 
 #include <unistd.h>
 
+#include <fmt/ranges.h>
+
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
@@ -149,6 +151,17 @@ void run_set(Session& s, const SetArgs& a) {
     throw UsageError(
         fmt::format("step {}: nothing was written:{}", a.step, errors_text(result.error())));
   }
+  // What the user did not give: the defaults a blank step took, and warnings
+  // (a moving force of 0 %), on stderr so that --json stays one document.
+  if (!result->defaulted.empty()) {
+    std::vector<std::string> filled;
+    for (const auto f : result->defaulted)
+      filled.push_back(fmt::format("{}={}", lec::field_info(f).name,
+                                   lec::format_field(f, lec::get_field(result->step, f))));
+    fmt::print(stderr, "lec: step {} was blank: the defaults filled {}\n", a.step,
+               fmt::join(filled, " "));
+  }
+  for (const auto& w : result->warnings) fmt::print(stderr, "lec: warning: {}\n", w);
   const auto plan = client::plan_step(a.step, current, result->step);
   client::ApplyOptions o;
   o.verify = a.verify;

@@ -30,6 +30,15 @@ constexpr const char* kExitCodes = R"(Exit codes:
   8  lec doctor: broken (something on the line does not work)
   130 interrupted by Ctrl-C (a moving axis is stopped first)
 
+)";
+constexpr const char* kPorts =
+    R"(Ports: --port /dev/ttyUSB0 | tcp://host:502 (Modbus TCP, e.g. lec serve) | rtu+tcp://host:4001
+(RTU frames over TCP) | sim (in-process twin); LEC_PORT sets a default.)";
+// Each subcommand's help ends with this (CLI11 hands a footer down to the
+// subcommands created after it); the exit-code table is lec --help's and
+// the man page's only (issue 27).
+constexpr const char* kSubcommandFooter =
+    R"(Exit codes: see `lec --help` (0 success, 2 usage error: nothing sent).
 Ports: --port /dev/ttyUSB0 | tcp://host:502 (Modbus TCP, e.g. lec serve) | rtu+tcp://host:4001
 (RTU frames over TCP) | sim (in-process twin); LEC_PORT sets a default.)";
 
@@ -60,6 +69,10 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
   app.add_option("--id", o.id, "Controller ID (1-255; 0 = broadcast, for writes only)")
       ->capture_default_str()
       ->check(CLI::Range(0, 255));
+  app.add_option("--soft-limits", o.soft_limits,
+                 "MIN:MAX in mm, e.g. 0:400: moves and steps to a target outside are refused "
+                 "before anything is written (the stroke is not in the memory map)")
+      ->envname("LEC_SOFT_LIMITS");
   using std::chrono::milliseconds;
   using std::chrono::seconds;
   cli::add_duration_option(&app, "--reply-margin", o.reply_margin,
@@ -111,7 +124,7 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
 int main(int argc, char** argv) {
   CLI::App app{"lec: drive SMC LEC\u25A16 electric-actuator controllers over RS485 (Modbus RTU)",
                "lec"};
-  app.footer(kExitCodes);
+  app.footer(kSubcommandFooter);
   app.set_version_flag("--version", std::string("lec ") + LEC6_VERSION_STRING,
                        "Print the version and exit");
   app.require_subcommand(1);
@@ -130,6 +143,7 @@ int main(int argc, char** argv) {
   cli::add_sniff_command(app, options);
   cli::add_replay_command(app, options);
   cli::add_doctor_command(app, session);
+  app.footer(std::string(kExitCodes) + kPorts);
   install_signal_handlers();
 
   try {
@@ -140,8 +154,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     // A mistyped command: name the nearest one rather than CLI11's generic words.
     if (auto m = cli::unknown_command_message(app, argc, argv)) return fail(cli::kUsage, *m);
-    app.exit(e);
-    return cli::kUsage;
+    // Every usage error starts with `lec:`, CLI11's own too (issue 27).
+    return fail(cli::kUsage,
+                fmt::format("{}\nRun with --help for more information.", e.what()));
   } catch (const cli::UsageError& e) {
     return fail(cli::kUsage, e.what());
   } catch (const client::InvalidRequest& e) {

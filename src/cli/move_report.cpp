@@ -66,6 +66,7 @@ nlohmann::json move_json(const client::MoveResult& r) {
       goal["in_position_mm"] = mm_json(r.goal.in_position_001mm);
     }
   }
+  if (!r.goal.kept.empty()) goal["kept_from_controller"] = r.goal.kept;
   j["goal"] = goal;
   j["timeline"] = {{"start_ms", 0},
                    {"busy_up_ms", ms_or_null(r.timeline.busy_up)},

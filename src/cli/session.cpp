@@ -2,6 +2,7 @@
 
 #include "cli/app.hpp"
 #include "cli/trace_printer.hpp"
+#include "lec6/lec/step_data.hpp"
 #include "lec6/lec/units.hpp"
 #include "lec6/transport/port_spec.hpp"
 #include "lec6/twin/line_recorder.hpp"
@@ -41,6 +42,24 @@ std::string resolve_port(const GlobalOptions& o, std::string_view default_port) 
 }
 
 }  // namespace
+
+std::optional<client::SoftLimits> parse_soft_limits(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  const auto colon = text.find(':');
+  const auto usage = [&](const std::string& why) {
+    return UsageError(fmt::format("--soft-limits '{}': {}; expected MIN:MAX in mm, e.g. 0:400",
+                                  text, why));
+  };
+  if (colon == std::string::npos) throw usage("no ':'");
+  const auto end = [&](const std::string& part) {
+    auto v = lec::parse_field(lec::StepField::Position, part);
+    if (!v) throw usage(v.error());
+    return static_cast<int32_t>(*v);
+  };
+  client::SoftLimits l{end(text.substr(0, colon)), end(text.substr(colon + 1))};
+  if (l.min_001mm > l.max_001mm) throw usage("MIN is above MAX");
+  return l;
+}
 
 client::Client& Session::client(std::string_view default_port) {
   if (impl_) return *impl_->client;
@@ -83,6 +102,7 @@ client::Client& Session::client(std::string_view default_port) {
   co.retries = options_.retries;
   impl->client = std::make_unique<client::Client>(impl->port->master(), co);
   impl->axis = std::make_unique<client::Actuator>(*impl->client);
+  impl->axis->set_soft_limits(parse_soft_limits(options_.soft_limits));
   impl_ = std::move(impl);
   return *impl_->client;
 }

@@ -7,6 +7,7 @@
 
 #include "client/coil_reset.hpp"
 #include "lec6/client/actuator.hpp"
+#include "lec6/lec/step_defaults.hpp"
 #include "lec6/lec/units.hpp"
 
 namespace lec6::client {
@@ -47,22 +48,19 @@ std::pair<unsigned, unsigned> changed_range(const lec::StepData& have, const lec
 
 }  // namespace
 
-lec::StepData default_direct_data() {
-  lec::StepData d;
-  d.movement_mode = lec::MovementMode::Absolute;
-  d.speed_mm_s = 100;
-  d.acceleration_mm_s2 = 1000;
-  d.deceleration_mm_s2 = 1000;
-  d.pushing_force_pct = 0;
-  d.trigger_level_pct = 0;
-  d.pushing_speed_mm_s = 20;
-  d.moving_force_pct = 100;
-  d.in_position_001mm = 50;  // 0.50 mm
-  return d;
+lec::StepData default_direct_data() { return lec::default_step_data(); }
+
+namespace {
+
+// keep: the controller's data, when they are valid (power-on: blank).
+bool keeps(const lec::StepData& current, const DirectMove& m) {
+  return m.keep && lec::validate(current).empty();
 }
 
+}  // namespace
+
 lec::StepData merge_direct(const lec::StepData& current, const DirectMove& m) {
-  lec::StepData d = lec::validate(current).empty() ? current : default_direct_data();
+  lec::StepData d = keeps(current, m) ? current : default_direct_data();
   d.movement_mode = m.relative ? lec::MovementMode::Incremental : lec::MovementMode::Absolute;
   if (m.position_001mm) d.position_001mm = *m.position_001mm;
   if (m.speed_mm_s) d.speed_mm_s = *m.speed_mm_s;
@@ -73,11 +71,44 @@ lec::StepData merge_direct(const lec::StepData& current, const DirectMove& m) {
   if (m.area1_001mm) d.area1_001mm = *m.area1_001mm;
   if (m.area2_001mm) d.area2_001mm = *m.area2_001mm;
   if (m.pushing_speed_mm_s) d.pushing_speed_mm_s = *m.pushing_speed_mm_s;
-  // A move without --push is a positioning move, whatever the previous one was.
+  // A move without a pushing force is a positioning move, whatever the
+  // previous one was (also with keep).
   d.pushing_force_pct = m.pushing_force_pct.value_or(0);
   d.trigger_level_pct =
       m.trigger_level_pct.value_or(m.pushing_force_pct ? *m.pushing_force_pct : 0);
   return d;
+}
+
+std::vector<std::string> kept_direct_values(const lec::StepData& current, const DirectMove& m) {
+  std::vector<std::string> kept;
+  if (!keeps(current, m)) return kept;
+  const auto& c = current;
+  if (!m.speed_mm_s) kept.push_back(fmt::format("speed {} mm/s", c.speed_mm_s));
+  if (!m.acceleration_mm_s2) kept.push_back(fmt::format("accel {} mm/s²", c.acceleration_mm_s2));
+  if (!m.deceleration_mm_s2) kept.push_back(fmt::format("decel {} mm/s²", c.deceleration_mm_s2));
+  if (!m.moving_force_pct) kept.push_back(fmt::format("moving force {} %", c.moving_force_pct));
+  if (!m.in_position_001mm)
+    kept.push_back(fmt::format("in position {} mm", lec::format_mm(c.in_position_001mm)));
+  if (!m.area1_001mm && !m.area2_001mm && (c.area1_001mm != 0 || c.area2_001mm != 0)) {
+    kept.push_back(fmt::format("area {}:{} mm", lec::format_mm(c.area1_001mm),
+                               lec::format_mm(c.area2_001mm)));
+  }
+  if (m.pushing_force_pct && !m.pushing_speed_mm_s)
+    kept.push_back(fmt::format("pushing speed {} mm/s", c.pushing_speed_mm_s));
+  return kept;
+}
+
+std::optional<std::string> soft_limit_violation(const SoftLimits& l, int32_t target_001mm) {
+  if (target_001mm >= l.min_001mm && target_001mm <= l.max_001mm) return std::nullopt;
+  return fmt::format("target {} mm is beyond the soft limits {} to {} mm of this axis: nothing was "
+                     "written",
+                     lec::format_mm(target_001mm), lec::format_mm(l.min_001mm),
+                     lec::format_mm(l.max_001mm));
+}
+
+void Actuator::check_soft_limits(int32_t target_001mm) const {
+  if (!soft_limits_) return;
+  if (auto why = soft_limit_violation(*soft_limits_, target_001mm)) throw InvalidRequest(*why);
 }
 
 MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptions& wait) {
@@ -92,6 +123,8 @@ MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptio
     throw InvalidRequest(fmt::format(
         "step {} is ABS and the axis is not homed (SETON = 0): run `lec home` first", step));
   }
+  const MoveGoal goal = goal_of(data, before.state.target_001mm, step);
+  check_soft_limits(goal.target_001mm);
   // DRIVE starts on a rising edge: make sure it is low first.
   if (before.controls.test(Coil::DRIVE)) client_.write_coil(Coil::DRIVE, false);
   client_.select_step(step);
@@ -99,8 +132,8 @@ MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptio
   // Writing DRIVE = 1 again after a lost reply is harmless: it is a level,
   // and a repeat makes no new edge. So even INC steps cannot start twice.
   client_.write_coil(Coil::DRIVE, true);
-  const StartedMove started{MoveStart{goal_of(data, before.state.target_001mm, step), before.flags,
-                                      before.state, false, client_.clock().now()}};
+  const StartedMove started{
+      MoveStart{goal, before.flags, before.state, false, client_.clock().now()}};
   return this->wait(started, deadline, wait);
 }
 
@@ -118,12 +151,15 @@ StartedMove Actuator::start(const DirectMove& m) {
         "an ABS move needs the axis homed (SETON = 0): run `lec home`, or move --relative");
   }
 
+  MoveGoal goal = goal_of(want, before.state.target_001mm, std::nullopt);
+  goal.kept = kept_direct_values(current, m);
+  check_soft_limits(goal.target_001mm);
+
   // Only the registers that change are written (one contiguous range).
   if (const auto [first, count] = changed_range(current, want); count > 0)
     client_.write_direct_registers(want, first, count);
   direct_written_ = want;
 
-  const MoveGoal goal = goal_of(want, before.state.target_001mm, std::nullopt);
   if (relative) {
     // An INC start is never resent blindly: a repeat would move twice. After a
     // lost reply, the target position tells whether the controller started.
@@ -154,6 +190,7 @@ StartedMove Actuator::retarget(int32_t position_001mm, std::optional<uint16_t> s
     s.start.may_be_running = true;
     return s;
   }
+  check_soft_limits(position_001mm);
   lec::StepData want = *direct_written_;
   want.movement_mode = lec::MovementMode::Absolute;
   want.position_001mm = position_001mm;

@@ -1,6 +1,7 @@
 #include "lec6/client/move_result.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "lec6/lec/alarms.hpp"
 #include "lec6/lec/units.hpp"
@@ -82,6 +83,13 @@ std::string_view outcome_name(MoveOutcome o) noexcept {
 }
 
 std::string MoveResult::describe() const {
+  std::string line = outcome_text();
+  if (!goal.kept.empty())
+    line += fmt::format("; kept from the controller: {}", fmt::join(goal.kept, ", "));
+  return line;
+}
+
+std::string MoveResult::outcome_text() const {
   const double s = to_seconds(elapsed);
   switch (outcome) {
     case MoveOutcome::Reached:

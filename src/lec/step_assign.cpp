@@ -1,4 +1,5 @@
 #include "lec6/lec/step_assign.hpp"
+#include "lec6/lec/step_defaults.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -109,8 +110,10 @@ Expected<AssignResult, AssignErrors> apply_assignments(unsigned step, const Step
                                  "or copy a step with --from M",
                                  step)});
   }
+  // A blank step starts from the one set of defaults (step_defaults.hpp),
+  // as PUT /steps/N and the dashboard do; the result names what they filled.
   const StepData base = from ? from->data : current;
-  StepData result = base;
+  StepData result = base.is_blank() ? default_step_data() : base;
   std::array<bool, kStepFieldCount> assigned{};
   for (const auto& a : assignments) {
     set_field(result, a.field, a.raw);
@@ -137,9 +140,16 @@ Expected<AssignResult, AssignErrors> apply_assignments(unsigned step, const Step
   }
   if (!errors.empty()) return unexpected(std::move(errors));
 
-  AssignResult out{result, {}};
+  AssignResult out{result, {}, {}, {}};
   for (const auto& i : step_fields()) {
     if (get_field(result, i.field) != get_field(current, i.field)) out.changed.push_back(i.field);
+    if (base.is_blank() && !assigned[static_cast<std::size_t>(i.field)] &&
+        get_field(result, i.field) != 0)
+      out.defaulted.push_back(i.field);
+  }
+  if (result.moving_force_pct == 0) {
+    out.warnings.push_back(fmt::format(
+        "step {}: moving force is 0 %: the actuator may not move (give moving-force=100)", step));
   }
   return out;
 }

@@ -135,6 +135,7 @@ void parse_move(const Args& a, Command& c) {
   auto& m = c.move;
   m.position_001mm = static_cast<int32_t>(field(a, "position_mm", F::Position));
   m.relative = boolean(a, "relative", false);
+  m.keep = boolean(a, "keep", false);
   m.speed_mm_s = opt_field<uint16_t>(a, "speed_mm_s", F::Speed);
   m.acceleration_mm_s2 = opt_field<uint16_t>(a, "accel_mm_s2", F::Acceleration);
   m.deceleration_mm_s2 = opt_field<uint16_t>(a, "decel_mm_s2", F::Deceleration);

@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <charconv>
 #include <set>
 
@@ -63,7 +64,7 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
 }
 
 AxisConfig read_axis(const Reader& r, const YAML::Node& n, const std::string& path) {
-  r.keys(n, path, {"id", "name", "telemetry_hz"});
+  r.keys(n, path, {"id", "name", "telemetry_hz", "soft_limits_mm"});
   AxisConfig a;
   if (!n["id"]) r.fail(n, path, "every axis needs an id (the controller ID, 1 to 255)");
   a.id = static_cast<uint8_t>(
@@ -71,6 +72,17 @@ AxisConfig read_axis(const Reader& r, const YAML::Node& n, const std::string& pa
   a.name = r.get<std::string>(n["name"], path + ".name", fmt::format("axis{}", a.id));
   r.name(n["name"], path + ".name", a.name);
   a.telemetry_hz = r.number(n["telemetry_hz"], path + ".telemetry_hz", 10, 0, 1000);
+  if (const auto l = n["soft_limits_mm"]) {
+    const std::string at = path + ".soft_limits_mm";
+    if (!l.IsSequence() || l.size() != 2)
+      r.fail(l, at, "expected [MIN, MAX] in mm, e.g. [0, 400]");
+    const auto end = [&](std::size_t i) {
+      return static_cast<int32_t>(std::lround(r.number(l[i], at, 0, -2e7, 2e7) * 100));
+    };
+    a.soft_limits_001mm = std::pair{end(0), end(1)};
+    if (a.soft_limits_001mm->first > a.soft_limits_001mm->second)
+      r.fail(l, at, "MIN is above MAX");
+  }
   return a;
 }
 

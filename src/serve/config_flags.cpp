@@ -91,7 +91,7 @@ ServeConfig config_from_flags(const FlagConfig& f) {
   line.baud = f.baud;
   line.sim.fast = f.fast_sim;
   for (uint8_t id : parse_ids(f.ids)) {
-    line.axes.push_back(AxisConfig{id, fmt::format("axis{}", id), f.telemetry_hz});
+    line.axes.push_back(AxisConfig{id, fmt::format("axis{}", id), f.telemetry_hz, std::nullopt});
   }
   line.modbus_tcp = listener(f.modbus_tcp);
   line.rtu_tcp = listener(f.rtu_tcp);

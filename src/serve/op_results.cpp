@@ -1,3 +1,4 @@
+#include "lec6/client/action_words.hpp"
 #include "op_results.hpp"
 
 #include <fmt/format.h>
@@ -39,8 +40,9 @@ nlohmann::json seconds_or_null(const std::optional<Duration>& d) {
 // outcome, message, evidence and the flag timeline of a move.
 void add_move_details(nlohmann::json& body, const client::MoveResult& r) {
   body["outcome"] = std::string(client::outcome_name(r.outcome));
-  body["message"] = r.describe();
+  body["message"] = client::in_terms_of(r.describe(), client::Interface::Http);
   body["evidence"] = r.evidence;
+  if (!r.goal.kept.empty()) body["kept_from_controller"] = r.goal.kept;
   body["timeline"] = {{"busy_up_s", seconds_or_null(r.timeline.busy_up)},
                       {"busy_down_s", seconds_or_null(r.timeline.busy_down)},
                       {"inp_s", seconds_or_null(r.timeline.inp)}};
@@ -58,7 +60,10 @@ void add_move_of(nlohmann::json& body, const client::WithMoveResult& e) {
 }  // namespace
 
 OpResult refusal(int status, const std::string& message, const std::string& field) {
-  nlohmann::json body{{"ok", false}, {"error", message}};
+  // The library's advice names `lec` commands: HTTP and MQTT clients get the
+  // request that does the same (client/action_words.hpp).
+  nlohmann::json body{{"ok", false},
+                      {"error", client::in_terms_of(message, client::Interface::Http)}};
   if (!field.empty()) body["field"] = field;
   return {status, body};
 }

@@ -285,6 +285,8 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
   co.retries = axis.line_config->retries;
   client::Client c(master, co);
   client::Actuator act(c);
+  if (const auto& l = axis.config->soft_limits_001mm)
+    act.set_soft_limits(client::SoftLimits{l->first, l->second});
   const TimePoint deadline = kClock.now() + cmd.timeout;
   client::WaitOptions wait;
   if (cmd.op == Op::Home || cmd.op == Op::Move || cmd.op == Op::RunStep) {

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include "lec6/client/actuator.hpp"
 
 #include <gmock/gmock.h>
@@ -127,7 +128,7 @@ TEST(Actuator, JogMovesWhileHeldAndStops) {
   EXPECT_FALSE(f.client->read_controls().test(lec::Coil::JOG_PLUS));
 }
 
-TEST(Actuator, MergeKeepsControllerDataAndDefaultsWhenBlank) {
+TEST(Actuator, MergeFillsDefaultsUnlessKeep) {
   DirectMove m;
   m.position_001mm = 500;
   const auto d = merge_direct(lec::StepData{}, m);
@@ -136,7 +137,76 @@ TEST(Actuator, MergeKeepsControllerDataAndDefaultsWhenBlank) {
   EXPECT_EQ(d.speed_mm_s, default_direct_data().speed_mm_s);
   auto held = default_direct_data();
   held.speed_mm_s = 321;
-  EXPECT_EQ(merge_direct(held, m).speed_mm_s, 321);
+  held.in_position_001mm = 2000;
+  // A move never inherits what an earlier one left in the controller…
+  EXPECT_EQ(merge_direct(held, m).speed_mm_s, default_direct_data().speed_mm_s);
+  EXPECT_EQ(merge_direct(held, m).in_position_001mm, 50);
+  EXPECT_TRUE(kept_direct_values(held, m).empty());
+  // …unless asked to keep it, and then the result names what was kept.
+  m.keep = true;
+  m.speed_mm_s = 200;
+  EXPECT_EQ(merge_direct(held, m).speed_mm_s, 200);
+  EXPECT_EQ(merge_direct(held, m).in_position_001mm, 2000);
+  const auto kept = kept_direct_values(held, m);
+  EXPECT_NE(std::find(kept.begin(), kept.end(), "in position 20.00 mm"), kept.end());
+  EXPECT_EQ(std::find(kept.begin(), kept.end(), "speed 321 mm/s"), kept.end());
+  // Blank (power-on) data cannot be kept: the defaults fill in, nothing is named.
+  EXPECT_EQ(merge_direct(lec::StepData{}, m).in_position_001mm, 50);
+  EXPECT_TRUE(kept_direct_values(lec::StepData{}, m).empty());
+}
+
+TEST(Actuator, PlainMoveAfterPushReportsTheDefaultBand) {
+  SimFixture f;
+  f.prepare();
+  DirectMove push;
+  push.position_001mm = 30000;
+  push.pushing_force_pct = 50;
+  push.trigger_level_pct = 40;
+  push.pushing_speed_mm_s = 10;
+  push.in_position_001mm = 2000;
+  f.axis->move(push, f.axis->deadline_in(std::chrono::seconds(30)));
+  DirectMove plain;
+  plain.position_001mm = -2000;
+  plain.relative = true;
+  const auto r = f.axis->move(plain, f.axis->deadline_in(std::chrono::seconds(30)));
+  EXPECT_EQ(r.outcome, MoveOutcome::Reached) << r.describe();
+  EXPECT_EQ(r.goal.band_001mm, 50) << r.describe();
+  EXPECT_NE(r.describe().find("within ±0.50 mm"), std::string::npos) << r.describe();
+  // keep: the band of the push stays, and the line says where it came from.
+  DirectMove kept = plain;
+  kept.keep = true;
+  const auto k = f.axis->move(kept, f.axis->deadline_in(std::chrono::seconds(30)));
+  EXPECT_EQ(k.goal.band_001mm, 50) << k.describe();  // the plain move wrote 0.50 mm
+  EXPECT_NE(k.describe().find("kept from the controller: speed 100 mm/s"), std::string::npos)
+      << k.describe();
+}
+
+TEST(Actuator, SoftLimitsRefuseATargetBeforeAnythingIsWritten) {
+  SimFixture f;
+  f.prepare();
+  f.axis->set_soft_limits(SoftLimits{0, 40000});
+  const auto before = f.client->read_direct();
+  DirectMove far;
+  far.position_001mm = 999900;
+  try {
+    f.axis->move(far, f.axis->deadline_in(std::chrono::seconds(5)));
+    FAIL() << "a target beyond the soft limits was sent";
+  } catch (const InvalidRequest& e) {
+    EXPECT_NE(std::string(e.what()).find("9999.00 mm is beyond the soft limits 0.00 to 400.00 mm"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(f.client->read_direct().to_registers(), before.to_registers());
+  EXPECT_FALSE(f.client->read_flags().alarm());
+  // INC: the previous target plus the distance is checked.
+  DirectMove inc;
+  inc.position_001mm = 50000;
+  inc.relative = true;
+  EXPECT_THROW(f.axis->move(inc, f.axis->deadline_in(std::chrono::seconds(5))), InvalidRequest);
+  DirectMove near;
+  near.position_001mm = 20000;
+  EXPECT_EQ(f.axis->move(near, f.axis->deadline_in(std::chrono::seconds(30))).outcome,
+            MoveOutcome::Reached);
 }
 
 bool is_write_frame(const modbus::Bytes& b) {

@@ -86,7 +86,9 @@ expect_exit 0 "hold on" -- lec hold on
 expect_exit 0 "hold off" -- lec hold off
 expect_exit 0 "watch" -- lec watch --count 5 --record "$tmp/watch.csv"
 [[ $(wc -l <"$tmp/watch.csv") -eq 6 ]] && ok || bad "watch.csv lines: $(cat "$tmp/watch.csv")"
-head -1 "$tmp/watch.csv" | grep -q "^time_s,position_mm" && ok || bad "watch.csv header"
+head -1 "$tmp/watch.csv" | grep -q "^time_s,position_mm.*,wall_clock_utc$" && ok || bad "watch.csv header"
+sed -n 2p "$tmp/watch.csv" | grep -qE ',20[0-9]{2}-[01][0-9]-[0-3][0-9]T[0-2][0-9]:[0-5][0-9]:[0-6][0-9]\.[0-9]{3}Z$' && ok ||
+  bad "watch.csv rows end with the wall-clock time: $(sed -n 2p "$tmp/watch.csv")"
 
 # Deadline: a slow move with a short deadline.
 expect_exit 6 "deadline" -- lec move --to 10 --speed 5 --timeout 300ms

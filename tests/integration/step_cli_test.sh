@@ -123,8 +123,11 @@ start_twin a
 # ---- a program on the controller --------------------------------------------------
 run 0 -p "$A" step restore "$DATA/spreadsheet_saved.csv"
 expect_out "3 steps written, 1 unchanged (60 steps not in the file)"
-run 2 -p "$A" step set 10 mode=abs speed=300 position=200.00
-expect_err "step 10 is blank: also give accel, decel, push-speed, or copy a step with --from M"
+run 0 -p "$A" step set 10 speed=300 position=150.00
+expect_err "step 10 was blank: the defaults filled mode=abs accel=1000 decel=1000 push-speed=20 moving-force=100 in-position=0.50"
+expect_out "(1 step written)"
+run 0 -p "$A" step set 10 moving-force=0
+expect_err "moving force is 0 %"
 run 2 -p "$A" step set 10 postion=200 speed=70000
 expect_err "unknown field 'postion': did you mean 'position'?"
 expect_err "allowed 1 to 65535"

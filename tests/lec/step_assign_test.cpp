@@ -1,4 +1,5 @@
 #include "lec6/lec/step_assign.hpp"
+#include "lec6/lec/step_defaults.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -33,18 +34,31 @@ TEST(StepAssign, ParsesNamesCaseInsensitivelyIncludingLongNames) {
                               StepAssignment{StepField::MovementMode, 2}));
 }
 
-TEST(StepAssign, BlankBaseWithMissingFieldsIsRefusedListingThem) {
-  auto r = assign_step(5, StepData{}, Args{"speed=500", "position=10"});
-  ASSERT_FALSE(r);
-  // In position 0 is valid (issue 24), so a blank base does not ask for it.
-  EXPECT_THAT(r.error(), ElementsAre("step 5 is blank: also give mode, accel, decel, push-speed, "
-                                     "or copy a step with --from M"));
+TEST(StepAssign, BlankBaseTakesTheDefaultsAndNamesThem) {
+  // One set of defaults everywhere (issue 27): a blank step starts from them.
+  auto r = assign_step(5, StepData{}, Args{"speed=500", "position=150"});
+  ASSERT_TRUE(r) << r.error().front();
+  auto want = default_step_data();
+  want.speed_mm_s = 500;
+  want.position_001mm = 15000;
+  EXPECT_EQ(r->step.to_registers(), want.to_registers());
+  EXPECT_TRUE(validate(r->step).empty());
+  EXPECT_THAT(r->defaulted,
+              ElementsAre(StepField::MovementMode, StepField::Acceleration,
+                          StepField::Deceleration, StepField::PushingSpeed,
+                          StepField::MovingForce, StepField::InPosition));
+  EXPECT_TRUE(r->warnings.empty());
+  // A step that is not blank keeps its own values: nothing is defaulted.
+  auto again = assign_step(5, r->step, Args{"speed=400"});
+  ASSERT_TRUE(again);
+  EXPECT_TRUE(again->defaulted.empty());
+  EXPECT_EQ(again->step.acceleration_mm_s2, 1000);
+}
 
-  auto nothing_given = assign_step(5, StepData{}, Args{"push=50"});
-  ASSERT_FALSE(nothing_given);
-  EXPECT_THAT(nothing_given.error(),
-              ElementsAre("step 5 is blank: also give mode, speed, accel, decel, push-speed, "
-                          "or copy a step with --from M"));
+TEST(StepAssign, AZeroMovingForceIsWrittenWithAWarning) {
+  auto r = assign_step(5, StepData{}, Args{"position=10", "moving-force=0"});
+  ASSERT_TRUE(r);
+  EXPECT_THAT(r->warnings, ElementsAre(HasSubstr("moving force is 0 %")));
 }
 
 TEST(StepAssign, FullSetOnABlankStepIsAccepted) {
@@ -64,7 +78,7 @@ TEST(StepAssign, ChangesOneFieldOfAnExistingStep) {
   ASSERT_TRUE(r) << joined(r.error());
   StepData want = kFull;
   want.speed_mm_s = 600;
-  EXPECT_EQ(r->step, want);
+  EXPECT_EQ(r->step.to_registers(), want.to_registers());
   EXPECT_THAT(r->changed, ElementsAre(StepField::Speed));
 
   auto same = assign_step(2, kFull, Args{"speed=500"});
@@ -82,7 +96,7 @@ TEST(StepAssign, FromAnotherStepStartsFromItsRecord) {
   ASSERT_TRUE(r) << joined(r.error());
   StepData want = source;
   want.speed_mm_s = 100;
-  EXPECT_EQ(r->step, want);
+  EXPECT_EQ(r->step.to_registers(), want.to_registers());
   EXPECT_EQ(r->changed.size(), 10u);  // all but area1 and area2, relative to blank step 5
 
   // Against a non-blank step 5, changed is relative to step 5's record.

@@ -22,6 +22,8 @@ export class Live {
   // When each axis' last telemetry arrived (ms, performance.now()).
   readonly arrived = new Map<string, number>();
   readonly stats = new Map<string, LineStats>();
+  // Op events seen per axis: a refresh answered after a newer event is stale.
+  private readonly opSeq = new Map<string, number>();
   streamId: number | null = null;
   connected = false;
 
@@ -92,17 +94,35 @@ export class Live {
 
   private onOp(e: OpEvent): void {
     const axis = this.axes.get(e.axis);
+    this.opSeq.set(e.axis, (this.opSeq.get(e.axis) ?? 0) + 1);
     // Only motions occupy an axis; stop, servo… come and go beside them.
-    if (axis && isMotion(String(e.op))) {
-      if (e.event === "started") {
-        axis.operation = { op: String(e.op), source: e.source ?? "" };
-      } else {
+    if (axis && e.event === "started" && isMotion(String(e.op))) {
+      axis.operation = { op: String(e.op), source: e.source ?? "" };
+      this.telemetry.emit(axis);
+    } else if (axis && e.event !== "started") {
+      if (isMotion(String(e.op))) {
         axis.operation = null;
         axis.last_result = e;
+        this.telemetry.emit(axis);
       }
-      this.telemetry.emit(axis);
+      // Whatever ended (a move the controller refused with an alarm answers
+      // without an `op`; a RESET may end a motion), the daemon's own state
+      // decides what runs now, not the page's guess (issue 27).
+      void this.refreshAxis(e.axis).catch(() => undefined);
     }
     this.ops.emit(e);
+  }
+
+  // The daemon's view of one axis' operation; dropped when another op event
+  // arrived meanwhile (it is newer than this answer).
+  private async refreshAxis(name: string): Promise<void> {
+    const seq = this.opSeq.get(name);
+    const a = await get<Axis>(`/api/axes/${encodeURIComponent(name)}`);
+    const axis = this.axes.get(name);
+    if (!axis || this.opSeq.get(name) !== seq) return;
+    axis.operation = a.operation;
+    if (a.last_result) axis.last_result = a.last_result;
+    this.telemetry.emit(axis);
   }
 }
 

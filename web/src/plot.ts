@@ -37,13 +37,13 @@ export class TracePlot {
       cursor: { drag: { x: true, y: false, setScale: true } },
       scales: { x: { time: true } },
       series: [
-        {},
+        { value: (_u, v) => (v == null ? "" : clockTime(v, 1)) },
         { label: "Position", scale: "mm", stroke: "#1f6feb", width: 2, value: (_u, v) => fmt(v, 2, "mm") },
         { label: "Speed", scale: "mm/s", stroke: "#d97706", width: 1.5, value: (_u, v) => fmt(v, 0, "mm/s") },
         { label: "Thrust", scale: "%", stroke: "#16a34a", width: 1.5, value: (_u, v) => fmt(v, 0, "%") },
       ],
       axes: [
-        {},
+        clockAxis,
         { scale: "mm", label: "mm", stroke: "#1f6feb" },
         { scale: "mm/s", label: "mm/s", side: 1, stroke: "#d97706", grid: { show: false } },
         { scale: "%", label: "%", side: 1, stroke: "#16a34a", grid: { show: false } },
@@ -172,3 +172,18 @@ export class TracePlot {
 function fmt(v: number | null, decimals: number, unit: string): string {
   return v === null || v === undefined ? "—" : `${v.toFixed(decimals)} ${unit}`;
 }
+
+// Time axes read as clock time, the same in every locale (issue 27):
+// "14:05:37", and tenths or hundredths when the ticks are closer than a second.
+export function clockTime(epochS: number, decimals = 0): string {
+  const d = new Date(epochS * 1000);
+  const p2 = (n: number) => String(n).padStart(2, "0");
+  const hms = `${p2(d.getHours())}:${p2(d.getMinutes())}:${p2(d.getSeconds())}`;
+  return decimals > 0 ? `${hms}.${String(Math.floor((d.getMilliseconds() / 1000) * 10 ** decimals)).padStart(decimals, "0")}` : hms;
+}
+
+export const clockAxis: uPlot.Axis = {
+  space: 90, // px between ticks: room for "14:05:37.25"
+  values: (_u, ticks, _axis, _space, incr) =>
+    ticks.map((t) => clockTime(t, incr < 0.1 ? 2 : incr < 1 ? 1 : 0)),
+};

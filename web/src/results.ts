@@ -37,7 +37,7 @@ export class ResultList {
       " ",
       outcome,
       " ",
-      h("span", { class: "message" }, String(r.message ?? r.error ?? (ok ? "done" : `HTTP ${status}`))),
+      h("span", { class: "message" }, inPageTerms(String(r.message ?? r.error ?? (ok ? "done" : `HTTP ${status}`)))),
       details.length ? h("div", { class: "muted" }, details.join(" · ")) : null,
       r.timeline ? timeline(r.timeline) : null,
     );
@@ -76,4 +76,20 @@ function timeline(t: Record<string, number | null>): HTMLElement {
       [...marks.map(([k, l]) => `${l} ${Math.round((t[k] as number) - start)} ms`), ...missing].join(" · "),
     ),
   );
+}
+
+// The daemon's advice names HTTP requests (client/action_words.hpp); on this
+// page the same action is a button (issue 27).
+const BUTTONS: [RegExp, string][] = [
+  [/`POST \/api\/axes\/[^/`]+\/serial \{"on": true\}`/g, "the Serial mode “On” button"],
+  [/`POST \/api\/axes\/[^/`]+\/servo \{"on": true\}`/g, "the Servo “On” button"],
+  [/`POST \/api\/axes\/[^/`]+\/servo \{"on": false\}`/g, "the Servo “Off” button"],
+  [/`POST \/api\/axes\/[^/`]+\/home`/g, "the “Home” button"],
+  [/`POST \/api\/axes\/[^/`]+\/reset`/g, "the “RESET” button"],
+  [/`POST \/api\/axes\/[^/`]+\/stop`/g, "the “STOP” button"],
+  [/`(PUT|GET) \/api\/axes\/[^/`]+\/steps[^`]*`/g, "the Steps page"],
+];
+
+export function inPageTerms(message: string): string {
+  return BUTTONS.reduce((m, [pattern, words]) => m.replace(pattern, words), message);
 }

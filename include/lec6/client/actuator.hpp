@@ -25,6 +25,8 @@
 #include <chrono>
 #include <functional>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "lec6/client/client.hpp"
 #include "lec6/client/completion.hpp"
@@ -49,9 +51,14 @@ struct WaitOptions {
   CompletionOptions completion{};  // the start window
 };
 
-// A direct operation. Fields left empty keep what the controller holds in
-// D9102–D9111 (the data persist between moves, digest §5); when the
-// controller holds nothing valid there, the defaults below fill in.
+// A direct operation. Every move writes a complete set of direct data
+// (D9102–D9111): the fields given here, and default_direct_data() for the
+// rest, so a move never inherits a band, speed or force from an earlier one
+// (docs/protocol-decisions.md, "Direct-operation defaults"). With keep = true
+// the fields left empty keep what the controller holds instead (the data
+// persist between moves, digest §5), except pushing force and trigger level:
+// a move without a pushing force is a positioning move, whatever the
+// previous one was. The result names each value kept (MoveGoal::kept).
 struct DirectMove {
   std::optional<int32_t> position_001mm;
   bool relative = false;  // INC
@@ -65,6 +72,7 @@ struct DirectMove {
   std::optional<uint16_t> pushing_force_pct;  // > 0: pushing
   std::optional<uint16_t> trigger_level_pct;
   std::optional<uint16_t> pushing_speed_mm_s;
+  bool keep = false;  // empty fields: the controller's values, not the defaults
 };
 
 // A move the controller acknowledged: what wait() judges it against.
@@ -72,16 +80,38 @@ struct StartedMove {
   MoveStart start;
 };
 
-// What fills fields the user did not give when the controller's direct data
-// are blank (power-on). Gentle values, documented in docs/protocol-decisions.md.
+// What fills the fields a move (or a blank step) does not give: the one set
+// of defaults of every front end, lec::default_step_data().
 lec::StepData default_direct_data();
 
-// Merges a DirectMove into the controller's current direct data.
+// The direct data a move writes: its fields over default_direct_data(), or,
+// with move.keep, over the controller's current data (when those are valid).
 lec::StepData merge_direct(const lec::StepData& current, const DirectMove& move);
+
+// The values of merge_direct() that came from the controller, not from the
+// move: "speed 300 mm/s", "in position 20.00 mm"… Empty unless move.keep.
+std::vector<std::string> kept_direct_values(const lec::StepData& current, const DirectMove& move);
+
+// Optional limits on a target, per axis (issue 27). The stroke is not in the
+// memory map: a target beyond it reaches the controller, which raises alarm
+// 62 (direct) or 52 (step). With limits set, start(), run_step() and
+// retarget() refuse such a target with InvalidRequest before anything is
+// written. INC targets are checked as the previous target + the distance.
+struct SoftLimits {
+  int32_t min_001mm = 0;
+  int32_t max_001mm = 0;
+};
+
+// "target 9999.00 mm is beyond the soft limits 0.00 to 400.00 mm of this
+// axis: nothing was written"; std::nullopt when within them.
+std::optional<std::string> soft_limit_violation(const SoftLimits& limits, int32_t target_001mm);
 
 class Actuator {
  public:
   explicit Actuator(Client& client) : client_(client) {}
+
+  void set_soft_limits(std::optional<SoftLimits> limits) { soft_limits_ = limits; }
+  const std::optional<SoftLimits>& soft_limits() const noexcept { return soft_limits_; }
 
   Client& client() noexcept { return client_; }
   TimePoint deadline_in(Duration d) const { return client_.clock().now() + d; }
@@ -122,6 +152,7 @@ class Actuator {
     lec::StateData state;
   };
   Before ready_to_move(std::string_view what);
+  void check_soft_limits(int32_t target_001mm) const;
   void require_serial_mode(const lec::ControlFlags& controls);
   void pulse(lec::Coil coil);
   [[noreturn]] void raise_alarm(const lec::StatusFlags& flags, std::string_view during);
@@ -134,6 +165,7 @@ class Actuator {
   Client& client_;
   // The direct data as this Actuator last wrote them, for retarget().
   std::optional<lec::StepData> direct_written_;
+  std::optional<SoftLimits> soft_limits_;
 };
 
 }  // namespace lec6::client

@@ -74,6 +74,9 @@ struct MoveGoal {
   // step field, which means this when the step pushes). 0 otherwise.
   int32_t pushing_distance_001mm = 0;
   uint16_t trigger_level_pct = 0;  // pushing
+  // Direct moves with keep: the values that came from the controller, not
+  // from this command ("in position 20.00 mm"); describe() names them.
+  std::vector<std::string> kept;
 };
 
 struct MoveResult {
@@ -98,7 +101,12 @@ struct MoveResult {
   }
   // One line in the manual's words, e.g. "reached 150.00 mm (INP, within
   // ±0.50 mm) in 0.70 s", "pushed: workpiece at 342.10 mm, thrust 50 % (INP)".
+  // Values a `keep` move took from the controller end the line:
+  // "…; kept from the controller: in position 20.00 mm".
   std::string describe() const;
+
+ private:
+  std::string outcome_text() const;
 };
 
 }  // namespace lec6::client

@@ -9,10 +9,10 @@
 //   known fields and suggests the closest one within edit distance 2.
 // - Values go through parse_field (the manual's ranges, mm with two decimals).
 // - A field given twice is an error, even with the same value.
-// - The result must pass validate(): a blank base (all registers 0) needs
-//   every field without a usable default (mode, speed, accel, decel,
-//   push-speed, in-position), and the message lists the ones still missing;
-//   cross-field rules (trigger ≤ pushing force) apply to every result, so a
+// - A blank base (all registers 0) starts from default_step_data()
+//   (step_defaults.hpp), the one set of defaults of moves, PUT /steps/N and
+//   the dashboard; AssignResult::defaulted lists the fields it filled.
+// - The result must pass validate(); cross-field rules (trigger ≤ pushing force) apply to every result, so a
 //   step is never written in a state the controller would refuse to start.
 // - --from M starts from step M's record instead of the step's own; a blank
 //   step M is refused. With --from, no assignment is needed (a plain copy).
@@ -57,6 +57,10 @@ struct CopySource {
 struct AssignResult {
   StepData step;
   std::vector<StepField> changed;  // fields that differ from `current`, register order
+  // A blank step: the fields the defaults filled (not given, not 0), register order.
+  std::vector<StepField> defaulted;
+  // Legal but likely a mistake, e.g. a moving force of 0 %; to show the user.
+  std::vector<std::string> warnings;
 };
 
 // Applies the assignments to `current` (or to `from`'s record), checks the

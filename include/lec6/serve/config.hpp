@@ -15,6 +15,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "lec6/clock.hpp"
@@ -43,6 +44,9 @@ struct AxisConfig {
   uint8_t id = 1;
   std::string name;          // unique across lines; "axis<ID>" by default
   double telemetry_hz = 10;  // 0: no telemetry polling
+  // soft_limits_mm: [MIN, MAX]: moves to a target outside are refused before
+  // anything is written (client::SoftLimits). Empty: none.
+  std::optional<std::pair<int32_t, int32_t>> soft_limits_001mm;
 };
 
 struct Rs485Config {

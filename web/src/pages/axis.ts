@@ -95,11 +95,17 @@ export function axisPage(ctx: Ctx, param?: string): Page {
     const a = ctx.live.axes.get(name);
     if (!a) return;
     card.update(a);
+    // One note per reason: the same "… stop it first" under every motion
+    // control pushed STOP and HOLD out of a 900 px window (issue 27).
     for (const [control, buttons] of controls) {
       const r = reason(control, a, ctx.info);
       buttons.forEach((b) => gate(b, r));
-      const shown = reasons.get(control);
-      if (shown) setText(shown, r ?? "");
+    }
+    const said = new Set<string>();
+    for (const [control, shown] of reasons) {  // top to bottom, as on the page
+      const r = reason(control, a, ctx.info);
+      setText(shown, r && !said.has(r) ? r : "");
+      if (r) said.add(r);
     }
     toggle(hold, "active", a.inputs?.hold === true);
   };

@@ -1,6 +1,7 @@
 // Bus: per line, transactions/s and utilisation over time, queue depths and
 // latency per priority, a latency histogram, and errors per controller ID.
 import uPlot from "uplot";
+import { clockAxis, clockTime } from "../plot";
 import type { Ctx, Page } from "../app";
 import { h } from "../dom";
 import type { Line, LineStats } from "../types";
@@ -46,13 +47,14 @@ function lineSection(line: Line) {
     {
       width: 480,
       height: 180,
-      scales: { x: { time: true }, pct: { range: [0, 100] } },
+      // tx/s from 0 (with a minimum span): 42.4 to 42.5 made noise look like a collapse.
+      scales: { x: { time: true }, pct: { range: [0, 100] }, tps: { range: (_u, _min, max) => [0, Math.max(10, max * 1.15)] } },
       series: [
-        {},
+        { value: (_u, v) => (v == null ? "" : clockTime(v)) },
         { label: "transactions/s", stroke: "#1f6feb", width: 1.5, scale: "tps" },
         { label: "utilisation %", stroke: "#d97706", width: 1.5, scale: "pct" },
       ],
-      axes: [{}, { scale: "tps", label: "tx/s" }, { scale: "pct", side: 1, label: "%", grid: { show: false } }],
+      axes: [clockAxis, { scale: "tps", label: "tx/s" }, { scale: "pct", side: 1, label: "%", grid: { show: false } }],
     },
     trend as uPlot.AlignedData,
     trendHost,
@@ -72,7 +74,7 @@ function lineSection(line: Line) {
   const section = h(
     "section",
     { class: "panel", "data-line": line.name },
-    h("h2", {}, `${line.name} `, h("span", { class: "muted" }, `${line.port} · ${line.describe} · ${line.baud} baud`)),
+    h("h2", {}, `${line.name} `, h("span", { class: "muted" }, busTitle(line))),
     summary,
     h("div", { class: "thrust" }, h("label", {}, "Utilisation of the line's limit"), h("span", { class: "bar" }, utilBar)),
     h("div", { class: "charts" }, h("figure", {}, trendHost), h("figure", {}, histHost)),
@@ -138,3 +140,11 @@ function lineSection(line: Line) {
 
 const stat = (label: string, value: string) => h("div", {}, h("label", {}, label), h("span", { class: "num big" }, value));
 const num = (v: number | string) => h("td", { class: "num" }, String(v));
+
+// Port and baud once: a serial line's description already says both
+// ("/dev/ttyUSB0 @ 38400"), the twin's says neither.
+function busTitle(line: { port: string; describe: string; baud: number }): string {
+  const parts = line.describe.startsWith(line.port) ? [line.describe] : [line.port, line.describe];
+  if (!line.describe.includes(`@ ${line.baud}`)) parts.push(`${line.baud} baud`);
+  return parts.join(" · ");
+}
