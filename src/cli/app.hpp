@@ -117,5 +117,6 @@ void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/b
 void add_sim_command(CLI::App& app, const GlobalOptions& globals);    // sim (the twin program)
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
 void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
+void add_history_commands(CLI::App& app, const GlobalOptions& globals);  // history, health (lec serve)
 
 }  // namespace lec6::cli

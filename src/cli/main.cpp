@@ -122,6 +122,7 @@ int main(int argc, char** argv) {
   cli::add_sim_command(app, options);
   cli::add_serve_command(app, options);
   cli::add_follow_command(app, session);
+  cli::add_history_commands(app, options);  // issue 26
   install_signal_handlers();
 
   try {
