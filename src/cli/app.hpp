@@ -127,5 +127,6 @@ void add_follow_command(CLI::App& app, Session& session);  // follow (streaming 
 void add_sniff_command(CLI::App& app, const GlobalOptions& globals);  // sniff (listen-only)
 void add_replay_command(CLI::App& app, const GlobalOptions& globals);  // replay (a capture)
 void add_doctor_command(CLI::App& app, Session& session);  // doctor (diagnose the line)
+void add_history_commands(CLI::App& app, const GlobalOptions& globals);  // history, health (lec serve)
 
 }  // namespace lec6::cli

@@ -27,6 +27,7 @@ struct ServeArgs {
   std::string mqtt;  // broker URL: the bridge with its defaults (docs/mqtt.md)
   std::string mqtt_prefix = "lec6";
   std::string record;  // --record FILE (also the global --record)
+  std::string state_dir;  // the move history (docs/history.md)
   bool check = false;
 };
 
@@ -46,7 +47,12 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
     if (!g.port.empty()) {
       throw UsageError("give either --config FILE or --port with --ids, not both");
     }
-    return serve::load_config(a.config);
+    auto c = serve::load_config(a.config);
+    if (!a.state_dir.empty()) {  // --state-dir wins over the file's history.state_dir
+      if (!c.history) c.history = serve::HistoryConfig{};
+      c.history->state_dir = a.state_dir;
+    }
+    return c;
   }
   serve::FlagConfig f;
   f.port = g.port;
@@ -61,6 +67,7 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
   f.http = a.http;
   f.token = a.token;
   f.fast_sim = a.sim_timing == "fast";
+  f.state_dir = a.state_dir;
   auto c = serve::config_from_flags(f);
   if (!a.mqtt.empty()) {
     serve::MqttConfig m;
@@ -158,6 +165,9 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
                   "config's mqtt: section has every setting, docs/mqtt.md)");
   cmd->add_option("--mqtt-prefix", args->mqtt_prefix, "Topic prefix of the bridge (with --mqtt)")
       ->capture_default_str();
+  cmd->add_option("--state-dir", args->state_dir,
+                  "Keep the move history, odometer and drift warnings in DIR/history.db "
+                  "(docs/history.md; the config's history: section has every setting)");
   cmd->add_flag("--check", args->check, "Check the config and exit");
   cmd->add_option("--record", args->record,
                   "Write every frame of the line, both directions, with timestamps, to FILE (a "

@@ -54,6 +54,7 @@ struct SimArgs {
   std::string stroke;
   double max_speed = sim::ActuatorConfig{}.max_speed_mm_s;
   double workpiece = 0.0;
+  double wear = 0.0;  // % per metre travelled (issue 26)
   double initial_position = sim::ActuatorConfig{}.initial_position_mm;
   std::string name = sim::ActuatorConfig{}.equipment_name;
   Duration busy_delay{};
@@ -149,6 +150,7 @@ twin::FieldProfile settings(const SimArgs& a) {
                                  config.stroke_max_mm));
   }
   if (a.has("--workpiece")) config.workpiece_mm = a.workpiece;
+  if (a.has("--wear")) config.wear_pct_per_m = a.wear;
   if (a.has("--name")) {
     if (auto n = lec::EquipmentName::make(a.name); !n) {
       throw UsageError(fmt::format("--name: {}", n.error()));
@@ -196,6 +198,7 @@ std::string unusual_settings(const twin::FieldProfile& p) {
   if (p.actuator.busy_min > Duration::zero())
     out += ", busy-min " + format_duration(p.actuator.busy_min);
   if (p.actuator.target_update_late) out += ", target-update-late";
+  if (p.actuator.wear_pct_per_m > 0) out += fmt::format(", wear {:g} %/m", p.actuator.wear_pct_per_m);
   if (p.faults.noise_rate > 0) out += fmt::format(", noise {}/s", p.faults.noise_rate);
   if (!p.faults.duplicate_ids.empty())
     out += ", duplicate ids " + format_ids(p.faults.duplicate_ids);
@@ -359,6 +362,11 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
   sim->add_option("--workpiece", a->workpiece,
                   "A workpiece at this position, mm, for pushing (default: none)")
       ->type_name("MM");
+  sim->add_option("--wear", a->wear,
+                  "Wear: every metre travelled adds this many % to thrust and takes it off speed, "
+                  "so repeated moves grow longer (drift warnings of lec serve, docs/history.md)")
+      ->type_name("PCT_PER_M")
+      ->check(CLI::Range(0.0, 1000.0));
   sim->add_option("--initial-position", a->initial_position,
                   "Where the carriage stands at power-on, mm (within the stroke)")
       ->type_name("MM")

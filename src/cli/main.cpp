@@ -144,6 +144,7 @@ int main(int argc, char** argv) {
   cli::add_replay_command(app, options);
   cli::add_doctor_command(app, session);
   app.footer(std::string(kExitCodes) + kPorts);
+  cli::add_history_commands(app, options);  // issue 26
   install_signal_handlers();
 
   try {

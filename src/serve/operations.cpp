@@ -5,6 +5,7 @@
 #include "lec6/client/step_sync.hpp"
 #include "lec6/lec/step_table.hpp"
 #include "lec6/serve/line_master.hpp"
+#include "history/motion_settings.hpp"  // issue 26: what the history groups moves by
 #include "op_results.hpp"
 
 namespace lec6::serve {
@@ -128,7 +129,9 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
     }
   }
   if (at_once) return done(std::move(*at_once));
-  notify(axis.name, {{"event", "started"}, {"op", op_name(cmd.op)}, {"source", source}});
+  nlohmann::json started{{"event", "started"}, {"op", op_name(cmd.op)}, {"source", source}};
+  started.update(history::motion_settings(cmd));  // issue 26: the move's settings
+  notify(axis.name, started);
   start_thread(axis, std::move(cmd), std::move(run), std::move(done));
 }
 

@@ -37,6 +37,7 @@ std::shared_ptr<SimWire> make_twin(const LineConfig& line) {
   ac.stroke_max_mm = line.sim.stroke_max_mm;
   ac.initial_position_mm = line.sim.initial_position_mm;
   ac.workpiece_mm = line.sim.workpiece_mm;
+  ac.wear_pct_per_m = line.sim.wear_pct_per_m;  // issue 26
   for (const auto& axis : line.axes) {
     if (!line.sim.absent_ids.contains(axis.id)) twin->bus->add(axis.id, ac, twin->clock.now());
   }

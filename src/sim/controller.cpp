@@ -53,6 +53,9 @@ std::vector<std::string> validate(const ActuatorConfig& c) {
   if (!(c.friction_thrust_pct >= 0.0) || !(c.accel_thrust_pct >= 0.0)) {
     e.push_back("thrust model shares must be ≥ 0");
   }
+  if (!(c.wear_pct_per_m >= 0.0) || c.wear_pct_per_m > 1000.0) {
+    e.push_back("wear must be 0 to 1000 % per metre travelled");
+  }
   if (auto n = lec::EquipmentName::make(c.equipment_name); !n) e.push_back(n.error());
   return e;
 }
@@ -272,8 +275,9 @@ double Controller::thrust_pct(TimePoint t) {
   if (op_.kind == OpKind::Stalled) return op_.stall_thrust;
   const Kinematics k = kin();
   if (std::abs(k.velocity) < kEps && std::abs(k.acceleration) < kEps) return 0.0;
-  const double raw = config_.friction_thrust_pct +
-                     config_.accel_thrust_pct * std::abs(k.acceleration) / config_.max_accel_mm_s2;
+  const double raw = wear_factor() * (config_.friction_thrust_pct +
+                                      config_.accel_thrust_pct * std::abs(k.acceleration) /
+                                          config_.max_accel_mm_s2);
   double cap = behaviour::kJogThrustPct;
   if (op_.kind == OpKind::Move) {
     cap = op_.phase == MovePhase::Push ? op_.move.pushing_force : op_.move.moving_force;

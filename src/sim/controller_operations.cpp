@@ -63,6 +63,7 @@ void Controller::plan_phase() {
     case OpKind::None:
       return;
   }
+  limits.speed /= wear_factor();  // a worn axis runs slower (wear_pct_per_m)
   profile_ = MotionProfile::plan(now_, k.position, k.velocity, target, limits);
 }
 

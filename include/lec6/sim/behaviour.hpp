@@ -71,6 +71,11 @@ struct ActuatorConfig {
   // while pressing on the workpiece.
   double friction_thrust_pct = 10.0;
   double accel_thrust_pct = 50.0;
+  // Wear (issue 26): every metre the carriage travels adds this many % to
+  // its thrust (friction) and takes it off its speed (the drive runs slower
+  // against it), so a repeated move grows longer and needs more thrust. 0:
+  // never wears. E.g. 0.5 %/m: +10 % after 20 m.
+  double wear_pct_per_m = 0.0;
   // Equipment name at D000E (≤ 14 ASCII characters), unless a state file has one.
   std::string equipment_name = "LEC6-TWIN";
 
