@@ -23,7 +23,7 @@ start_sniff() {
   "$LEC" sniff "$@" --json >"$TMP/$name.jsonl" 2>"$TMP/$name.err" &
   SNIFF_PID=$!
   TWIN_PIDS+=("$SNIFF_PID")
-  wait_for 10 "lec sniff listening" -- grep -q "listening on" "$TMP/$name.err"
+  wait_for 10 "lec sniff listening" -- grep -qs "listening on" "$TMP/$name.err"
 }
 # stop_sniff: SIGINT, as a user's Ctrl-C; the statistics come last.
 stop_sniff() {
@@ -109,8 +109,10 @@ if start_twin t4 --pty "$TMP/p4" --tap "$TMP/tap4" --trace --baud 115200 --extra
   timeout 60 "$PY" "$MASTER" "$TMP/p4" 115200 40 >/dev/null
   stop_sniff
   compare t4 s4 same >/dev/null
-  check "--extra-delay 30ms: every reply judged late ($(count late) of $(count reply))" \
-    [ "$(count late)" = "$(count reply)" -a "$(count reply)" -gt 30 ]
+  # Every reply whose time could be measured (a loaded host's reader may get a
+  # query and its reply in one read: not timed).
+  check "--extra-delay 30ms: every timed reply judged late ($(count late) of $(count timed) timed, $(count reply) replies)" \
+    [ "$(count late)" = "$(count timed)" -a "$(count timed)" -gt 20 ]
   stop_twin "$TWIN_PID"
 fi
 
