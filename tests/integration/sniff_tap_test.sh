@@ -46,10 +46,10 @@ if start_twin t1 --pty "$TMP/p1" --tap "$TMP/tap1" --trace --baud 38400; then
     fail "the ready line names the tap: $READY"
   start_sniff s1 --port "$TMP/tap1" --baud 38400 --capture "$TMP/s1.capture.jsonl" --pcap "$TMP/s1.pcap"
   check "lec sniff says it never transmits" grep -q "listen-only: lec sniff never transmits" "$TMP/s1.err"
-  timeout -s INT 3 mbpoll -m rtu -a 1 -b 38400 -P none -0 -t 4 -r 36864 -c 2 -l 10 "$TMP/p1" >/dev/null 2>&1
+  timeout --signal=INT 3 mbpoll -m rtu -a 1 -b 38400 -P none -0 -t 4 -r 36864 -c 2 -l 10 "$TMP/p1" >/dev/null 2>&1
   out=$(timeout 60 "$PY" "$MASTER" "$TMP/p1" 38400 300 2>/dev/null)
   check "pymodbus: $out" [ -n "$out" ]
-  timeout -s INT 3 mbpoll -m rtu -a 1 -b 38400 -P none -0 -t 0 -r 25 -l 10 "$TMP/p1" 1 >/dev/null 2>&1
+  timeout --signal=INT 3 mbpoll -m rtu -a 1 -b 38400 -P none -0 -t 0 -r 25 -l 10 "$TMP/p1" 1 >/dev/null 2>&1
   if [ -x "$PEER" ]; then timeout 120 "$PEER" "$TMP/p1" >/dev/null 2>&1; fi
   stop_sniff
   if compare t1 s1 same; then pass "every traced frame heard, paired, decoded, in order"; else fail "every traced frame heard"; fi
