@@ -173,10 +173,18 @@ void run_read(const SniffArgs& a, modbus::SnifferOptions options, bool json) {
                                capture.records.size(), capture.header.line.baud,
                                capture.header.started_utc, capture.header.tool));
   }
+  // Records that end at the same instant came in one read (a lumping
+  // adapter's): they are fed as one chunk, so the sniffer sees the lumps as
+  // it did live and does not judge timing on lump times.
   TimePoint last = origin;
-  for (const auto& r : capture.records) {
-    last = origin + std::chrono::microseconds(r.end_us);
-    sniffer.feed(r.bytes, last);
+  modbus::Bytes chunk;
+  const auto& records = capture.records;
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    chunk.insert(chunk.end(), records[i].bytes.begin(), records[i].bytes.end());
+    if (i + 1 < records.size() && records[i + 1].end_us == records[i].end_us) continue;
+    last = origin + std::chrono::microseconds(records[i].end_us);
+    sniffer.feed(chunk, last);
+    chunk.clear();
     sink.take(sniffer);
   }
   sniffer.finish(last + options.reply_wait + options.idle_gap);

@@ -82,13 +82,17 @@ N=${SNIFF_EXCHANGES:-2000}
 for baud in ${SNIFF_BAUDS:-115200}; do
   limit=$((N * (baud < 20000 ? 60 : 40) / 1000 + 60))
   if start_twin t2 --pty "$TMP/p2" --tap "$TMP/tap2" --tap-latency 16ms --trace --baud "$baud"; then
-    start_sniff s2 --port "$TMP/tap2" --baud "$baud"
+    start_sniff s2 --port "$TMP/tap2" --baud "$baud" --capture "$TMP/s2.capture.jsonl"
     out=$(timeout "$limit" "$PY" "$MASTER" "$TMP/p2" "$baud" "$N" 2>/dev/null)
     check "pymodbus at $baud baud: $out" [ -n "$out" ]
     stop_sniff
     if compare t2 s2 same; then pass "$baud baud, 16 ms lumps: every frame heard, none lost, merged or split"; else fail "$baud baud, 16 ms lumps"; fi
     check "  $N replies" [ "$(count reply)" = "$N" ]
     check "  the lumps were noticed (timing not judged)" grep -q '"lumpy":true' "$TMP/s2.jsonl"
+    # Replayed, frames that shared a read are fed as one chunk again: the same lumps.
+    "$LEC" sniff --read "$TMP/s2.capture.jsonl" --json >"$TMP/r2.jsonl" 2>/dev/null
+    check "  replayed: the same $N replies, the lumps noticed again" \
+      [ "$(grep -c '"dir":"reply"' "$TMP/r2.jsonl")" = "$N" ] && grep -q '"lumpy":true' "$TMP/r2.jsonl"
     stop_twin "$TWIN_PID"
   fi
 done
