@@ -173,10 +173,18 @@ void run_read(const SniffArgs& a, modbus::SnifferOptions options, bool json) {
                                capture.records.size(), capture.header.line.baud,
                                capture.header.started_utc, capture.header.tool));
   }
+  // Records that end at the same instant came in one read (a lumping
+  // adapter's): they are fed as one chunk, so the sniffer sees the lumps as
+  // it did live and does not judge timing on lump times.
   TimePoint last = origin;
-  for (const auto& r : capture.records) {
-    last = origin + std::chrono::microseconds(r.end_us);
-    sniffer.feed(r.bytes, last);
+  modbus::Bytes chunk;
+  const auto& records = capture.records;
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    chunk.insert(chunk.end(), records[i].bytes.begin(), records[i].bytes.end());
+    if (i + 1 < records.size() && records[i + 1].end_us == records[i].end_us) continue;
+    last = origin + std::chrono::microseconds(records[i].end_us);
+    sniffer.feed(chunk, last);
+    chunk.clear();
     sink.take(sniffer);
   }
   sniffer.finish(last + options.reply_wait + options.idle_gap);
@@ -235,6 +243,12 @@ void run_port(const SniffArgs& a, const GlobalOptions& g, modbus::SnifferOptions
       const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(*d - clock.now());
       timeout_ms = static_cast<int>(std::max<int64_t>(0, left.count() + 1));
     }
+    if (printer.dirty()) {  // lines waiting: out within flush_within()
+      const auto within =
+          std::chrono::duration_cast<std::chrono::milliseconds>(SniffPrinter::flush_within());
+      timeout_ms = timeout_ms < 0 ? static_cast<int>(within.count())
+                                  : std::min(timeout_ms, static_cast<int>(within.count()));
+    }
     const int r = ::poll(fds, keys ? 2 : 1, timeout_ms);
     if (r < 0 && errno != EINTR) throw SystemError(errno, "poll");
     if (r > 0 && (fds[0].revents & POLLIN)) {
@@ -243,6 +257,8 @@ void run_port(const SniffArgs& a, const GlobalOptions& g, modbus::SnifferOptions
         if (n > 0) {
           sniffer.feed(std::span<const uint8_t>(buf.data(), static_cast<std::size_t>(n)),
                        clock.now());
+          // A short read took all there was: no second read just for EAGAIN.
+          if (static_cast<std::size_t>(n) < buf.size()) break;
           continue;
         }
         if (n < 0 && (errno == EAGAIN || errno == EINTR)) break;
@@ -258,6 +274,7 @@ void run_port(const SniffArgs& a, const GlobalOptions& g, modbus::SnifferOptions
     }
     sniffer.advance(clock.now());
     sink.take(sniffer);
+    printer.flush_if_due(clock.now());
     if (g_stats_wanted.exchange(false)) printer.stats(sniffer.stats(), sniffer.options());
   }
   sniffer.finish(clock.now());

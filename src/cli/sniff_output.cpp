@@ -198,7 +198,7 @@ void SniffPrinter::event(const SniffEvent& e) {
     }
     j["flags"] = f;
     fmt::print("{}\n", dump_json(j));
-    std::fflush(stdout);
+    dirty_ = true;
     return;
   }
   static constexpr const char* kArrow[] = {"->", "<-", "~~", "!!"};
@@ -219,10 +219,23 @@ void SniffPrinter::event(const SniffEvent& e) {
     fmt::print("{}{}", line, flags.empty() ? "" : "  !! " + flags);
   }
   fmt::print("\n");
+  dirty_ = true;
+}
+
+void SniffPrinter::flush() {
   std::fflush(stdout);
+  dirty_ = false;
+}
+
+void SniffPrinter::flush_if_due(TimePoint now) {
+  if (dirty_ && now - last_flush_ >= flush_within()) {
+    flush();
+    last_flush_ = now;
+  }
 }
 
 void SniffPrinter::stats(const modbus::SniffStats& s, const modbus::SnifferOptions& options) {
+  flush();
   if (json_) {
     nlohmann::json ids = nlohmann::json::object();
     for (const auto& [id, v] : s.ids) {

@@ -32,9 +32,19 @@ class SniffPrinter {
   void notice(const std::string& text);  // stderr, prefixed "lec sniff: "
   void event(const modbus::SniffEvent& e);
   void stats(const modbus::SniffStats& s, const modbus::SnifferOptions& options);
+  // Lines are written out at most every 50 ms (one write for many frames,
+  // not one per frame) and before the caller waits: flush_if_due() after each
+  // batch, and a wait no longer than flush_within() while dirty().
+  void flush_if_due(TimePoint now);
+  bool dirty() const noexcept { return dirty_; }
+  static constexpr Duration flush_within() { return std::chrono::milliseconds(50); }
 
  private:
+  void flush();
+
   bool json_;
+  bool dirty_ = false;
+  TimePoint last_flush_{};
   bool colour_;
   TimePoint origin_;
   modbus::LineTiming timing_;

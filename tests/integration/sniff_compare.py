@@ -25,7 +25,7 @@ with open(sys.argv[1]) as f:
 
 heard, stats, problems = [], None, []
 counts = {"query": 0, "reply": 0, "noise": 0, "no_reply": 0, "short_silence": 0, "late": 0,
-          "second_master": 0, "unsolicited": 0}
+          "second_master": 0, "unsolicited": 0, "timed": 0}
 with open(sys.argv[2]) as f:
     for n, line in enumerate(f, 1):
         j = json.loads(line)
@@ -36,6 +36,8 @@ with open(sys.argv[2]) as f:
         for flag in j["flags"]:
             if flag in counts:
                 counts[flag] += 1
+        if j["dir"] == "reply" and "response_ms" in j:
+            counts["timed"] += 1
         if j["dir"] in ("query", "reply"):
             heard.append((j["dir"], j["hex"]))
             if not j["explanation"].startswith("ID "):

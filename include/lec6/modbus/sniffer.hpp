@@ -44,8 +44,9 @@ struct SnifferOptions {
   // A query whose reply has not begun this long after the query is counted
   // as unanswered (a timeout).
   Duration reply_wait = std::chrono::milliseconds(1000);
-  // A silence this long settles buffered bytes (see above).
-  Duration idle_gap = std::chrono::milliseconds(100);
+  // A silence this long settles buffered bytes (see above). Longer than the
+  // longest USB latency timer (FTDI: 255 ms), which may split a frame.
+  Duration idle_gap = std::chrono::milliseconds(300);
   // Judge timing at all (off: no timing flags, no response times).
   bool check_timing = true;
 };
