@@ -162,6 +162,10 @@ void burst(const transport::PortSpec& spec, const GlobalOptions& g, const std::v
                            p.timing().wire_time(b.reply_bytes) + modbus::LineTiming::kProcessing;
   for (int i = 0; i < kBurstExchanges && SteadyClock{}.now() < until && !g_interrupted; ++i) {
     const uint8_t id = ids[static_cast<std::size_t>(i) % ids.size()];
+    // 0-16 ms more between exchanges, spread evenly: a USB adapter's latency
+    // timer ticks on its own clock; paced at one rate, every reply would
+    // meet it at the same phase and the lumps would look like a longer Td.
+    std::this_thread::sleep_for(milliseconds((i * 7) % 17));
     const auto h = p.exchange(state_query(id), kStateReplyBytes, g.reply_margin);
     ++b.exchanges;
     ++b.per_id_exchanges[id];
