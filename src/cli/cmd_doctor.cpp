@@ -1,6 +1,9 @@
 // lec doctor: commission an RS485 line. The probes (I/O) are here and in
 // doctor_line.cpp; the judgement is client/doctor (sans-I/O).
 
+#include <sys/ioctl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstdlib>
 #include <thread>
@@ -359,14 +362,43 @@ nlohmann::json to_json(const dx::Observations& obs, const dx::Report& r) {
   return j;
 }
 
+// On a terminal: each finding wrapped at its width, continuation lines
+// indented under the text; piped: one line per finding.
+std::string wrap(const std::string& text, std::size_t indent) {
+  winsize ws{};
+  if (!::isatty(STDOUT_FILENO) || ::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) != 0 || ws.ws_col < 60)
+    return text;
+  const std::size_t width = ws.ws_col;
+  std::string out;
+  std::size_t col = 0;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t end = text.find(' ', pos);
+    if (end == std::string::npos) end = text.size();
+    const std::string word = text.substr(pos, end - pos);
+    if (col > indent && col + 1 + word.size() > width) {
+      out += "\n" + std::string(indent, ' ');
+      col = indent;
+    } else if (pos > 0) {
+      out += ' ';
+      ++col;
+    }
+    out += word;
+    col += word.size();
+    pos = end + 1;
+  }
+  return out;
+}
+
 void print_report(const dx::Observations& obs, const dx::Report& r, Duration took) {
   fmt::print("lec doctor: {}{}\n", obs.port, obs.gateway ? " (through a Modbus TCP gateway)" : "");
   for (const auto& f : r.findings) {
     const char* tag = f.severity == dx::Severity::Error     ? "BROKEN "
                       : f.severity == dx::Severity::Warning ? "WARN   "
                                                             : "ok     ";
-    fmt::print("  {}{:<13} {} -- {}{}\n", tag, f.check, f.saw, f.means,
-               f.todo.empty() ? "" : ". Do: " + f.todo);
+    const std::string line = fmt::format("  {}{:<13} {} -- {}{}", tag, f.check, f.saw, f.means,
+                                         f.todo.empty() ? "" : ". Do: " + f.todo);
+    fmt::print("{}\n", wrap(line, 23));
   }
   fmt::print("{} ({:.1f} s, nothing was moved)\n", dx::to_string(r.health),
              std::chrono::duration<double>(took).count());
