@@ -1,6 +1,9 @@
 // lec doctor: commission an RS485 line. The probes (I/O) are here and in
 // doctor_line.cpp; the judgement is client/doctor (sans-I/O).
 
+#include <sys/ioctl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstdlib>
 #include <thread>
@@ -72,80 +75,117 @@ void search(const transport::PortSpec& spec, const GlobalOptions& g,
   for (uint32_t b : modbus::kBaudRates)
     if (b != g.baud) order.push_back(b);
   const TimePoint until = SteadyClock{}.now() + kSearchBudget;
-  for (uint32_t baud : order) {
-    if (g_interrupted) break;
-    if (SteadyClock{}.now() >= until) {
-      obs.budget_ran_out = true;
-      break;
-    }
-    LineProbe p(spec, port_options(g, baud, false));
-    // 6. Another master: listen before sending anything.
-    if (obs.bauds.empty()) note_foreign(obs, p.listen(kListen));
-    dx::BaudProbe bp;
-    bp.baud = baud;
-    for (uint8_t id : ids) {
-      if (g_interrupted || SteadyClock{}.now() >= until) break;
-      const auto h = p.exchange(state_query(id), kStateReplyBytes, kScanMargin);
-      bp.echo = bp.echo || h.result.echo;
-      bp.stray_bytes += h.result.noise_bytes;
-      switch (h.result.kind) {
-        case dx::ReplyKind::Good:
-        case dx::ReplyKind::Exception:
-          bp.answering.push_back(id);
-          break;
-        case dx::ReplyKind::Crc:
-        case dx::ReplyKind::Framing:
-          bp.garbled.push_back(id);
-          break;
-        default:
-          break;
+  // First pass: short windows. Nothing anywhere: a second pass with the full
+  // reply margin (a slow converter, a busy host), within the same budget.
+  for (int pass = 0; pass < 2; ++pass) {
+    const Duration window_margin = pass == 0 ? kScanMargin : std::max(kScanMargin, g.reply_margin);
+    if (pass == 1 && window_margin == kScanMargin) break;
+    for (uint32_t baud : order) {
+      if (g_interrupted) break;
+      if (SteadyClock{}.now() >= until) {
+        obs.budget_ran_out = true;
+        break;
       }
-    }
-    if (!bp.answering.empty()) {
-      // A garbled reply at a rate where others answer: that controller is
-      // there (a collision or noise); ask it again, so the later checks include it.
-      std::vector<uint8_t> still;
-      for (uint8_t id : bp.garbled) {  // Crc, Framing: a reply that carried the ID
-        bool ok = false;
-        for (int i = 0; i < 3 && !ok; ++i) {
-          const auto k = p.exchange(state_query(id), kStateReplyBytes, kScanMargin).result.kind;
-          ok = k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception;
+      LineProbe p(spec, port_options(g, baud, false));
+      // 6. Another master: listen before sending anything.
+      if (obs.bauds.empty()) note_foreign(obs, p.listen(kListen));
+      dx::BaudProbe bp;
+      bp.baud = baud;
+      auto scan = [&](Duration margin) {
+        bp = {};
+        bp.baud = baud;
+        for (uint8_t id : ids) {
+          if (g_interrupted || SteadyClock{}.now() >= until) break;
+          const auto h = p.exchange(state_query(id), kStateReplyBytes, margin);
+          bp.echo = bp.echo || h.result.echo;
+          bp.stray_bytes += h.result.noise_bytes;
+          switch (h.result.kind) {
+            case dx::ReplyKind::Good:
+            case dx::ReplyKind::Exception:
+              bp.answering.push_back(id);
+              break;
+            case dx::ReplyKind::Crc:
+            case dx::ReplyKind::Framing:
+              bp.garbled.push_back(id);
+              break;
+            default:
+              break;
+          }
         }
-        if (ok) {
-          bp.answering.insert(std::upper_bound(bp.answering.begin(), bp.answering.end(), id), id);
-        } else {
-          still.push_back(id);
-        }
+      };
+      scan(window_margin);
+      // Bytes but no answer: perhaps replies later than the short window (a
+      // slow converter, a busy host): once more with the full reply margin.
+      if (pass == 0 && bp.answering.empty() && (bp.stray_bytes > 0 || !bp.garbled.empty()) &&
+          g.reply_margin > kScanMargin) {
+        scan(g.reply_margin);
       }
-      bp.garbled = still;
-    }
-    obs.echo_seen = obs.echo_seen || bp.echo;
-    obs.bauds.push_back(bp);
-    if (!bp.answering.empty()) {
-      obs.found_baud = baud;
-      if (obs.bauds.size() > 1) note_foreign(obs, p.listen(kListen));  // at the right rate too
-      return;
+      if (!bp.answering.empty()) {
+        // A garbled reply at a rate where others answer: that controller is
+        // there (a collision or noise); ask it again, so the later checks include it.
+        std::vector<uint8_t> still;
+        for (uint8_t id : bp.garbled) {  // Crc, Framing: a reply that carried the ID
+          bool ok = false;
+          for (int i = 0; i < 3 && !ok; ++i) {
+            const auto k = p.exchange(state_query(id), kStateReplyBytes, kScanMargin).result.kind;
+            ok = k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception;
+          }
+          if (ok) {
+            bp.answering.insert(std::upper_bound(bp.answering.begin(), bp.answering.end(), id), id);
+          } else {
+            still.push_back(id);
+          }
+        }
+        bp.garbled = still;
+      }
+      obs.echo_seen = obs.echo_seen || bp.echo;
+      if (pass == 1) {  // the second look replaces the first at this rate
+        std::erase_if(obs.bauds, [&](const dx::BaudProbe& b) { return b.baud == baud; });
+      }
+      obs.bauds.push_back(bp);
+      if (!bp.answering.empty()) {
+        obs.found_baud = baud;
+        if (obs.bauds.size() > 1) note_foreign(obs, p.listen(kListen));  // at the right rate too
+        return;
+      }
     }
   }
 }
 
 // 5, 7, 4. A short burst of reads, round robin over the IDs that answered.
-void burst(const transport::PortSpec& spec, const GlobalOptions& g,
-           const std::vector<uint8_t>& ids, dx::Observations& obs) {
+void burst(const transport::PortSpec& spec, const GlobalOptions& g, const std::vector<uint8_t>& ids,
+           dx::Observations& obs) {
   LineProbe p(spec, port_options(g, *obs.found_baud, false));
   auto& b = obs.burst;
   b.query_bytes = state_query(1).size();
   b.reply_bytes = kStateReplyBytes;
   const TimePoint until = SteadyClock{}.now() + kBurstBudget;
+  // No reply can be complete sooner: one that is was late for the query before.
+  const Duration fastest = p.timing().wire_time(b.query_bytes) +
+                           p.timing().wire_time(b.reply_bytes) + modbus::LineTiming::kProcessing;
   for (int i = 0; i < kBurstExchanges && SteadyClock{}.now() < until && !g_interrupted; ++i) {
     const uint8_t id = ids[static_cast<std::size_t>(i) % ids.size()];
+    // 0-16 ms more between exchanges, spread evenly: a USB adapter's latency
+    // timer ticks on its own clock; paced at one rate, every reply would
+    // meet it at the same phase and the lumps would look like a longer Td.
+    std::this_thread::sleep_for(milliseconds((i * 7) % 17));
     const auto h = p.exchange(state_query(id), kStateReplyBytes, g.reply_margin);
     ++b.exchanges;
     ++b.per_id_exchanges[id];
     b.noise_bytes += h.result.noise_bytes;
+    const bool answered =
+        h.result.kind == dx::ReplyKind::Good || h.result.kind == dx::ReplyKind::Exception;
+    if (!answered || h.round_trip < fastest) {
+      // A late reply still on its way must not answer the next query.
+      std::this_thread::sleep_for(g.reply_margin);
+    }
     switch (h.result.kind) {
       case dx::ReplyKind::Good:
       case dx::ReplyKind::Exception:
+        if (h.round_trip < fastest) {
+          ++b.timeouts;  // the previous query's late reply; ours came after the window
+          break;
+        }
         ++b.good;
         b.round_trips.push_back(h.round_trip);
         break;
@@ -264,8 +304,8 @@ dx::ControllerState read_controller(client::Client& c, client::Actuator& axis, u
 void read_controllers(const transport::PortSpec& spec, const twin::PortOptions& po,
                       const std::vector<uint8_t>& ids, bool fix, dx::Observations& obs) {
   auto port = twin::open_port(spec, po);
-  client::Client c(port->master(), {.id = ids.front(), .retries = 2,
-                                    .timeout_margin = po.timeout_margin});
+  client::Client c(port->master(),
+                   {.id = ids.front(), .retries = 2, .timeout_margin = po.timeout_margin});
   client::Actuator axis(c);
   for (uint8_t id : ids) {
     if (g_interrupted) break;
@@ -316,9 +356,38 @@ nlohmann::json to_json(const dx::Observations& obs, const dx::Report& r) {
     j["findings"].push_back(fj);
   }
   const auto& b = obs.burst;
-  j["burst"] = {{"exchanges", b.exchanges}, {"good", b.good},       {"crc", b.crc},
-                {"framing", b.framing},     {"timeouts", b.timeouts}, {"noise_bytes", b.noise_bytes}};
+  j["burst"] = {
+      {"exchanges", b.exchanges}, {"good", b.good},         {"crc", b.crc},
+      {"framing", b.framing},     {"timeouts", b.timeouts}, {"noise_bytes", b.noise_bytes}};
   return j;
+}
+
+// On a terminal: each finding wrapped at its width, continuation lines
+// indented under the text; piped: one line per finding.
+std::string wrap(const std::string& text, std::size_t indent) {
+  winsize ws{};
+  if (!::isatty(STDOUT_FILENO) || ::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) != 0 || ws.ws_col < 60)
+    return text;
+  const std::size_t width = ws.ws_col;
+  std::string out;
+  std::size_t col = 0;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t end = text.find(' ', pos);
+    if (end == std::string::npos) end = text.size();
+    const std::string word = text.substr(pos, end - pos);
+    if (col > indent && col + 1 + word.size() > width) {
+      out += "\n" + std::string(indent, ' ');
+      col = indent;
+    } else if (pos > 0) {
+      out += ' ';
+      ++col;
+    }
+    out += word;
+    col += word.size();
+    pos = end + 1;
+  }
+  return out;
 }
 
 void print_report(const dx::Observations& obs, const dx::Report& r, Duration took) {
@@ -327,8 +396,9 @@ void print_report(const dx::Observations& obs, const dx::Report& r, Duration too
     const char* tag = f.severity == dx::Severity::Error     ? "BROKEN "
                       : f.severity == dx::Severity::Warning ? "WARN   "
                                                             : "ok     ";
-    fmt::print("  {}{:<13} {} -- {}{}\n", tag, f.check, f.saw, f.means,
-               f.todo.empty() ? "" : ". Do: " + f.todo);
+    const std::string line = fmt::format("  {}{:<13} {} -- {}{}", tag, f.check, f.saw, f.means,
+                                         f.todo.empty() ? "" : ". Do: " + f.todo);
+    fmt::print("{}\n", wrap(line, 23));
   }
   fmt::print("{} ({:.1f} s, nothing was moved)\n", dx::to_string(r.health),
              std::chrono::duration<double>(took).count());
@@ -362,7 +432,8 @@ void run_doctor(Session& s, const DoctorArgs& a) {
     if (obs.found_baud) {
       obs.assumed.baud = *obs.found_baud;
       const auto& found = obs.bauds.back().answering;
-      if (obs.echo_seen) obs.echo_fix_works = echo_fix_works(spec, g, found.front(), *obs.found_baud);
+      if (obs.echo_seen)
+        obs.echo_fix_works = echo_fix_works(spec, g, found.front(), *obs.found_baud);
       burst(spec, g, found, obs);
       // Not with another master on the line: its replies would answer for ours.
       if (obs.foreign_query_ids.empty()) probe_silent_interval(spec, g, found.front(), obs);
@@ -386,7 +457,8 @@ void run_doctor(Session& s, const DoctorArgs& a) {
     print_report(obs, r, SteadyClock{}.now() - start);
   }
   if (g_interrupted) throw client::Cancelled("interrupted");
-  if (r.health == dx::Health::Broken) throw CommandFailed(kBroken, "the line is broken (see above)");
+  if (r.health == dx::Health::Broken)
+    throw CommandFailed(kBroken, "the line is broken (see above)");
   if (r.health == dx::Health::Degraded)
     throw CommandFailed(kDegraded, "the line works, degraded (see above)");
 }

@@ -46,7 +46,8 @@ class Builder {
 
   void add(std::string check, Severity s, std::string saw, std::string means, std::string todo,
            std::optional<uint8_t> id = std::nullopt) {
-    r_.findings.push_back({std::move(check), s, std::move(saw), std::move(means), std::move(todo), id});
+    r_.findings.push_back(
+        {std::move(check), s, std::move(saw), std::move(means), std::move(todo), id});
   }
 
   Report take() {
@@ -98,8 +99,7 @@ void Builder::baud_and_ids() {
             ? std::string()
             : fmt::format("give --baud {} to every lec command (lec's default is {})",
                           *o_.found_baud, modbus::kDefaultBaud);
-    add("baud", Severity::Info,
-        fmt::format("ID {} at {}{}", join_ids(ids), *o_.found_baud, others),
+    add("baud", Severity::Info, fmt::format("ID {} at {}{}", join_ids(ids), *o_.found_baud, others),
         fmt::format("{} answer{} at {} baud (IDs {} scanned)",
                     ids.size() == 1 ? "one controller" : fmt::format("{} controllers", ids.size()),
                     ids.size() == 1 ? "s" : "", *o_.found_baud, o_.id_range),
@@ -122,12 +122,14 @@ void Builder::baud_and_ids() {
       "communication; the cable goes to the controller's serial (CN?) connector and A/B (+/-) "
       "are not swapped; this port is the adapter on that cable (lec ports lists them); the "
       "controller's ID is within " +
-          o_.id_range + " and its baud rate is one of 9600 ... 230400 (controller setting "
+          o_.id_range +
+          " and its baud rate is one of 9600 ... 230400 (controller setting "
           "software); the line has 120 ohm termination at its far end");
 }
 
 void Builder::gateway() {
-  const std::vector<uint8_t> ids = o_.bauds.empty() ? std::vector<uint8_t>{} : o_.bauds.back().answering;
+  const std::vector<uint8_t> ids =
+      o_.bauds.empty() ? std::vector<uint8_t>{} : o_.bauds.back().answering;
   if (ids.empty()) {
     add("gateway", Severity::Error,
         fmt::format("no ID of {} answers through {}", o_.id_range, o_.port),
@@ -137,8 +139,8 @@ void Builder::gateway() {
         "itself, stop the gateway and run lec doctor on its serial port");
     return;
   }
-  add("gateway", Severity::Info, fmt::format("ID {} answer{} through {}", join_ids(ids),
-                                             ids.size() == 1 ? "s" : "", o_.port),
+  add("gateway", Severity::Info,
+      fmt::format("ID {} answer{} through {}", join_ids(ids), ids.size() == 1 ? "s" : "", o_.port),
       "the line's own checks (baud, echo, USB latency, timing, noise, another master) need the "
       "serial port, which the gateway holds",
       "to check the line itself: stop the gateway (lec serve) and run lec doctor --port "
@@ -155,11 +157,18 @@ void Builder::echo() {
         o_.echo_option ? std::string()
                        : std::string("add --echo to every lec command (verified: with --echo "
                                      "the transactions work)"));
-  } else {
+  } else if (o_.echo_fix_works) {
     add("echo", Severity::Error, "every query came back to us byte for byte",
         "the adapter hears its own transmission (local echo), and even with echo discard no "
         "transaction worked",
         "add --echo; if it still fails, check the adapter's echo / RTS (direction) setting");
+  } else {
+    add("echo", o_.echo_option ? Severity::Info : Severity::Warning,
+        "every query came back to us byte for byte",
+        "the adapter hears its own transmission (local echo): a 2-wire adapter",
+        o_.echo_option ? std::string()
+                       : std::string("add --echo to every lec command (not verified: no "
+                                     "controller answered)"));
   }
 }
 
@@ -209,8 +218,8 @@ void Builder::usb_latency() {
     }
     if (o_.latency_fixed.value_or(false)) {
       add("usb-latency", Severity::Info,
-          fmt::format("latency timer was {} ms; --fix set it to 1 ms ({}){}",
-                      *o_.latency_timer_ms, o_.latency_timer_path, measured),
+          fmt::format("latency timer was {} ms; --fix set it to 1 ms ({}){}", *o_.latency_timer_ms,
+                      o_.latency_timer_path, measured),
           "the USB adapter now passes received bytes on at once",
           "make it permanent with a udev rule: ACTION==\"add\", SUBSYSTEM==\"usb-serial\", "
           "DRIVER==\"ftdi_sio\", ATTR{latency_timer}=\"1\"");
@@ -266,10 +275,10 @@ void Builder::timing() {
   if (o_.ts_above) {
     // A gap this long did not end the frame: Silent INT is above lec's k.
     const double char_ms = ms(t.char_time());
-    const unsigned k_min =
-        static_cast<unsigned>(std::ceil(ms(*o_.ts_above) / (3.5 * char_ms)));
+    const unsigned k_min = static_cast<unsigned>(std::ceil(ms(*o_.ts_above) / (3.5 * char_ms)));
     add("timing", Severity::Warning,
-        fmt::format("a query sent in two parts {:.1f} ms apart was answered as one frame", ms(*o_.ts_above)),
+        fmt::format("a query sent in two parts {:.1f} ms apart was answered as one frame",
+                    ms(*o_.ts_above)),
         fmt::format("the controller's Silent INT is at least {} (Ts >= {:.1f} ms), not {} as lec "
                     "assumes: lec's pacing and frame ends are then too short",
                     k_min, ms(*o_.ts_above), t.silent_interval_k),
@@ -300,7 +309,8 @@ void Builder::timing() {
         fmt::format("the controller answers sooner than lec assumes: its Min Resp delay (Td) is "
                     "about {:.0f} ms",
                     td_ms),
-        fmt::format("optional: --td {:.0f}ms makes lec's reply timeout tighter", std::round(td_ms)));
+        fmt::format("optional: --td {:.0f}ms makes lec's reply timeout tighter",
+                    std::round(td_ms)));
   } else {
     add("timing", Severity::Info, saw,
         "the controller's response time matches the manual's Tx with lec's Ts and Td", "");
@@ -333,8 +343,8 @@ void Builder::line_quality() {
       const int n = b.per_id_exchanges.at(id);
       const int g = b.per_id_garbled.at(id);
       add("duplicate-id", Severity::Error,
-          fmt::format("{} of {} replies from ID {} garbled, with ID {} in their first byte{}",
-                      g, n, id, id,
+          fmt::format("{} of {} replies from ID {} garbled, with ID {} in their first byte{}", g, n,
+                      id, id,
                       b.per_id_exchanges.size() > 1 ? ", the other IDs' replies sound"
                                                     : ", on an otherwise quiet line"),
           fmt::format("two controllers answer ID {}: their replies collide on the line", id),
@@ -356,6 +366,15 @@ void Builder::line_quality() {
     add("line-quality", Severity::Info, saw, "the line is clean", "");
     return;
   }
+  if (bad == 0 && b.noise_bytes == 0 && b.timeouts * 20 <= b.exchanges) {
+    // A few late replies on a line that garbles nothing: the controller (or
+    // the host) was slow for a moment; lec's retries cover it.
+    add("line-quality", Severity::Info, saw,
+        "the line garbles nothing; a few replies came after the reply window (Tx + margin), "
+        "which lec's retries cover",
+        "if it persists: a larger --reply-margin");
+    return;
+  }
   const bool severe = rate >= 200 || b.timeouts * 5 >= b.exchanges;
   add("line-quality", severe ? Severity::Error : Severity::Warning, saw,
       severe ? "the line loses or garbles many frames: lec's retries cannot hide it"
@@ -371,8 +390,8 @@ void Builder::controllers() {
     const std::string who =
         fmt::format("ID {}{}", c.id, c.name.empty() ? "" : fmt::format(" ({})", c.name));
     if (!c.read_error.empty()) {
-      add("controller", Severity::Warning, fmt::format("{}: its state could not be read: {}", who,
-                                                       c.read_error),
+      add("controller", Severity::Warning,
+          fmt::format("{}: its state could not be read: {}", who, c.read_error),
           "it answers, but not reliably enough to read its flags", "", c.id);
       continue;
     }

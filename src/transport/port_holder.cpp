@@ -50,8 +50,7 @@ bool is_lec(const std::string& line, std::string_view command) {
 
 }  // namespace
 
-std::vector<PortHolder> port_holders(const std::string& device,
-                                     const std::filesystem::path& proc) {
+std::vector<PortHolder> port_holders(const std::string& device, const std::filesystem::path& proc) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::path target = fs::canonical(device, ec);
@@ -99,9 +98,8 @@ std::string port_busy_message(const std::string& device, const std::filesystem::
         "it with --port tcp://127.0.0.1:1502",
         device);
   }
-  std::string msg =
-      fmt::format("cannot open {}: port busy (another program has it open: {}){}", device, who,
-                  serve_hint);
+  std::string msg = fmt::format("cannot open {}: port busy (another program has it open: {}){}",
+                                device, who, serve_hint);
   if (serve_hint.empty())
     msg += ". To share the line, let lec serve own it and use --port tcp://HOST:1502 elsewhere";
   return msg;

@@ -11,16 +11,15 @@
 namespace lec6::client::doctor {
 namespace {
 
-using ::testing::HasSubstr;
 using std::chrono::microseconds;
 using std::chrono::milliseconds;
+using ::testing::HasSubstr;
 
 modbus::Bytes query(uint8_t id) {
   return *modbus::encode_request({id, modbus::ReadRegistersRequest{0x9000, 7}});
 }
 modbus::Bytes reply(uint8_t id) {
-  return modbus::encode_response(
-      {id, modbus::ReadRegistersResponse{{1, 2, 3, 4, 5, 6, 7}}});
+  return modbus::encode_response({id, modbus::ReadRegistersResponse{{1, 2, 3, 4, 5, 6, 7}}});
 }
 modbus::Bytes cat(modbus::Bytes a, const modbus::Bytes& b) {
   a.insert(a.end(), b.begin(), b.end());
@@ -113,7 +112,8 @@ const Finding* find(const Report& r, std::string_view check) {
 TEST(DoctorDiagnose, ACleanLineIsHealthyWithInformationOnly) {
   const Report r = diagnose(clean());
   EXPECT_EQ(r.health, Health::Healthy);
-  for (const auto& f : r.findings) EXPECT_EQ(f.severity, Severity::Info) << f.check << ": " << f.saw;
+  for (const auto& f : r.findings)
+    EXPECT_EQ(f.severity, Severity::Info) << f.check << ": " << f.saw;
   ASSERT_NE(find(r, "baud"), nullptr);
   EXPECT_THAT(find(r, "baud")->saw, HasSubstr("ID 1 at 38400"));
   EXPECT_EQ(find(r, "baud")->todo, "");
@@ -230,6 +230,18 @@ TEST(DoctorDiagnose, CollisionsOnOneIdOnAQuietLineAreADuplicateId) {
   ASSERT_NE(find(r, "duplicate-id"), nullptr);
   EXPECT_EQ(find(r, "duplicate-id")->id, 3);
   EXPECT_EQ(find(r, "line-quality"), nullptr);
+}
+
+TEST(DoctorDiagnose, AFewLateRepliesOnACleanLineAreInformation) {
+  Observations o = clean();
+  o.burst.timeouts = 3;
+  o.burst.good = 97;
+  const Report r = diagnose(o);
+  EXPECT_EQ(r.health, Health::Healthy);
+  EXPECT_THAT(find(r, "line-quality")->means, HasSubstr("garbles nothing"));
+  o.burst.timeouts = 30;
+  o.burst.good = 70;
+  EXPECT_EQ(find(diagnose(o), "line-quality")->severity, Severity::Error);
 }
 
 TEST(DoctorDiagnose, NoiseOnEveryIdIsNoDuplicate) {

@@ -21,11 +21,16 @@ doctor() {
   sed 's/^/    /' "$TMP/$name.doc"
 }
 has() { grep -qF -- "$2" "$TMP/$1.doc"; }
+# warm PTY [BAUD]: one read before the doctor runs. A twin that has just
+# started can stall for tens of ms on a loaded host; reading late, it takes
+# the queries that queued up as one frame (no real line does that).
+warm() { "$LEC" --port "$1" --baud "${2:-38400}" --retries 5 status >/dev/null 2>&1 || true; }
 # only_info NAME: no WARN or BROKEN line.
 only_info() { ! grep -qE '^  (WARN|BROKEN) ' "$TMP/$1.doc"; }
 
 # A clean line: healthy, information only.
 start_twin clean --pty "$TMP/clean" --ids 1 --strict-baud || exit 1
+warm "$TMP/clean"
 doctor clean --port "$TMP/clean" doctor --ids 1-4
 check "clean: exit 0" test "$RC" -eq 0
 check "clean: healthy" has clean "healthy"
@@ -56,7 +61,8 @@ check "two --fix: nothing moved" has two-fix "nothing was moved"
 stop_twin "$TWIN_PID"
 
 # Echo: a 2-wire adapter.
-start_twin echo --pty "$TMP/echo" --ids 1 --echo-adapter || exit 1
+start_twin echo --pty "$TMP/echo" --ids 1 --echo-adapter --strict-baud || exit 1
+warm "$TMP/echo"
 doctor echo --port "$TMP/echo" doctor --ids 1-4
 check "echo: exit 8" test "$RC" -eq 8
 check "echo: named, with --echo verified" has echo "add --echo to every lec command (verified"
@@ -65,35 +71,40 @@ check "echo with --echo: healthy" test "$RC" -eq 0
 stop_twin "$TWIN_PID"
 
 # Noise on the line.
-start_twin noise --pty "$TMP/noise" --ids 1 --noise-rate 400 --seed 7 || exit 1
+start_twin noise --pty "$TMP/noise" --ids 1 --noise-rate 400 --seed 7 --strict-baud || exit 1
+warm "$TMP/noise"
 doctor noise --port "$TMP/noise" doctor --ids 1-4
 check "noise: degraded or broken" test "$RC" -eq 7 -o "$RC" -eq 8
 check "noise: the causes in order" has noise "likely causes, in order: termination"
 stop_twin "$TWIN_PID"
 
 # Two controllers with ID 2.
-start_twin dup --pty "$TMP/dup" --ids 1,2 --duplicate-ids 2 || exit 1
+start_twin dup --pty "$TMP/dup" --ids 1,2 --duplicate-ids 2 --strict-baud || exit 1
+warm "$TMP/dup"
 doctor dup --port "$TMP/dup" doctor --ids 1-4
 check "duplicate: exit 8" test "$RC" -eq 8
 check "duplicate: ID 2 named" has dup "two controllers answer ID 2"
 stop_twin "$TWIN_PID"
 
 # A second master polling ID 1.
-start_twin other --pty "$TMP/other" --ids 1 --other-master 20 || exit 1
+start_twin other --pty "$TMP/other" --ids 1 --other-master 20 --strict-baud || exit 1
+warm "$TMP/other"
 doctor other --port "$TMP/other" doctor --ids 1-4
 check "other master: exit 8" test "$RC" -eq 8
 check "other master: named" has other "another master polls this line"
 stop_twin "$TWIN_PID"
 
 # Td of 20 ms (the controller's Min Resp delay), lec assumes 5.
-start_twin td --pty "$TMP/td" --ids 1 --td 20ms || exit 1
+start_twin td --pty "$TMP/td" --ids 1 --td 20ms --strict-baud || exit 1
+warm "$TMP/td"
 doctor td --port "$TMP/td" doctor --ids 1-4
 check "Td: exit 7" test "$RC" -eq 7
 check "Td: inferred and named" has td "--td 20ms"
 stop_twin "$TWIN_PID"
 
 # A USB adapter's latency timer at 16 ms (a stand-in sysfs: a pty has none), then --fix.
-start_twin usb --pty "$TMP/usb" --ids 1 || exit 1
+start_twin usb --pty "$TMP/usb" --ids 1 --strict-baud || exit 1
+warm "$TMP/usb"
 PTS=$(basename "$(readlink -f "$TMP/usb")")
 mkdir -p "$TMP/sys/bus/usb-serial/devices/$PTS"
 echo 16 >"$TMP/sys/bus/usb-serial/devices/$PTS/latency_timer"
@@ -106,7 +117,8 @@ check "usb latency --fix: healthy" test "$RC" -eq 0
 stop_twin "$TWIN_PID"
 
 # Silent INT 20 (Ts = 70 chars, 18 ms at 38400), lec assumes 1: a query in two parts is still one frame.
-start_twin ts --pty "$TMP/ts" --ids 1 --silent-interval 20 || exit 1
+start_twin ts --pty "$TMP/ts" --ids 1 --silent-interval 20 --strict-baud || exit 1
+warm "$TMP/ts"
 doctor ts --port "$TMP/ts" doctor --ids 1-4
 check "Silent INT: exit 7" test "$RC" -eq 7
 # (On a loaded host the split-query probe may not bracket Ts; the Td finding
@@ -116,6 +128,7 @@ stop_twin "$TWIN_PID"
 
 # Combination 1: echo and a wrong baud.
 start_twin c1 --pty "$TMP/c1" --ids 2 --baud 19200 --strict-baud --echo-adapter || exit 1
+warm "$TMP/c1" 19200
 doctor c1 --port "$TMP/c1" doctor --ids 1-4
 check "echo + baud: exit 8" test "$RC" -eq 8
 check "echo + baud: the baud" has c1 "ID 2 at 19200"
@@ -123,7 +136,8 @@ check "echo + baud: the echo" has c1 "add --echo"
 stop_twin "$TWIN_PID"
 
 # Combination 2: another master and a long Td.
-start_twin c2 --pty "$TMP/c2" --ids 1 --other-master 10 --td 20ms || exit 1
+start_twin c2 --pty "$TMP/c2" --ids 1 --other-master 10 --td 20ms --strict-baud || exit 1
+warm "$TMP/c2"
 doctor c2 --port "$TMP/c2" doctor --ids 1-4
 check "other master + Td: the master" has c2 "another master polls this line"
 check "other master + Td: broken" test "$RC" -eq 8

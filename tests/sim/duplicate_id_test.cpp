@@ -46,7 +46,7 @@ TEST(DuplicateId, AboutHalfTheRepliesCollideOnThatIdOnly) {
   EXPECT_EQ(one.replies, 200);
   EXPECT_EQ(one.garbled, 0);
   EXPECT_EQ(two.replies, 200);
-  EXPECT_GT(two.garbled, 60);   // 0.5 expected: 100 +- a wide margin
+  EXPECT_GT(two.garbled, 60);  // 0.5 expected: 100 +- a wide margin
   EXPECT_LT(two.garbled, 140);
   EXPECT_EQ(bus.stats().collisions, static_cast<uint64_t>(two.garbled));
 }

@@ -36,7 +36,7 @@ enum class ReplyKind {
 };
 
 struct ExchangeResult {
-  bool echo = false;             // the query came back first, byte for byte (2-wire adapter)
+  bool echo = false;  // the query came back first, byte for byte (2-wire adapter)
   ReplyKind kind = ReplyKind::None;
   std::size_t reply_offset = 0;  // where the reply starts in the bytes heard (after the echo)
   std::size_t reply_bytes = 0;   // its length (Good, Exception, Crc)
@@ -79,7 +79,7 @@ struct BurstStats {
 
 struct ControllerState {
   uint8_t id = 0;
-  std::string read_error;  // non-empty: the state could not be read
+  std::string read_error;    // non-empty: the state could not be read
   bool serial_mode = false;  // Y30
   bool servo_on = false;     // SVON
   bool svre = false;         // servo ready
@@ -92,8 +92,8 @@ struct ControllerState {
 };
 
 struct Observations {
-  std::string port;        // as the user named it
-  bool gateway = false;    // tcp:// (lec serve or another gateway): no line of ours to probe
+  std::string port;      // as the user named it
+  bool gateway = false;  // tcp:// (lec serve or another gateway): no line of ours to probe
   std::string id_range = "1-32";
   modbus::LineTiming assumed;  // lec6's assumption (baud is the one found, when found)
   bool echo_option = false;    // --echo was given
@@ -101,7 +101,7 @@ struct Observations {
 
   std::vector<BaudProbe> bauds;  // in the order tried
   std::optional<uint32_t> found_baud;
-  bool budget_ran_out = false;   // the search stopped at its deadline
+  bool budget_ran_out = false;  // the search stopped at its deadline
 
   // Echo: seen at some baud; whether a transaction with echo discard worked.
   bool echo_seen = false;
