@@ -233,7 +233,8 @@ void add_history_commands(CLI::App& app, const GlobalOptions& globals) {
       ->check(CLI::IsMember({"home", "move", "run-step", "jog"}));
   history->add_option("--outcome", h->outcome,
                       "reached, pushed, push_missed, stopped, alarm, deadline or not_started");
-  history->add_option("--source", h->source, "Who started it, as recorded (\"mqtt\", \"telemetry\")");
+  history->add_option("--source", h->source,
+                      "Who started it: the start of the recorded source (mqtt, http, telemetry)");
   history->add_option("--step", h->step, "Run-step moves of this step")->check(CLI::Range(0, 63));
   history->add_option("--limit", h->limit, "At most this many records")
       ->capture_default_str()
