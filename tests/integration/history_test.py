@@ -2,13 +2,14 @@
 """lec serve's move history on the built-in twin, with a real mosquitto
 (docs/history.md):
 
-    history_test.py SCENARIO...   (api_mqtt kill9 corrupt)
+    history_test.py SCENARIO...   (api_mqtt kill9 healthy corrupt)
 
 api_mqtt: moves through HTTP and MQTT are recorded; /history filters, paging,
           CSV and 400s naming the parameter; /health; MQTT history arrives
           and health is retained; `lec history` and `lec health`.
 kill9:    kill -9 of lec serve during a burst of moves: the database opens,
           nothing committed is lost, the odometer matches the records.
+healthy:  a healthy twin on a noisy line, mixed groups: no drift warning.
 corrupt:  a corrupt history.db is moved aside with a log line; the line runs."""
 
 import csv
@@ -182,6 +183,46 @@ def kill9(ck, tmp, procs):
              (total, done))
 
 
+def healthy(ck, tmp, procs):
+    """A healthy twin on a noisy line (lost and corrupt replies: retries jitter
+    every timeline), two axes, three groups each, 90 moves per axis: no drift
+    warning. (10^4 moves: the sans-I/O detector's test.)"""
+    serve = Serve(tmp, None)
+    with open(serve.config, "w") as f:
+        f.write(f"""lines:
+  - name: line1
+    port: sim
+    sim: {{timing: fast, drop_rate: 0.02, corrupt_rate: 0.02, seed: 7}}
+    axes: [{{id: 1, name: axis1, telemetry_hz: 20}}, {{id: 2, name: axis2, telemetry_hz: 20}}]
+http: {{listen: "127.0.0.1:{serve.http_port}"}}
+history: {{state_dir: {os.path.join(tmp, 'state')}, drift_baseline_moves: 8}}
+""")
+    serve.start()
+    procs.append(serve)
+    ready_axis(serve)
+    ready_axis(serve, "axis2")
+    targets = [150, 80, 20]
+
+    def loop(name):
+        for i in range(90):
+            move(serve, targets[i % 3], name)
+
+    threads = [threading.Thread(target=loop, args=(n,)) for n in ("axis1", "axis2")]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(300)
+    for name in ("axis1", "axis2"):
+        s, h = serve.http("GET", f"/api/axes/{name}/health")
+        ck.check(h["odometer"]["moves"] == 91, f"{name}: 91 motions recorded", h["odometer"])
+        s, failed = serve.http("GET", f"/api/axes/{name}/history?outcome=reached&limit=10000")
+        print(f"{name}: {len(failed['records'])} of 91 reached", flush=True)
+        busy = [g for g in h["groups"] if g["moves"] >= 20]
+        ck.check(len(busy) == 3 and all(g["baseline"] for g in busy), f"{name}: three groups with baselines",
+                 [(g["group"], g["moves"]) for g in h["groups"]])
+        ck.check(h["warnings"] == [], f"{name}: no drift warning on a healthy twin", h["warnings"])
+
+
 def corrupt(ck, tmp, procs):
     state = os.path.join(tmp, "state")
     os.makedirs(state)
@@ -199,5 +240,5 @@ def corrupt(ck, tmp, procs):
 
 
 if __name__ == "__main__":
-    run_scenarios({f.__name__: f for f in (api_mqtt, kill9, corrupt)},
-                  sys.argv[1:] or ["api_mqtt", "kill9", "corrupt"])
+    run_scenarios({f.__name__: f for f in (api_mqtt, kill9, healthy, corrupt)},
+                  sys.argv[1:] or ["api_mqtt", "kill9", "healthy", "corrupt"])
