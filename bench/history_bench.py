@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """What the move history costs a running `lec serve` (BENCHMARKS.md, "Move history").
 
-lec serve on its built-in twin (fast timing, 4 axes, telemetry 20 Hz each), an HTTP
+lec serve on its built-in twin (real timing at 38400 baud: the line is the limit, as on RS485; 4 axes, telemetry 20 Hz each), an HTTP
 move loop on every axis for SECONDS, twice: without the history, then with
 --state-dir. Reported for each: moves/s, the daemon's CPU (user + system, all its
 threads, from /proc) per second and per move, and the line's transactions/s. The
@@ -39,7 +39,7 @@ def call(http, method, path, body=None):
 
 
 def run(state_dir):
-    args = [LEC, "serve", "--port", "sim", "--sim-timing", "fast", "--ids", "1-4",
+    args = [LEC, "serve", "--port", "sim", "--sim-timing", "real", "--ids", "1-4",
             "--telemetry-hz", "20", "--http", "127.0.0.1:0", "--modbus-tcp", ""]
     if state_dir:
         args += ["--state-dir", state_dir]

@@ -23,6 +23,7 @@ struct HistoryArgs : DaemonArgs {
   std::string since, until, kind, outcome, source;
   int step = -1;
   int limit = 20;
+  int64_t before = 0;
   bool csv = false;
 };
 
@@ -152,6 +153,7 @@ void run_history(const GlobalOptions& g, const HistoryArgs& a) {
   if (!a.outcome.empty()) q += "&outcome=" + encode(a.outcome);
   if (!a.source.empty()) q += "&source=" + encode(a.source);
   if (a.step >= 0) q += fmt::format("&step={}", a.step);
+  if (a.before > 0) q += fmt::format("&before={}", a.before);
   const std::string target = fmt::format("/api/axes/{}/history?{}", encode(a.axis), q);
   if (a.csv) {
     const Reply r = get(u, target + "&format=csv");
@@ -182,8 +184,7 @@ void run_history(const GlobalOptions& g, const HistoryArgs& a) {
   }
   if (j["records"].empty()) fmt::print("(no motions recorded for {} with these filters)\n", a.axis);
   if (j["next_before"].is_number()) {
-    fmt::print("(more: the same with --before {} through the API, or a larger --limit)\n",
-               j["next_before"].get<int64_t>());
+    fmt::print("(older ones: the same with --before {})\n", j["next_before"].get<int64_t>());
   }
 }
 
@@ -233,11 +234,15 @@ void add_history_commands(CLI::App& app, const GlobalOptions& globals) {
       ->check(CLI::IsMember({"home", "move", "run-step", "jog"}));
   history->add_option("--outcome", h->outcome,
                       "reached, pushed, push_missed, stopped, alarm, deadline or not_started");
-  history->add_option("--source", h->source, "Who started it, as recorded (\"mqtt\", \"telemetry\")");
+  history->add_option("--source", h->source,
+                      "Who started it: the start of the recorded source (mqtt, http, telemetry)");
   history->add_option("--step", h->step, "Run-step moves of this step")->check(CLI::Range(0, 63));
   history->add_option("--limit", h->limit, "At most this many records")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
+  history->add_option("--before", h->before, "Only records older than this id (paging)")
+      ->type_name("ID")
+      ->check(CLI::PositiveNumber);
   history->add_flag("--csv", h->csv, "CSV, one row per motion (every column of the API)");
   history->callback([&globals, h] { run_history(globals, *h); });
 

@@ -167,7 +167,8 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
       ->capture_default_str();
   cmd->add_option("--state-dir", args->state_dir,
                   "Keep the move history, odometer and drift warnings in DIR/history.db "
-                  "(docs/history.md; the config's history: section has every setting)");
+                  "(docs/history.md; the config's history: section has every setting)")
+      ->type_name("DIR");
   cmd->add_flag("--check", args->check, "Check the config and exit");
   cmd->add_option("--record", args->record,
                   "Write every frame of the line, both directions, with timestamps, to FILE (a "

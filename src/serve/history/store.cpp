@@ -482,7 +482,7 @@ std::vector<MotionRecord> Store::query(const HistoryQuery& q) const {
   if (q.until_ms) sql += " AND start_ms < ?";
   if (q.kind) sql += " AND kind = ?";
   if (q.outcome) sql += " AND outcome = ?";
-  if (q.source) sql += " AND source = ?";
+  if (q.source) sql += " AND source LIKE ? ESCAPE '\\'";  // starts with
   if (q.step) sql += " AND step = ?";
   if (q.before_id) sql += " AND id < ?";
   sql += " ORDER BY id DESC LIMIT ?";
@@ -494,7 +494,14 @@ std::vector<MotionRecord> Store::query(const HistoryQuery& q) const {
   if (q.until_ms) s.bind(i++, *q.until_ms);
   if (q.kind) s.bind(i++, *q.kind);
   if (q.outcome) s.bind(i++, *q.outcome);
-  if (q.source) s.bind(i++, *q.source);
+  if (q.source) {
+    std::string pattern;
+    for (char ch : *q.source) {
+      if (ch == '%' || ch == '_' || ch == '\\') pattern += '\\';
+      pattern += ch;
+    }
+    s.bind(i++, pattern + "%");
+  }
   if (q.step) s.bind(i++, int64_t{*q.step});
   if (q.before_id) s.bind(i++, *q.before_id);
   s.bind(i++, static_cast<int64_t>(q.limit));

@@ -55,7 +55,8 @@ struct StoreConfig {
 struct HistoryQuery {
   std::string axis;
   std::optional<int64_t> since_ms, until_ms;  // start_ms in [since, until)
-  std::optional<std::string> kind, outcome, source;
+  std::optional<std::string> kind, outcome;
+  std::optional<std::string> source;  // starts with: "mqtt" matches "mqtt id 42"
   std::optional<int> step;
   std::optional<int64_t> before_id;  // paging: records older than this id
   std::size_t limit = 100;           // newest first

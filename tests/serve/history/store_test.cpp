@@ -179,8 +179,8 @@ TEST(HistoryStore, RetentionBySizeKeepsTheNewestOfAHundredThousandRecordsUnderTh
   c.file = dir.path / "history.db";
   c.max_bytes = 2u << 20;  // 2 MiB
   c.queue_capacity = 2000;
-  const int64_t now = kT0 + 100 * kDay;
-  c.now_ms = [now] { return now; };
+  constexpr int64_t now = kT0 + 100 * kDay;
+  c.now_ms = [] { return now; };
   Store s(c, log.log());
   ASSERT_TRUE(s.ok());
   Odometer o;

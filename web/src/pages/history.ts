@@ -100,11 +100,13 @@ export function historyPage(ctx: Ctx, param?: string): Page {
   const state = h("p", { class: "muted" });
   let plots: uPlot[] = [];
 
-  const showMoves = async (query: string, title: string) => {
+  let pinned = false; // showing a warning's moves: new records do not replace them
+  const showMoves = async (query: string, title: string, only?: number[]) => {
     const r = await get<{ records: MotionRecord[] }>(`${url}/history?${query}`).catch(() => null);
     setText(movesTitle, title);
+    const records = (r?.records ?? []).filter((m) => !only || only.includes(m.id));
     moves.replaceChildren(
-      ...(r?.records ?? []).map((m) =>
+      ...records.map((m) =>
         h(
           "tr",
           { "data-id": String(m.id) },
@@ -141,8 +143,11 @@ export function historyPage(ctx: Ctx, param?: string): Page {
             const link = h("a", { href: `#/history/${encodeURIComponent(axis)}`, class: "moves-link" }, `the ${w.moves.length} moves`);
             link.addEventListener("click", (ev) => {
               ev.preventDefault();
+              // The window's moves, among the axis' others (of other groups) in that span.
               const newest = Math.max(...w.moves);
-              void showMoves(`before=${newest + 1}&limit=${w.moves.length}`, `Moves behind the warning on group #${w.group_id}`);
+              const span = Math.min(10000, newest - Math.min(...w.moves) + 1);
+              pinned = true;
+              void showMoves(`before=${newest + 1}&limit=${span}`, `Moves behind the warning on group #${w.group_id}`, w.moves);
             });
             return h("li", { class: "bad warning", "data-group": String(w.group_id) }, `${w.message} — `, link);
           })
@@ -151,7 +156,8 @@ export function historyPage(ctx: Ctx, param?: string): Page {
     plots.forEach((p) => p.destroy());
     plots = [];
     groups.replaceChildren();
-    for (const g of hl.groups) {
+    // The busiest groups first: they are the ones a trend says something about.
+    for (const g of [...hl.groups].sort((a, b) => b.moves - a.moves)) {
       const host = h("div", { class: "trend" });
       groups.appendChild(
         h(
@@ -196,7 +202,7 @@ export function historyPage(ctx: Ctx, param?: string): Page {
     setTimeout(() => {
       pending = false;
       void refresh();
-      void showMoves("limit=20", "Latest moves");
+      if (!pinned) void showMoves("limit=20", "Latest moves");
     }, 250);
   });
   return {
