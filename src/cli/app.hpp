@@ -119,5 +119,6 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals);    // sim (th
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
 void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
 void add_replay_command(CLI::App& app, const GlobalOptions& globals);  // replay (a capture)
+void add_sniff_command(CLI::App& app, const GlobalOptions& globals);  // sniff (listen-only)
 
 }  // namespace lec6::cli

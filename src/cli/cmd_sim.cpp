@@ -67,6 +67,9 @@ struct SimArgs {
   double garbage_rate = 0.0;
   double delay_rate = 0.0;
   Duration extra_delay = sim::FaultConfig{}.extra_delay;
+  Duration usb_latency{};
+  std::string tap;
+  Duration tap_latency{};
   std::set<std::string> given;  // options on the command line: they override the profile
   bool has(const std::string& option) const { return given.count(option) > 0; }
 };
@@ -192,6 +195,17 @@ std::string unusual_settings(const twin::FieldProfile& p) {
   return out;
 }
 
+// --usb-latency / --tap-latency, for the ready line.
+std::string adapter_settings(const SimArgs& a) {
+  std::string out;
+  if (a.usb_latency > Duration::zero())
+    out += ", usb-latency " + format_duration(a.usb_latency);
+  if (!a.tap.empty()) out += ", tap " + a.tap + " listen-only";
+  if (!a.tap.empty() && a.tap_latency > Duration::zero())
+    out += ", tap-latency " + format_duration(a.tap_latency);
+  return out;
+}
+
 void run_sim(const SimArgs& a) {
   if (a.pty.empty() && a.tcp.empty()) {
     throw UsageError("sim: give --pty PATH, --tcp HOST:PORT, or both");
@@ -225,6 +239,11 @@ void run_sim(const SimArgs& a) {
   so.pty_link = a.pty;
   if (!a.tcp.empty()) so.tcp = parse_tcp(a.tcp);
   so.state_file = a.state;
+  so.usb_latency = a.usb_latency;
+  so.tap_link = a.tap;
+  so.tap_latency = a.tap_latency;
+  if (a.tap_latency > Duration::zero() && a.tap.empty())
+    throw UsageError("sim: --tap-latency needs --tap PATH");
   if (saved) {
     for (const auto& [id, eeprom] : *saved) {
       if (!std::binary_search(ids.begin(), ids.end(), id)) so.state_carry.emplace(id, eeprom);
@@ -241,10 +260,11 @@ void run_sim(const SimArgs& a) {
     ~Unregister() { g_server = nullptr; }
   } unregister;
 
-  print_line(stdout, fmt::format("lec sim: ready on {} (ids {}, timing {}, {} baud{}{})",
+  print_line(stdout, fmt::format("lec sim: ready on {} (ids {}, timing {}, {} baud{}{}{})",
                                  server.endpoints(), format_ids(ids),
                                  line.timing == sim::Timing::Fast ? "fast" : "real", line.line.baud,
-                                 p.name.empty() ? "" : ", profile " + p.name, unusual_settings(p)));
+                                 p.name.empty() ? "" : ", profile " + p.name, unusual_settings(p),
+                                 adapter_settings(a)));
   server.run();
 }
 
@@ -371,6 +391,20 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
                       {Duration::zero(), seconds(60)});
   add_renamed_duration_option(sim, "--extra-delay-ms", "--extra-delay", a->extra_delay,
                               BareNumber::Milliseconds, {Duration::zero(), seconds(60)});
+  add_duration_option(sim, "--usb-latency", a->usb_latency,
+                      "Fault: the --pty hands replies to the master the way a USB adapter's "
+                      "latency timer does, in lumps every DURATION (FTDI's default: 16ms; "
+                      "0: each reply whole, at once)",
+                      {Duration::zero(), seconds(1)});
+  sim->add_option("--tap", a->tap,
+                  "Also create a listen-only pseudo-terminal at PATH carrying every byte on the "
+                  "line (every master, every controller, the noise) with its timing: for "
+                  "lec sniff --port PATH")
+      ->type_name("PATH");
+  add_duration_option(sim, "--tap-latency", a->tap_latency,
+                      "Deliver the --tap's bytes in lumps every DURATION, as a USB adapter's "
+                      "latency timer does (e.g. 16ms; 0: each frame as it ends)",
+                      {Duration::zero(), seconds(1)});
 
   sim->callback([a, &app, &globals, sim] {
     inherit(app, *sim, "--baud", a->baud);

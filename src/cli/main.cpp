@@ -127,6 +127,7 @@ int main(int argc, char** argv) {
   cli::add_serve_command(app, options);
   cli::add_follow_command(app, session);
   cli::add_replay_command(app, options);
+  cli::add_sniff_command(app, options);
   install_signal_handlers();
 
   try {

@@ -23,6 +23,7 @@
 #include <fmt/format.h>
 
 #include "lec6/client/link.hpp"
+#include "twin/lumped_writer.hpp"
 #include "twin/state_saver.hpp"
 #include "twin/trace_mirror.hpp"
 
@@ -97,6 +98,9 @@ struct SimServer::Impl {
   bool pty_full_warned = false;
 
   std::optional<TraceMirror> mirror;  // --trace
+  std::optional<LumpedWriter> tap;    // --tap
+  std::optional<LumpedWriter> usb;    // --usb-latency: the master pty's replies
+  bool tap_full_warned = false;
   StateSaver saver;
 
   std::atomic<uint64_t> bytes_in{0}, replies_sent{0}, replies_undeliverable{0}, accepted{0};
@@ -116,6 +120,38 @@ struct SimServer::Impl {
 
   void warn(const std::string& text) {
     if (options.warn) options.warn(text);
+  }
+
+  // The ptys exist only once the server's constructor is done.
+  void open_writers() {
+    if (self.tap_) tap.emplace(self.tap_->master_fd(), options.tap_latency, char_time, origin);
+    if (self.pty_ && options.usb_latency > Duration::zero())
+      usb.emplace(self.pty_->master_fd(), options.usb_latency, char_time, origin);
+  }
+
+  // Bytes on the line whose last bit is there at `last_byte`.
+  void on_line(std::span<const uint8_t> bytes, TimePoint last_byte) {
+    if (tap) tap->put(bytes, last_byte);
+  }
+
+  void flush_writers(TimePoint now) {
+    if (tap && !tap->flush(now) && !tap_full_warned) {
+      tap_full_warned = true;
+      warn(fmt::format("{}: the tap is not being read; its bytes are dropped until it is",
+                       self.tap_->client_path()));
+    }
+    if (usb && !usb->flush(now) && !pty_full_warned) {
+      pty_full_warned = true;
+      warn(fmt::format("{}: a reply could not be written; is a client reading it?",
+                       self.pty_->client_path()));
+    }
+  }
+
+  // Reads and discards what someone wrote to the tap: it is listen-only.
+  void drain_tap() {
+    std::array<uint8_t, 256> buf{};
+    while (::read(self.tap_->master_fd(), buf.data(), buf.size()) > 0) {
+    }
   }
 
   // ---- the bus -----------------------------------------------------------
@@ -153,6 +189,7 @@ struct SimServer::Impl {
     bytes_in += bytes.size();
     if (!real) {
       feed(bytes, t, source);
+      on_line(bytes, t);
       return;
     }
     // The virtual RS485 line: one character per char time from when the
@@ -161,6 +198,7 @@ struct SimServer::Impl {
       line_in = std::max(line_in, t) + char_time;
       feed(bytes.subspan(i, 1), line_in, source);
     }
+    on_line(bytes, line_in);
   }
 
   void collect(TimePoint now) {
@@ -187,6 +225,7 @@ struct SimServer::Impl {
     while (!outbox.empty() && outbox.front().at <= now) {
       Outgoing o = std::move(outbox.front());
       outbox.pop_front();
+      on_line(o.bytes, o.at);
       if (o.owner == kEverySource) {
         spread(o.bytes);
         continue;
@@ -200,6 +239,11 @@ struct SimServer::Impl {
   }
 
   bool deliver(const Outgoing& o) {
+    if (o.owner == kPtySource && self.pty_ && usb) {
+      usb->put(o.bytes, o.at);  // written at the adapter's tick (flush_writers)
+      ++replies_sent;
+      return true;
+    }
     if (o.owner == kPtySource && self.pty_) {
       const ssize_t n = ::write(self.pty_->master_fd(), o.bytes.data(), o.bytes.size());
       if (n == static_cast<ssize_t>(o.bytes.size())) {
@@ -231,7 +275,9 @@ struct SimServer::Impl {
 
   // Noise goes to every master, best effort (not traced, not counted as replies).
   void spread(const modbus::Bytes& bytes) {
-    if (self.pty_) {
+    if (self.pty_ && usb) {
+      usb->put(bytes, clock.now());
+    } else if (self.pty_) {
       [[maybe_unused]] const ssize_t n =
           ::write(self.pty_->master_fd(), bytes.data(), bytes.size());
     }
@@ -272,6 +318,7 @@ struct SimServer::Impl {
       while ((now = clock.now()) < at) cpu_relax();
     }
     flush_outbox(now);
+    flush_writers(now);
     saver.check(now);
   }
 
@@ -282,6 +329,8 @@ struct SimServer::Impl {
       min_into(d, outbox.front().at - (noise ? Duration{} : options.spin_before_write));
     }
     min_into(d, saver.due());
+    if (tap) min_into(d, tap->deadline());
+    if (usb) min_into(d, usb->deadline());
     return d;
   }
 
@@ -336,7 +385,8 @@ struct SimServer::Impl {
     saver.start();
     std::vector<pollfd> fds;
     std::vector<int> sources;  // per entry of fds: -2 stop, -3 listener, else a source
-    constexpr int kStop = -2, kListener = -3;
+    constexpr int kStop = -2, kListener = -3, kTap = -4;
+    open_writers();
     for (;;) {
       step(clock.now());
 
@@ -351,6 +401,10 @@ struct SimServer::Impl {
       if (self.listener_) {
         fds.push_back({self.listener_->fd(), POLLIN, 0});
         sources.push_back(kListener);
+      }
+      if (self.tap_) {
+        fds.push_back({self.tap_->master_fd(), POLLIN, 0});
+        sources.push_back(kTap);
       }
       for (const auto& [source, c] : connections) {
         const short events = static_cast<short>(POLLIN | (c.pending.empty() ? 0 : POLLOUT));
@@ -379,6 +433,8 @@ struct SimServer::Impl {
           stop = true;
         } else if (source == kListener) {
           accept_all();
+        } else if (source == kTap) {
+          drain_tap();
         } else if (source == kPtySource) {
           if (re & (POLLIN | POLLERR | POLLHUP)) read_pty();
         } else {
@@ -408,12 +464,14 @@ SimServer::SimServer(sim::Bus& bus, SimServerOptions options)
     listener_ = std::make_unique<transport::TcpListener>(options_.tcp->second, options_.tcp->first);
   }
   // Last: the symlink appears only once everything else is ready.
+  if (!options_.tap_link.empty()) tap_ = std::make_unique<transport::Pty>(options_.tap_link);
   if (options_.pty) pty_ = std::make_unique<transport::Pty>(options_.pty_link);
 }
 
 SimServer::~SimServer() {
   impl_.reset();  // joins the saver
   pty_.reset();   // removes the symlink
+  tap_.reset();
 }
 
 void SimServer::run() {
@@ -446,6 +504,7 @@ SimServer::Stats SimServer::stats() const {
   s.save_failures = impl_->saver.failures();
   s.lateness_total = Duration(impl_->late_total_ns.load());
   s.lateness_max = Duration(impl_->late_max_ns.load());
+  s.tap_bytes_dropped = impl_->tap ? impl_->tap->bytes_dropped() : 0;
   return s;
 }
 
