@@ -127,19 +127,25 @@ void add_replay_command(CLI::App& app, const GlobalOptions& globals) {
       "Re-send a capture's queries (lec --record, lec sniff, lec serve --record) to the twin or "
       "a port, and compare every reply with the captured one: bytes, decoded values, response "
       "time (docs/replay.md). Exit 0 when everything matched, 1 when something differed");
-  cmd->add_option("FILE", a->file, "The capture (JSON Lines, docs/capture-format.md)")->required();
+  cmd->add_option("FILE", a->file, "The capture (JSON Lines, docs/capture-format.md)")
+      ->required()
+      ->type_name("FILE");
   cmd->add_option("--against", a->against,
                   "Where to send: sim (the built-in twin, in virtual time: no waiting) or a port "
-                  "(/dev/ttyUSB0, rtu+tcp://host:port) at the capture's baud")
+                  "(/dev/ttyUSB0, rtu+tcp://host:port), opened at --baud, which must be the "
+                  "capture's")
       ->capture_default_str();
   cmd->add_option("--timing", a->timing,
-                  "as-captured: each query at its captured offset from the first; fast: each as "
-                  "soon as the previous exchange is over")
+                  "as-captured: each query ends at its captured offset from the first (the "
+                  "controller acts at the captured instant); fast: each as soon as the previous "
+                  "exchange is over")
       ->check(CLI::IsMember({"as-captured", "fast"}))
       ->capture_default_str();
   cmd->add_option("--profile", a->profile,
-                  "With --against sim: the twin's field profile (e.g. from lec sim --calibrate)");
-  cmd->add_option("--report", a->report, "Also write the report as JSON to this file");
+                  "With --against sim: the twin's field profile (e.g. from lec sim --calibrate)")
+      ->type_name("FILE");
+  cmd->add_option("--report", a->report, "Also write the report as JSON to this file")
+      ->type_name("FILE");
   cmd->add_option("--position-tolerance", a->position_tolerance_mm,
                   "Positions (D9000) sampled at the same elapsed time match within this, mm")
       ->check(CLI::Range(0.0, 1000.0))

@@ -173,7 +173,8 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
   cmd->add_option("--record", args->record,
                   "Write every frame of the line, both directions, with timestamps, to FILE (a "
                   "capture, docs/capture-format.md; with several lines FILE-<line>.jsonl each); "
-                  "recording costs a transaction no time");
+                  "recording costs a transaction no time")
+      ->type_name("FILE");
   cmd->callback([&globals, args] { run_serve(globals, *args); });
 }
 

@@ -358,7 +358,8 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
   sim->add_option("--calibrate", a->calibrate,
                   "Fit the twin to a capture of a real controller (lec --record, lec sniff) and "
                   "print the profile (YAML, for --profile) on stdout; residuals and what the "
-                  "capture could not determine go to stderr. Nothing else runs");
+                  "capture could not determine go to stderr. Nothing else runs")
+      ->type_name("FILE");
   sim->add_option("--workpiece", a->workpiece,
                   "A workpiece at this position, mm, for pushing (default: none)")
       ->type_name("MM");

@@ -90,7 +90,8 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
   app.add_flag("--json", o.json, "Machine-readable JSON output");
   app.add_option("--record", o.record,
                  "Write every frame on the line, both directions, with timestamps, to FILE (a "
-                 "capture, docs/capture-format.md: lec replay and lec sim --calibrate read it)");
+                 "capture, docs/capture-format.md: lec replay and lec sim --calibrate read it)")
+      ->type_name("FILE");
   app.add_flag("--trace", o.trace,
                "Show every frame sent and received (hex and decoded) on stderr");
   app.add_flag("--rs485", o.rs485, "Kernel RS485 mode (TIOCSRS485): RTS on while sending");

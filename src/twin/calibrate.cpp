@@ -14,6 +14,7 @@
 
 #include "calibrate_fit.hpp"
 #include "lec6/lec/flags.hpp"
+#include "lec6/sim/behaviour.hpp"
 #include "lec6/sim/motion_profile.hpp"
 
 namespace lec6::twin {
@@ -50,6 +51,7 @@ struct Session {
   std::vector<Start> starts;
   std::vector<Sampled<int32_t>> positions;  // D9000, 0.01 mm
   std::vector<Sampled<int>> speeds;         // D9002, mm/s
+  std::vector<Sampled<int>> thrusts;        // D9003, %
   std::vector<Sampled<bool>> busy;          // X48
   std::vector<Sampled<bool>> seton;         // X4A
 };
@@ -93,6 +95,7 @@ Session read_session(std::span<const Exchange> exchanges, int64_t ts_us) {
                     {at, static_cast<int32_t>((uint32_t{rr->values[i]} << 16) | rr->values[i + 1])});
               }
               if (a == 0x9002) s.speeds.push_back({at, rr->values[i]});
+              if (a == 0x9003) s.thrusts.push_back({at, rr->values[i]});
             }
           } else if constexpr (std::is_same_v<T, modbus::WriteCoilRequest>) {
             if (req.coil == kDriveCoil || req.coil == kSetupCoil) coil(req.coil, req.on());
@@ -267,6 +270,8 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
   };
   std::vector<AtTarget> at_target;
   std::vector<double> homing_ms, origin_speed;
+  // Thrust model inputs: (|acceleration| mm/s², thrust %) at each D9003 read while moving.
+  std::vector<std::pair<double, double>> thrust_points;
   for (std::size_t i = 0; i < s.starts.size(); ++i) {
     const Start& st = s.starts[i];
     const int64_t end = i + 1 < s.starts.size() ? s.starts[i + 1].act_us
@@ -305,6 +310,14 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
     m.commanded_accel_mm_s2 = st.accel;
     m.commanded_decel_mm_s2 = st.decel;
     if (m.residual_rms_mm < 0.05) {
+      // The fitted profile gives the acceleration at each thrust read of this move.
+      const auto profile = sim::MotionProfile::plan(
+          at_us(static_cast<double>(st.act_us) + m.start_delay_ms * 1000.0), from, 0.0, to,
+          sim::MoveLimits{m.speed_mm_s > 0 ? m.speed_mm_s : 1e9, m.accel_mm_s2, m.decel_mm_s2});
+      for (const auto& th : between(s.thrusts, st.act_us, end)) {
+        const auto k = profile.at(at_us(static_cast<double>(th.t_us)));
+        if (std::abs(k.velocity) > 1.0) thrust_points.emplace_back(std::abs(k.acceleration), th.value);
+      }
       delays.push_back(m.start_delay_ms);
       if (st.speed) {
         commanded_speed_max = std::max(commanded_speed_max, *st.speed);
@@ -351,6 +364,39 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
                           commanded_accel_max)
             : "max acceleration (actuator.max_accel_mm_s2): no direct move with a known "
               "acceleration");
+  }
+
+  // ---- thrust: D9003 = friction share + accel share × |a| / max accel (R-MOTION-THRUST) ----
+  if (thrust_points.size() >= 4) {
+    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (const auto& [x, y] : thrust_points) {
+      n += 1;
+      sx += x;
+      sy += y;
+      sxx += x * x;
+      sxy += x * y;
+    }
+    const double den = n * sxx - sx * sx;
+    if (den > 0) {
+      const double slope = (n * sxy - sx * sy) / den;
+      const double friction = (sy - slope * sx) / n;
+      const auto* limit = c.find("actuator.max_accel_mm_s2");
+      const double max_accel = limit ? limit->value : sim::ActuatorConfig{}.max_accel_mm_s2;
+      double rss = 0;
+      for (const auto& [x, y] : thrust_points) rss += std::pow(y - (friction + slope * x), 2);
+      const double rms = std::sqrt(rss / n);
+      c.fitted.push_back({"actuator.friction_thrust_pct", friction, rms, thrust_points.size(), "%",
+                          "thrust (D9003) read while moving, at zero acceleration (linear fit)"});
+      c.fitted.push_back(
+          {"actuator.accel_thrust_pct", slope * max_accel, rms, thrust_points.size(), "%",
+           limit ? "thrust per acceleration × the fitted max acceleration"
+                 : "thrust per acceleration × the twin's default max acceleration (10000 mm/s², "
+                   "not determined)"});
+    }
+  } else {
+    c.undetermined.push_back(
+        "thrust scale (actuator.friction_thrust_pct, accel_thrust_pct): fewer than 4 thrust reads "
+        "(D9003) during fitted moves");
   }
 
   // ---- the shortest BUSY pulse: moves already at their target ----
@@ -401,9 +447,6 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
         "origin speed (actuator.origin_speed_mm_s): no speed reads (D9002) during return to "
         "origin");
   }
-  c.undetermined.push_back(
-      "thrust scale (friction and acceleration share of D9003): not fitted by this version; the "
-      "profile format has no thrust keys yet");
   return c;
 }
 

@@ -31,6 +31,8 @@ FieldProfile unusual() {
   p.actuator.busy_delay = milliseconds(25);
   p.actuator.busy_min = milliseconds(60);
   p.actuator.max_accel_mm_s2 = 2500;
+  p.actuator.friction_thrust_pct = 15;  // thrust scale (defaults 10 and 50)
+  p.actuator.accel_thrust_pct = 40;
   p.line.line.delay_td = milliseconds(7);
   p.faults.delay = 0.1;  // a late response now and then
   p.faults.extra_delay = milliseconds(30);
@@ -133,6 +135,8 @@ TEST_F(RoundTrip, CalibrationRecoversTheParametersWithinFivePercent) {
   expect_within(c, "actuator.busy_min_ms", 60.0, 0.05);
   expect_within(c, "faults.extra_delay_ms", 30.0, 0.05);
   expect_within(c, "actuator.origin_speed_mm_s", 20.0, 0.05);
+  expect_within(c, "actuator.friction_thrust_pct", 15.0, 0.05);
+  expect_within(c, "actuator.accel_thrust_pct", 40.0, 0.05);
   std::cout << c.summary();  // the figures, for the log
   // What it cannot know from this session, it says.
   EXPECT_NE(c.summary().find("could not determine"), std::string::npos);

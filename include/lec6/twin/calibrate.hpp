@@ -14,6 +14,8 @@
 //     positions; a direct move whose fitted value is clearly below what was
 //     commanded shows the actuator's limit (max speed / max acceleration);
 //   - homing: time from SETUP to the end, and the origin speed (D9002);
+//   - the thrust scale: D9003 read while moving against the fitted profile's
+//     acceleration (a line: friction share + acceleration share);
 // and says what it could not determine from this capture. Samples are dated
 // as the twin samples them: at the end of the read query + Ts.
 //
