@@ -84,8 +84,13 @@ test-fuzz: fuzz-build
 test: check-deps test-fast test-asan
 
 # The fault soak: client against the twin on a noisy line, summary tables.
+# And `lec sniff` on the twin's tap (16 ms lumps): 10^5 exchanges at 115200 and
+# at 9600 baud (about 25 ms each at 9600: most of an hour), every frame heard, paired, in order.
+SNIFF_SOAK_EXCHANGES ?= 100000
 soak: build
 	LEC6_SOAK_TRANSACTIONS=$(SOAK_TRANSACTIONS) $(BUILD)/tests/test_client --gtest_filter='Soak.*'
+	SNIFF_EXCHANGES=$(SNIFF_SOAK_EXCHANGES) SNIFF_BAUDS="115200 9600" LEC=$(BUILD)/lec \
+	  LEC6_BUILD_DIR=$(BUILD) bash tests/integration/sniff_tap_test.sh
 
 bench: build
 	bench/compare

@@ -74,7 +74,7 @@ Bus open_bus(const std::string& port, uint32_t baud, int retries, double timeout
   }
   for (const auto& w : opened->warnings()) PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
   auto& master = opened->master();
-  return Bus{std::make_shared<SharedLine>(std::move(opened), master), retries};
+  return Bus{std::make_shared<SharedLine>(std::move(opened), master, line_clock()), retries};
 }
 
 }  // namespace

@@ -111,9 +111,7 @@ py::object translate(std::exception_ptr p) {
     return make("DeadlineError", e.what(), py::dict(py::arg("result") = result_of(e)));
   } catch (const client::Cancelled& e) {
     return make("Cancelled", e.what(), py::dict(py::arg("result") = result_of(e)));
-  } catch (const lec6::InvalidArgument& e) {  // InvalidRequest, port specs, twin settings
-    return make("InvalidRequest", e.what(), py::dict(py::arg("errors") = py::list()));
-  } catch (const twin::ProfileError& e) {
+  } catch (const lec6::InvalidArgument& e) {  // InvalidRequest, port specs, twin settings, profiles
     return make("InvalidRequest", e.what(), py::dict(py::arg("errors") = py::list()));
   } catch (const std::invalid_argument& e) {
     return make("InvalidRequest", e.what(), py::dict(py::arg("errors") = py::list()));

@@ -131,7 +131,7 @@ class Twin {
     auto twin = std::make_shared<InProcess>(settings_, rtu);
     add_controllers(twin->bus, twin->clock.now());
     auto& master = twin->master;
-    line_ = std::make_shared<SharedLine>(std::move(twin), master);
+    line_ = std::make_shared<SharedLine>(std::move(twin), master, line_clock());
   }
 
   void start_served(const std::string& link) {

@@ -37,6 +37,12 @@ def test_move_absolute_reaches_target(ready):
     assert "outcome='reached'" in repr(r)
 
 
+def test_in_position_zero_is_accepted(ready):
+    # Issue 24: real controllers accept in position 0; INP exactly at the target.
+    r = ready.move(to=12.0, speed=16, in_position=0)
+    assert r.in_position and r.outcome == "reached" and r.position_mm == 12.0
+
+
 def test_move_relative_adds_to_last_target(ready):
     ready.move(to=20.0, speed=1000)
     r = ready.move(to=-5.5, relative=True, speed=1000)

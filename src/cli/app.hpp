@@ -28,6 +28,8 @@ enum ExitCode : int {
   kException = 4,      // the controller answered with an exception (01/02/03)
   kAlarm = 5,          // the controller raised an alarm
   kDeadline = 6,       // a wait ran past its deadline
+  kDegraded = 7,       // lec doctor: the line works, but slower or less reliable than it could
+  kBroken = 8,         // lec doctor: something on the line does not work
   kInterrupted = 130,  // Ctrl-C (the axis was stopped first)
 };
 
@@ -63,6 +65,7 @@ struct GlobalOptions {
   unsigned silent_interval_k = 1;
   Duration delay_td = std::chrono::milliseconds(5);
   bool no_silence_wait = false;  // skip the Ts gap before queries (fast twins, benchmarks only)
+  std::string record;  // --record FILE: every frame on the line into a capture file
   std::string soft_limits;       // --soft-limits MIN:MAX (mm); empty: none
 };
 
@@ -121,5 +124,9 @@ void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/b
 void add_sim_command(CLI::App& app, const GlobalOptions& globals);    // sim (the twin program)
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
 void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
+void add_sniff_command(CLI::App& app, const GlobalOptions& globals);  // sniff (listen-only)
+void add_replay_command(CLI::App& app, const GlobalOptions& globals);  // replay (a capture)
+void add_doctor_command(CLI::App& app, Session& session);  // doctor (diagnose the line)
+void add_history_commands(CLI::App& app, const GlobalOptions& globals);  // history, health (lec serve)
 
 }  // namespace lec6::cli

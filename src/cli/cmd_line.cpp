@@ -45,11 +45,12 @@ void run_decode(const Session& s, const std::vector<std::string>& words, bool as
 
 // Sends the bytes as they are on an RTU link and collects whatever comes back
 // within the reply window.
-Bytes exchange_bytes(client::Client& c, client::Link& link, const Bytes& frame) {
+Bytes exchange_bytes(client::Client& c, client::Link& link, const Bytes& frame,
+                     Duration reply_margin) {
   link.discard_input();
   link.write(frame);
   const TimePoint deadline =
-      c.clock().now() + c.timing().response_time(modbus::kMaxAdu) + c.options().timeout_margin;
+      c.clock().now() + c.timing().response_time(modbus::kMaxAdu) + reply_margin;
   Bytes reply;
   std::array<uint8_t, 512> buf{};
   while (c.clock().now() < deadline) {
@@ -85,8 +86,8 @@ void run_raw(Session& s, const std::vector<std::string>& words, bool as_is) {
   auto& c = s.client();
   const TimePoint start = c.clock().now();
   client::Link* link = c.master().link();
-  const Bytes reply =
-      link ? exchange_bytes(c, *link, frame) : exchange_request(c, frame, s.port_description());
+  const Bytes reply = link ? exchange_bytes(c, *link, frame, s.options().reply_margin)
+                           : exchange_request(c, frame, s.port_description());
   const double ms = to_ms(c.clock().now() - start);
   const std::string sent_text = lec::explain_bytes(frame, lec::FrameRole::Request);
   std::string reply_text = "no reply";

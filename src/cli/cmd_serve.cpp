@@ -5,6 +5,7 @@
 #include <fmt/chrono.h>
 
 #include <chrono>
+#include <filesystem>
 #include <mutex>
 
 #include "cli/app.hpp"
@@ -25,6 +26,8 @@ struct ServeArgs {
   std::string sim_timing = "real";
   std::string mqtt;  // broker URL: the bridge with its defaults (docs/mqtt.md)
   std::string mqtt_prefix = "lec6";
+  std::string record;  // --record FILE (also the global --record)
+  std::string state_dir;  // the move history (docs/history.md)
   bool check = false;
 };
 
@@ -44,7 +47,12 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
     if (!g.port.empty()) {
       throw UsageError("give either --config FILE or --port with --ids, not both");
     }
-    return serve::load_config(a.config);
+    auto c = serve::load_config(a.config);
+    if (!a.state_dir.empty()) {  // --state-dir wins over the file's history.state_dir
+      if (!c.history) c.history = serve::HistoryConfig{};
+      c.history->state_dir = a.state_dir;
+    }
+    return c;
   }
   serve::FlagConfig f;
   f.port = g.port;
@@ -59,6 +67,7 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
   f.http = a.http;
   f.token = a.token;
   f.fast_sim = a.sim_timing == "fast";
+  f.state_dir = a.state_dir;
   auto c = serve::config_from_flags(f);
   if (!a.mqtt.empty()) {
     serve::MqttConfig m;
@@ -104,6 +113,17 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
         "es");
     return;
   }
+  // --record FILE: one capture per line (FILE with one line, FILE-<line>.jsonl with more).
+  if (const std::string& rec = a.record.empty() ? g.record : a.record; !rec.empty()) {
+    const std::filesystem::path path(rec);
+    for (auto& l : config.lines) {
+      l.record = config.lines.size() == 1
+                     ? rec
+                     : (path.parent_path() /
+                        (path.stem().string() + "-" + l.name + path.extension().string()))
+                           .string();
+    }
+  }
   serve::Daemon daemon(std::move(config), log_line);
   std::string where;
   for (const auto& e : daemon.endpoints()) where += (where.empty() ? "" : ", ") + e;
@@ -145,7 +165,14 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
                   "config's mqtt: section has every setting, docs/mqtt.md)");
   cmd->add_option("--mqtt-prefix", args->mqtt_prefix, "Topic prefix of the bridge (with --mqtt)")
       ->capture_default_str();
+  cmd->add_option("--state-dir", args->state_dir,
+                  "Keep the move history, odometer and drift warnings in DIR/history.db "
+                  "(docs/history.md; the config's history: section has every setting)");
   cmd->add_flag("--check", args->check, "Check the config and exit");
+  cmd->add_option("--record", args->record,
+                  "Write every frame of the line, both directions, with timestamps, to FILE (a "
+                  "capture, docs/capture-format.md; with several lines FILE-<line>.jsonl each); "
+                  "recording costs a transaction no time");
   cmd->callback([&globals, args] { run_serve(globals, *args); });
 }
 

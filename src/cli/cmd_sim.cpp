@@ -14,6 +14,7 @@
 #include "cli/app.hpp"
 #include "cli/duration_option.hpp"
 #include "cli/sim_args.hpp"
+#include "cli/sim_calibrate.hpp"
 #include "lec6/modbus/timing.hpp"
 #include "lec6/sim/bus.hpp"
 #include "lec6/twin/field_profile.hpp"
@@ -44,6 +45,7 @@ struct SimArgs {
   std::string tcp;
   std::string ids = "1";
   std::string profile;
+  std::string calibrate;  // --calibrate FILE: fit a profile to a capture, print it, exit
   uint32_t baud = modbus::kDefaultBaud;
   std::string timing = "real";
   unsigned silent_interval_k = modbus::LineTiming{}.silent_interval_k;
@@ -52,6 +54,7 @@ struct SimArgs {
   std::string stroke;
   double max_speed = sim::ActuatorConfig{}.max_speed_mm_s;
   double workpiece = 0.0;
+  double wear = 0.0;  // % per metre travelled (issue 26)
   double initial_position = sim::ActuatorConfig{}.initial_position_mm;
   std::string name = sim::ActuatorConfig{}.equipment_name;
   Duration busy_delay{};
@@ -65,6 +68,13 @@ struct SimArgs {
   double garbage_rate = 0.0;
   double delay_rate = 0.0;
   Duration extra_delay = sim::FaultConfig{}.extra_delay;
+  Duration usb_latency{};
+  std::string tap;
+  Duration tap_latency{};
+  bool echo_adapter = false;  // lec doctor's faults: see add_sim_command
+  bool strict_baud = false;
+  std::string duplicate_ids;
+  double other_master_hz = 0.0;
   std::set<std::string> given;  // options on the command line: they override the profile
   bool has(const std::string& option) const { return given.count(option) > 0; }
 };
@@ -140,6 +150,7 @@ twin::FieldProfile settings(const SimArgs& a) {
                                  config.stroke_max_mm));
   }
   if (a.has("--workpiece")) config.workpiece_mm = a.workpiece;
+  if (a.has("--wear")) config.wear_pct_per_m = a.wear;
   if (a.has("--name")) {
     if (auto n = lec::EquipmentName::make(a.name); !n) {
       throw UsageError(fmt::format("--name: {}", n.error()));
@@ -172,6 +183,7 @@ twin::FieldProfile settings(const SimArgs& a) {
     if (!a.has("--delay-rate")) faults.delay = 1.0;  // a delay given alone applies to every reply
   }
   if (a.has("--noise-rate")) faults.noise_rate = a.noise_rate;
+  if (a.has("--duplicate-ids")) faults.duplicate_ids = parse_ids(a.duplicate_ids);
   return p;
 }
 
@@ -186,7 +198,24 @@ std::string unusual_settings(const twin::FieldProfile& p) {
   if (p.actuator.busy_min > Duration::zero())
     out += ", busy-min " + format_duration(p.actuator.busy_min);
   if (p.actuator.target_update_late) out += ", target-update-late";
+  if (p.actuator.wear_pct_per_m > 0) out += fmt::format(", wear {:g} %/m", p.actuator.wear_pct_per_m);
   if (p.faults.noise_rate > 0) out += fmt::format(", noise {}/s", p.faults.noise_rate);
+  if (!p.faults.duplicate_ids.empty())
+    out += ", duplicate ids " + format_ids(p.faults.duplicate_ids);
+  return out;
+}
+
+// --usb-latency / --tap-latency, for the ready line.
+std::string adapter_settings(const SimArgs& a) {
+  std::string out;
+  if (a.usb_latency > Duration::zero())
+    out += ", usb-latency " + format_duration(a.usb_latency);
+  if (!a.tap.empty()) out += ", tap " + a.tap + " listen-only";
+  if (!a.tap.empty() && a.tap_latency > Duration::zero())
+    out += ", tap-latency " + format_duration(a.tap_latency);
+  if (a.echo_adapter) out += ", echo adapter";
+  if (a.strict_baud) out += ", strict baud";
+  if (a.other_master_hz > 0) out += fmt::format(", other master {}/s", a.other_master_hz);
   return out;
 }
 
@@ -223,6 +252,11 @@ void run_sim(const SimArgs& a) {
   so.pty_link = a.pty;
   if (!a.tcp.empty()) so.tcp = parse_tcp(a.tcp);
   so.state_file = a.state;
+  so.usb_latency = a.usb_latency;
+  so.tap_link = a.tap;
+  so.tap_latency = a.tap_latency;
+  if (a.tap_latency > Duration::zero() && a.tap.empty())
+    throw UsageError("sim: --tap-latency needs --tap PATH");
   if (saved) {
     for (const auto& [id, eeprom] : *saved) {
       if (!std::binary_search(ids.begin(), ids.end(), id)) so.state_carry.emplace(id, eeprom);
@@ -230,6 +264,12 @@ void run_sim(const SimArgs& a) {
   }
   if (a.trace) so.trace = [](const std::string& l) { print_line(stderr, "lec sim: " + l); };
   so.warn = [](const std::string& l) { print_line(stderr, "lec sim: warning: " + l); };
+  so.echo_adapter = a.echo_adapter;
+  so.strict_baud = a.strict_baud;
+  if (a.other_master_hz > 0) {
+    so.other_master_period = Duration(static_cast<int64_t>(1e9 / a.other_master_hz));
+    so.other_master_id = ids.front();
+  }
 
   install_stop_handlers();
   twin::SimServer server(bus, std::move(so));
@@ -239,10 +279,11 @@ void run_sim(const SimArgs& a) {
     ~Unregister() { g_server = nullptr; }
   } unregister;
 
-  print_line(stdout, fmt::format("lec sim: ready on {} (ids {}, timing {}, {} baud{}{})",
+  print_line(stdout, fmt::format("lec sim: ready on {} (ids {}, timing {}, {} baud{}{}{})",
                                  server.endpoints(), format_ids(ids),
                                  line.timing == sim::Timing::Fast ? "fast" : "real", line.line.baud,
-                                 p.name.empty() ? "" : ", profile " + p.name, unusual_settings(p)));
+                                 p.name.empty() ? "" : ", profile " + p.name, unusual_settings(p),
+                                 adapter_settings(a)));
   server.run();
 }
 
@@ -314,9 +355,18 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
                   "Load the twin's settings from a YAML/JSON field profile (e.g. "
                   "profiles/field-quirks.yaml); options given override it")
       ->type_name("FILE");
+  sim->add_option("--calibrate", a->calibrate,
+                  "Fit the twin to a capture of a real controller (lec --record, lec sniff) and "
+                  "print the profile (YAML, for --profile) on stdout; residuals and what the "
+                  "capture could not determine go to stderr. Nothing else runs");
   sim->add_option("--workpiece", a->workpiece,
                   "A workpiece at this position, mm, for pushing (default: none)")
       ->type_name("MM");
+  sim->add_option("--wear", a->wear,
+                  "Wear: every metre travelled adds this many % to thrust and takes it off speed, "
+                  "so repeated moves grow longer (drift warnings of lec serve, docs/history.md)")
+      ->type_name("PCT_PER_M")
+      ->check(CLI::Range(0.0, 1000.0));
   sim->add_option("--initial-position", a->initial_position,
                   "Where the carriage stands at power-on, mm (within the stroke)")
       ->type_name("MM")
@@ -343,6 +393,20 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
                   "and controller)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e9));
+  sim->add_flag("--echo-adapter", a->echo_adapter,
+                "Line fault (pty): a 2-wire adapter that echoes every byte the master sends");
+  sim->add_flag("--strict-baud", a->strict_baud,
+                "Line fault (pty): answer only a master whose port is set to --baud; at other "
+                "rates its bytes arrive as garbage, as on a real line");
+  sim->add_option("--duplicate-ids", a->duplicate_ids,
+                  "Line fault: these IDs are each set on two controllers; both answer and half "
+                  "of the replies collide (garbled, the ID intact)")
+      ->type_name("LIST");
+  sim->add_option("--other-master", a->other_master_hz,
+                  "Line fault (pty): a second master reads D9000 of the first ID this many times "
+                  "a second; every master hears its queries and the replies")
+      ->type_name("HZ")
+      ->check(CLI::Range(0.0, 1000.0));
   sim->add_flag("--trace", a->trace, "Print every frame, decoded, with timestamps, on stderr");
   sim->add_option("--seed", a->seed, "Seed of the fault generator (runs are reproducible)")
       ->capture_default_str();
@@ -364,6 +428,20 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
                       {Duration::zero(), seconds(60)});
   add_renamed_duration_option(sim, "--extra-delay-ms", "--extra-delay", a->extra_delay,
                               BareNumber::Milliseconds, {Duration::zero(), seconds(60)});
+  add_duration_option(sim, "--usb-latency", a->usb_latency,
+                      "Fault: the --pty hands replies to the master the way a USB adapter's "
+                      "latency timer does, in lumps every DURATION (FTDI's default: 16ms; "
+                      "0: each reply whole, at once)",
+                      {Duration::zero(), seconds(1)});
+  sim->add_option("--tap", a->tap,
+                  "Also create a listen-only pseudo-terminal at PATH carrying every byte on the "
+                  "line (every master, every controller, the noise) with its timing: for "
+                  "lec sniff --port PATH")
+      ->type_name("PATH");
+  add_duration_option(sim, "--tap-latency", a->tap_latency,
+                      "Deliver the --tap's bytes in lumps every DURATION, as a USB adapter's "
+                      "latency timer does (e.g. 16ms; 0: each frame as it ends)",
+                      {Duration::zero(), seconds(1)});
 
   sim->callback([a, &app, &globals, sim] {
     inherit(app, *sim, "--baud", a->baud);
@@ -389,6 +467,10 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
         a->given.insert(parent);
     }
     if (a->given.count("--no-target-update-late")) a->given.insert("--target-update-late");
+    if (!a->calibrate.empty()) {
+      run_calibrate(a->calibrate);
+      return;
+    }
     run_sim(*a);
   });
 }

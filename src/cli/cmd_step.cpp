@@ -380,7 +380,7 @@ void add_step_commands(CLI::App& app, Session& session) {
   set->footer(
       "Refused before anything is sent: unknown fields, values out of range, a step left invalid "
       "(a blank step "
-      "needs mode, speed, accel, decel, push-speed and in-position, or --from M).");
+      "needs mode, speed, accel, decel and push-speed, or --from M; in-position defaults to 0).");
   set->callback([&session, set_args] { run_set(session, *set_args); });
 
   auto backup_file = std::make_shared<std::string>();

@@ -26,6 +26,8 @@ constexpr const char* kExitCodes = R"(Exit codes:
   4  the controller answered with an exception (01/02/03)
   5  the controller raised an alarm
   6  a wait ran past its deadline
+  7  lec doctor: degraded (the line works, but slower or less reliable than it could)
+  8  lec doctor: broken (something on the line does not work)
   130 interrupted by Ctrl-C (a moving axis is stopped first)
 
 )";
@@ -86,6 +88,9 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(0, 10));
   app.add_flag("--json", o.json, "Machine-readable JSON output");
+  app.add_option("--record", o.record,
+                 "Write every frame on the line, both directions, with timestamps, to FILE (a "
+                 "capture, docs/capture-format.md: lec replay and lec sim --calibrate read it)");
   app.add_flag("--trace", o.trace,
                "Show every frame sent and received (hex and decoded) on stderr");
   app.add_flag("--rs485", o.rs485, "Kernel RS485 mode (TIOCSRS485): RTS on while sending");
@@ -135,7 +140,11 @@ int main(int argc, char** argv) {
   cli::add_sim_command(app, options);
   cli::add_serve_command(app, options);
   cli::add_follow_command(app, session);
+  cli::add_sniff_command(app, options);
+  cli::add_replay_command(app, options);
+  cli::add_doctor_command(app, session);
   app.footer(std::string(kExitCodes) + kPorts);
+  cli::add_history_commands(app, options);  // issue 26
   install_signal_handlers();
 
   try {

@@ -60,9 +60,11 @@ nlohmann::json move_json(const client::MoveResult& r) {
   if (r.goal.step) goal["step"] = *r.goal.step;
   if (r.goal.operation != client::Operation::Jog) {
     goal["target_mm"] = mm_json(r.goal.target_001mm);
-    goal[r.goal.operation == client::Operation::Pushing ? "pushing_distance_mm"
-                                                        : "in_position_mm"] =
-        mm_json(r.goal.band_001mm);
+    if (r.goal.operation == client::Operation::Pushing) {
+      goal["pushing_distance_mm"] = mm_json(r.goal.pushing_distance_001mm);
+    } else {
+      goal["in_position_mm"] = mm_json(r.goal.in_position_001mm);
+    }
   }
   if (!r.goal.kept.empty()) goal["kept_from_controller"] = r.goal.kept;
   j["goal"] = goal;

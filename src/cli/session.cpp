@@ -5,11 +5,13 @@
 #include "lec6/lec/step_data.hpp"
 #include "lec6/lec/units.hpp"
 #include "lec6/transport/port_spec.hpp"
+#include "lec6/twin/line_recorder.hpp"
 #include "lec6/twin/open_port.hpp"
 
 namespace lec6::cli {
 
 struct Session::Impl {
+  std::unique_ptr<twin::LineRecorder> recorder;  // --record; outlives the port
   std::unique_ptr<twin::OpenPort> port;
   std::unique_ptr<client::Client> client;
   std::unique_ptr<client::Actuator> axis;
@@ -84,12 +86,20 @@ client::Client& Session::client(std::string_view default_port) {
   // Ctrl-C ends every wait on the line at once (exit 130); stop requests still go out.
   po.interrupted = [] { return g_interrupted.load(); };
   po.sim_id = static_cast<uint8_t>(options_.id);
-  impl->port = twin::open_port(transport::parse_port_spec(text), po);
+  const auto spec = transport::parse_port_spec(text);
+  if (!options_.record.empty() && spec.kind != transport::PortKind::Tcp) {
+    static const SteadyClock steady;  // every link but a --timing fast twin's runs on it
+    impl->recorder = std::make_unique<twin::LineRecorder>(options_.record, "record",
+                                                          options_.baud, text, steady);
+    po.record = impl->recorder->tap();
+  } else if (!options_.record.empty()) {
+    po.record = [](transport::LineChunk&&) {};  // open_port refuses Modbus TCP with a reason
+  }
+  impl->port = twin::open_port(spec, po);
   for (const auto& w : impl->port->warnings()) fmt::print(stderr, "lec: warning: {}\n", w);
   client::ClientOptions co;
   co.id = static_cast<uint8_t>(options_.id);
   co.retries = options_.retries;
-  co.timeout_margin = po.timeout_margin;  // `lec raw` reads it for its reply window
   impl->client = std::make_unique<client::Client>(impl->port->master(), co);
   impl->axis = std::make_unique<client::Actuator>(*impl->client);
   impl->axis->set_soft_limits(parse_soft_limits(options_.soft_limits));

@@ -1,7 +1,8 @@
 #pragma once
 // "Did you mean": an unknown command gets the nearest known one, instead of
 // CLI11's "A subcommand is required" / "The following arguments were not
-// expected" (issue 17).
+// expected" (issue 17). The rule for what counts as a typo is lec::nearest's
+// (lec6/lec/nearest.hpp), the same for commands, step fields and config keys.
 
 #include <CLI/CLI.hpp>
 
@@ -11,14 +12,6 @@
 #include <vector>
 
 namespace lec6::cli {
-
-// Edit distance: insertions, deletions, substitutions and swaps of two
-// neighbouring letters, each 1.
-std::size_t edit_distance(std::string_view a, std::string_view b);
-
-// The name among `names` closest to `typed`, when it is close enough to be a
-// typo (at most 2 edits, and fewer than half the letters); nullopt otherwise.
-std::optional<std::string> nearest(std::string_view typed, const std::vector<std::string>& names);
 
 // When argv names a command `app` does not have: the message to print
 // ("unknown command 'stauts': did you mean 'status'? ..."); nullopt when the

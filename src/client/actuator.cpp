@@ -61,7 +61,17 @@ void Actuator::check_deadline(TimePoint deadline, std::string_view what) {
 }
 
 void Actuator::pulse(Coil coil) {
-  client_.write_coil(coil, true);
+  try {
+    client_.write_coil(coil, true);
+  } catch (...) {
+    // The 1 may have been heard with only its reply lost: release the coil all
+    // the same, or it stays at 1 and the next pulse (the next stop) is no edge.
+    try {
+      client_.write_coil(coil, false);
+    } catch (...) {  // the first error is the one to report
+    }
+    throw;
+  }
   client_.write_coil(coil, false);
 }
 
@@ -112,7 +122,7 @@ MoveResult Actuator::home(TimePoint deadline, const WaitOptions& wait) {
   client_.write_coil(Coil::SETUP, true);
   MoveGoal goal;
   goal.operation = Operation::Home;
-  goal.band_001mm = kPositionTolerance001mm;
+  goal.in_position_001mm = kPositionTolerance001mm;
   return this->wait(
       StartedMove{MoveStart{goal, before.flags, before.state, false, client_.clock().now()}},
       deadline, wait);

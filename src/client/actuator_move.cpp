@@ -23,10 +23,12 @@ MoveGoal goal_of(const lec::StepData& d, int32_t target_before, std::optional<un
   const bool relative = d.movement_mode == lec::MovementMode::Incremental;
   g.target_001mm =
       relative ? static_cast<int32_t>(int64_t{target_before} + d.position_001mm) : d.position_001mm;
-  g.band_001mm = d.in_position_001mm;
   if (d.is_pushing()) {
     g.operation = Operation::Pushing;
+    g.pushing_distance_001mm = d.in_position_001mm;  // a pushing step's "In position"
     g.trigger_level_pct = d.trigger_level_pct;
+  } else {
+    g.in_position_001mm = d.in_position_001mm;
   }
   return g;
 }

@@ -3,8 +3,11 @@
 #include "lec6/client/rtu_master.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
+#include <string>
+#include <vector>
 
 #include "lec6/lec/explain.hpp"
 #include "lec6/lec/memory_map.hpp"
@@ -54,6 +57,26 @@ RtuOptions rtu_options(const ClientOptions& o) {
   return r;
 }
 
+// The line settings of ClientOptions act through the RtuMaster a Client makes
+// on a Link; a Client given a Master would silently drop them.
+const ClientOptions& refuse_line_settings(const ClientOptions& o) {
+  const ClientOptions defaults;
+  std::vector<std::string> set;
+  if (o.silent_interval_k != defaults.silent_interval_k) set.emplace_back("silent_interval_k");
+  if (o.delay_td != defaults.delay_td) set.emplace_back("delay_td");
+  if (o.timeout_margin != defaults.timeout_margin) set.emplace_back("timeout_margin");
+  if (o.wait_for_silence != defaults.wait_for_silence) set.emplace_back("wait_for_silence");
+  if (o.trace) set.emplace_back("trace");
+  if (o.interrupted) set.emplace_back("interrupted");
+  if (!set.empty()) {
+    throw InvalidArgument(fmt::format(
+        "ClientOptions {} set for a Client on a Master: they act only on a Client made on a "
+        "Link; give them to the master instead (RtuOptions, twin::PortOptions)",
+        fmt::join(set, ", ")));
+  }
+  return o;
+}
+
 }  // namespace
 
 Client::Client(Link& link, ClientOptions options)
@@ -62,7 +85,7 @@ Client::Client(Link& link, ClientOptions options)
       options_(std::move(options)) {}
 
 Client::Client(Master& master, ClientOptions options)
-    : master_(master), options_(std::move(options)) {}
+    : master_(master), options_(refuse_line_settings(options)) {}
 
 Client::~Client() = default;
 

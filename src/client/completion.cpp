@@ -35,7 +35,7 @@ int32_t Completion::push_end() const {
   const int64_t from = start_.state_before.position_001mm;
   const int64_t start = start_.goal.target_001mm;
   const int64_t dir = start < from ? -1 : 1;
-  return static_cast<int32_t>(start + dir * start_.goal.band_001mm);
+  return static_cast<int32_t>(start + dir * start_.goal.pushing_distance_001mm);
 }
 
 void Completion::mark_started(const Poll& p, Duration t, std::string evidence) {
@@ -77,7 +77,7 @@ bool Completion::settled_without_busy(const Poll& p) const {
   switch (g.operation) {
     case Operation::Positioning:
       return p.flags.inp() && s.target_001mm == g.target_001mm &&
-             within(s.position_001mm, g.target_001mm, g.band_001mm);
+             within(s.position_001mm, g.target_001mm, g.in_position_001mm);
     case Operation::Home:
       return p.flags.seton() && p.flags.inp() && s.target_001mm == 0 &&
              within(s.position_001mm, 0, kPositionTolerance001mm);
@@ -94,8 +94,9 @@ MoveOutcome Completion::judge(const Poll& p) const {
   const int32_t pos = p.state.position_001mm;
   switch (g.operation) {
     case Operation::Positioning:
-      return p.flags.inp() && within(pos, g.target_001mm, g.band_001mm) ? MoveOutcome::Reached
-                                                                        : MoveOutcome::Stopped;
+      return p.flags.inp() && within(pos, g.target_001mm, g.in_position_001mm)
+                 ? MoveOutcome::Reached
+                 : MoveOutcome::Stopped;
     case Operation::Home:
       return p.flags.seton() && within(pos, 0, kPositionTolerance001mm) ? MoveOutcome::Reached
                                                                         : MoveOutcome::Stopped;

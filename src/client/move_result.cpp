@@ -98,14 +98,14 @@ std::string MoveResult::outcome_text() const {
                            mm(state.position_001mm), in_position ? 1 : 0, s);
       }
       return fmt::format("reached {} (INP, within ±{}) in {:.2f} s", mm(state.position_001mm),
-                         mm(goal.band_001mm), s);
+                         mm(goal.in_position_001mm), s);
     case MoveOutcome::Pushed:
       return fmt::format("pushed: workpiece at {}, thrust {} % (INP) in {:.2f} s",
                          mm(state.position_001mm), state.thrust_pct, s);
     case MoveOutcome::PushMissed:
       return fmt::format(
           "push missed: moved the whole pushing distance ({}) without contact (INP = 0), at {}",
-          mm(goal.band_001mm), mm(state.position_001mm));
+          mm(goal.pushing_distance_001mm), mm(state.position_001mm));
     case MoveOutcome::Stopped:
       return stopped_text(*this);
     case MoveOutcome::Alarm:

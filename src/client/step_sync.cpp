@@ -238,6 +238,15 @@ RestoreReport apply_restore(Client& c, const RestorePlan& plan, const ApplyOptio
           }
         }
         if (r.outcome != StepOutcome::Failed) r.outcome = StepOutcome::Written;
+      } catch (const Cancelled& e) {
+        // Ctrl-C landed during this step's exchanges: reported like any other
+        // end, with what may have been written (the rest is not attempted).
+        fail(FailureKind::Cancelled,
+             sent ? fmt::format("written, then interrupted before the read-back: {}", e.what())
+                  : fmt::format("interrupted during the write: {}; `lec step diff` shows "
+                                "what the controller holds",
+                                e.what()),
+             true);
       } catch (const InvalidRequest& e) {
         fail(FailureKind::Refused, e.what(), false);
       } catch (const ControllerException& e) {

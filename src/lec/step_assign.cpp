@@ -7,7 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <limits>
+
+#include "lec6/lec/nearest.hpp"
 
 namespace lec6::lec {
 namespace {
@@ -27,21 +28,6 @@ std::string normalise(std::string_view s) {
   return out;
 }
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
 std::string field_names(std::span<const StepField> fields) {
   std::vector<std::string_view> names;
   for (StepField f : fields) names.push_back(field_info(f).name);
@@ -52,21 +38,19 @@ std::string field_names(std::span<const StepField> fields) {
 
 std::string unknown_field_message(std::string_view name) {
   const std::string n = normalise(trim(name));
-  const StepFieldInfo* best = nullptr;
-  std::size_t best_distance = std::numeric_limits<std::size_t>::max();
+  std::vector<const StepFieldInfo*> owners;  // of each candidate spelling
+  std::vector<std::string> spellings;
   for (const auto& i : step_fields()) {
     for (std::string_view candidate : {i.name, i.long_name, i.csv_column}) {
-      const std::size_t d = edit_distance(n, normalise(candidate));
-      if (d < best_distance) {
-        best_distance = d;
-        best = &i;
-      }
+      owners.push_back(&i);
+      spellings.push_back(normalise(candidate));
     }
   }
+  const auto best = nearest_index(n, spellings);
   std::vector<std::string_view> known;
   for (const auto& i : step_fields()) known.push_back(i.name);
   const std::string hint =
-      best && best_distance <= 2 ? fmt::format(" did you mean '{}'?", best->name) : std::string();
+      best ? fmt::format(" did you mean '{}'?", owners[*best]->name) : std::string();
   return fmt::format("unknown field '{}':{} known fields are {}", trim(name), hint,
                      fmt::join(known, ", "));
 }

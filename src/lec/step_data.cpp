@@ -27,9 +27,12 @@ constexpr std::array<StepFieldInfo, kStepFieldCount> kFields{{
   {StepField::MovingForce,  "moving-force", "moving_force",  "moving_force_pct",   "Moving force",    "%",     0x9, 1, false, 0, 300},
   {StepField::Area1,        "area1",        "area_output_end_1", "area1_mm",       "Area 1",          "mm",    0xA, 2, true, -kI32, kI32},
   {StepField::Area2,        "area2",        "area_output_end_2", "area2_mm",       "Area 2",          "mm",    0xC, 2, true, -kI32, kI32},
-  {StepField::InPosition,   "in-position",  "in_position",   "in_position_mm",     "In position",     "mm",    0xE, 2, true, 1, kI32},
+  {StepField::InPosition,   "in-position",  "in_position",   "in_position_mm",     "In position",     "mm",    0xE, 2, true, 0, kI32},
 }};
 // clang-format on
+// In position from 0, not the manual's 1 (§10.2 prints 1…2147483647): field evidence,
+// issue 24, docs/protocol-decisions.md "In position 0" and docs/twin-fidelity.md R-RANGE-INP.
+// The other ranges are the manual's (ledger rows R-RANGE-*).
 
 // Extra spellings people use for the same fields.
 struct Alias {

@@ -13,6 +13,7 @@
 #include <set>
 
 #include "config_reader.hpp"
+#include "history/config_history.hpp"  // issue 26: the history: section
 #include "lec6/modbus/timing.hpp"
 #include "lec6/serve/mqtt_topics.hpp"
 #include "lec6/transport/port_spec.hpp"
@@ -36,7 +37,7 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
   if (!n) return s;
   r.keys(n, path,
          {"timing", "workpiece_mm", "stroke_max_mm", "initial_position_mm", "drop_rate",
-          "corrupt_rate", "garbage_rate", "seed"});
+          "corrupt_rate", "garbage_rate", "seed", "absent_ids", "wear_pct_per_m"});
   const std::string timing = r.get<std::string>(n["timing"], path + ".timing", "real");
   if (timing != "real" && timing != "fast") {
     r.fail(n["timing"], path + ".timing", fmt::format("'{}' is not real or fast", timing));
@@ -51,6 +52,16 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
   s.corrupt_rate = r.number(n["corrupt_rate"], path + ".corrupt_rate", 0, 0, 1);
   s.garbage_rate = r.number(n["garbage_rate"], path + ".garbage_rate", 0, 0, 1);
   s.seed = r.get<uint64_t>(n["seed"], path + ".seed", 1);
+  if (const auto absent = n["absent_ids"]) {
+    if (!absent.IsSequence()) {
+      r.fail(absent, path + ".absent_ids", "a list of controller IDs, e.g. [9]");
+    }
+    for (std::size_t i = 0; i < absent.size(); ++i) {
+      s.absent_ids.insert(static_cast<uint8_t>(
+          r.number(absent[i], fmt::format("{}.absent_ids[{}]", path, i), 1, 1, 255)));
+    }
+  }
+  s.wear_pct_per_m = r.number(n["wear_pct_per_m"], path + ".wear_pct_per_m", 0, 0, 1000);
   return s;
 }
 
@@ -262,7 +273,7 @@ void check_unique_names(const Reader& r, const YAML::Node& root, const ServeConf
 
 ServeConfig read_root(const Reader& r, const YAML::Node& root) {
   if (!root.IsMap()) r.fail(root, "", "expected a map with lines: (and http:, mqtt:)");
-  r.keys(root, "", {"lines", "http", "mqtt"});
+  r.keys(root, "", {"lines", "http", "mqtt", "history"});
   ServeConfig c;
   c.source = r.source();
   const auto lines = root["lines"];
@@ -277,6 +288,7 @@ ServeConfig read_root(const Reader& r, const YAML::Node& root) {
   check_unique_names(r, root, c);
   c.http = read_http(r, root["http"]);
   c.mqtt = read_mqtt(r, root["mqtt"]);
+  c.history = history::read_history(r, root["history"]);
   return c;
 }
 

@@ -106,6 +106,11 @@ ServeConfig config_from_flags(const FlagConfig& f) {
     }
     c.http = h;
   }
+  if (!f.state_dir.empty()) {  // issue 26: the move history
+    HistoryConfig h;
+    h.state_dir = f.state_dir;
+    c.history = h;
+  }
   return c;
 }
 

@@ -4,34 +4,13 @@
 #include <cmath>
 #include <vector>
 
+#include "lec6/lec/nearest.hpp"
+
 namespace lec6::serve {
 
 std::optional<std::string> nearest(std::string_view word,
                                    std::initializer_list<const char*> candidates) {
-  std::optional<std::string> best;
-  std::size_t best_distance = std::max<std::size_t>(2, word.size() / 3) + 1;
-  for (std::string_view c : candidates) {
-    // "baudrate" for "baud", "telemetry" for "telemetry_hz": one is the other's start.
-    if (std::min(c.size(), word.size()) >= 3 && (c.starts_with(word) || word.starts_with(c))) {
-      return std::string(c);
-    }
-  }
-  for (std::string_view c : candidates) {
-    // Levenshtein distance, one row at a time.
-    std::vector<std::size_t> row(c.size() + 1);
-    for (std::size_t j = 0; j <= c.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= word.size(); ++i) {
-      std::size_t diagonal = row[0];
-      row[0] = i;
-      for (std::size_t j = 1; j <= c.size(); ++j) {
-        const std::size_t up = row[j];
-        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (word[i - 1] != c[j - 1])});
-        diagonal = up;
-      }
-    }
-    if (row[c.size()] < best_distance) best_distance = row[c.size()], best = std::string(c);
-  }
-  return best;
+  return lec::nearest(word, std::vector<std::string>(candidates.begin(), candidates.end()));
 }
 
 void Reader::fail(const YAML::Node& at, const std::string& path, const std::string& message) const {

@@ -10,6 +10,8 @@
 #include "lec6/serve/mqtt_bridge.hpp"
 #include "lec6/serve/operations.hpp"
 #include "lec6/serve/wire.hpp"
+#include "lec6/twin/line_recorder.hpp"
+#include "history/history.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -35,6 +37,7 @@ Daemon::Daemon(ServeConfig config, Log log)
       work_(asio::make_work_guard(io_)) {
   ops_ = std::make_unique<Operations>(log_);
   start_lines();
+  start_history();  // issue 26
   start_listeners();
   if (config_.mqtt) {
     mqtt_ = std::make_unique<MqttBridge>(*this, *ops_, *config_.mqtt, log_);
@@ -57,8 +60,15 @@ void Daemon::start_lines() {
     o.name = lc.name;
     o.port = lc.port;
     o.scheduler = scheduler_config(lc);
+    // --record: one capture per line for the daemon's life (reopens append to it).
+    transport::LineTap record;
+    if (!lc.record.empty()) {
+      auto rec = std::make_shared<twin::LineRecorder>(lc.record, "serve", lc.baud, lc.port, kClock);
+      record = [rec, tap = rec->tap()](transport::LineChunk&& c) { tap(std::move(c)); };
+      log_(LogLevel::Info, fmt::format("line {}: recording every frame to {}", lc.name, lc.record));
+    }
     auto line = std::make_unique<Line>(
-        o, [lc] { return open_wire(lc); }, kClock);
+        o, [lc, record] { return open_wire(lc, record); }, kClock);
     std::string ids;
     for (const auto& a : lc.axes)
       ids += fmt::format("{}{}={}", ids.empty() ? "" : ", ", a.name, a.id);
@@ -72,6 +82,28 @@ void Daemon::start_lines() {
     for (const AxisConfig& a : lc.axes) axes_.push_back(AxisRef{a.name, a.id, line.get(), &lc, &a});
     line->start();
     lines_.emplace(lc.name, std::move(line));
+  }
+}
+
+// The move history (issue 26): fed by the operations and by each axis'
+// telemetry; its own writer thread does the disk (history/store.hpp).
+void Daemon::start_history() {
+  if (!config_.history) return;
+  std::vector<std::string> names;
+  for (const auto& a : axes_) names.push_back(a.name);
+  history_ = std::make_unique<history::History>(*config_.history, names, log_);
+  history::History* h = history_.get();
+  ops_->add_observer([h](const std::string& axis, const nlohmann::json& event) {
+    h->on_op_event(axis, event, kClock.now());
+  });
+  for (const AxisRef& axis : axes_) {
+    axis.line->add_observer([h, axis](const TelemetryEvent& e, const AxisSnapshot& s) {
+      if (e.id != axis.id || (e.block != Block::State && e.block != Block::Flags)) return;
+      AxisSnapshot read;  // only what this read brought: a sample is counted once
+      if (e.block == Block::State) read.state = s.state;
+      if (e.block == Block::Flags) read.flags = s.flags;
+      h->on_telemetry(axis.name, read, e.at);
+    });
   }
 }
 

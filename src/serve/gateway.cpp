@@ -1,6 +1,7 @@
 #include "lec6/serve/gateway.hpp"
 
 #include "lec6/lec/memory_map.hpp"
+#include "lec6/serve/line_master.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -46,7 +47,8 @@ GatewayDecision decide(const GatewayPolicy& policy, uint8_t unit, std::span<cons
   // The map's rules, answered here: no line time for a request the
   // controller can only refuse. The input mode is the controller's to judge.
   if (auto refusal = lec::check_request(*request, true)) return exception(fc, refusal->code);
-  LineRequest line{modbus::RequestFrame{unit, std::move(*request)}, {}, 1};
+  LineRequest line{modbus::RequestFrame{unit, std::move(*request)}, {}, 1, Priority::Command};
+  line.priority = priority_of(line.frame, Priority::Command, Priority::Command);
   if (!write) {
     line.max_cache_age = policy.cache_max_age;
     line.attempts = 1 + std::max(0, policy.read_retries);

@@ -7,6 +7,8 @@
 
 #include "lec6/serve/http_auth.hpp"
 #include "lec6/serve/views.hpp"
+#include "history/history.hpp"       // issue 26
+#include "history/history_http.hpp"  // issue 26
 #include "op_results.hpp"
 
 namespace lec6::serve {
@@ -101,6 +103,14 @@ HttpApi::HttpApi(Daemon& daemon, Operations& ops, const HttpConfig& config, Log 
     e["axis"] = axis;
     events_.broadcast("op", e.dump(), EventStream::Delivery::Reliable);
   });
+  // issue 26: history, drift and health events (history/history.hpp).
+  if (auto* h = daemon_.history()) {
+    h->add_listener([this](const std::string& axis, std::string_view kind, const json& j) {
+      json e = j;
+      e["axis"] = axis;
+      events_.broadcast(kind, e.dump(), EventStream::Delivery::Reliable);
+    });
+  }
 }
 
 std::string HttpApi::source(const HttpRequest& request) const {
@@ -203,6 +213,8 @@ void HttpApi::route_axis(const AxisRef& axis, std::vector<std::string_view> rest
     return void(responder.respond(json_response(200, axis_json(axis, &ops_))));
   }
   if (rest[0] == "steps") return steps(axis, {rest.begin() + 1, rest.end()}, request, responder);
+  // issue 26: history, health (history/history_http.hpp)
+  if (history::handle_http(daemon_.history(), axis, rest, request, responder)) return;
   if (rest.size() == 1 && rest[0] == "alarms") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));
     const json a = axis_json(axis);

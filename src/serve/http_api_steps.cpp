@@ -12,6 +12,7 @@
 #include "lec6/lec/step_table.hpp"
 #include "lec6/serve/http_api.hpp"
 #include "lec6/sim/bus.hpp"
+#include "history/history.hpp"  // issue 26
 #include "op_results.hpp"
 
 namespace lec6::serve {
@@ -125,7 +126,11 @@ void HttpApi::steps(const AxisRef& axis, std::vector<std::string_view> rest, Htt
           const auto report = client::apply_restore(c, client::plan_restore(c, t), options);
           return OpResult{report.ok() ? 200 : 502, report_json(report)};
         },
-        [res](OpResult r) { res.respond(json_response(r.status, r.body)); });
+        [res, h = daemon_.history(), name = axis.name, dry = options.dry_run](OpResult r) {
+          // issue 26: a restored table starts new drift baselines for its steps.
+          if (h && !dry) h->on_step_table_edit(name, std::nullopt);
+          res.respond(json_response(r.status, r.body));
+        });
   }
   if (rest.size() == 1) {
     const auto n = step_number(rest[0]);

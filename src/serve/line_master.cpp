@@ -4,22 +4,13 @@
 
 #include <future>
 
-#include "lec6/lec/flags.hpp"
+#include "lec6/client/interrupt.hpp"
 
 namespace lec6::serve {
 
 Priority priority_of(const modbus::RequestFrame& frame, Priority reads, Priority writes) {
-  if (!modbus::is_write(frame.pdu)) return reads;
-  if (const auto* c = std::get_if<modbus::WriteCoilRequest>(&frame.pdu)) {
-    using lec::Coil;
-    const auto coil = static_cast<Coil>(c->coil);
-    const bool off = c->value == modbus::kCoilOff;
-    if (coil == Coil::RESET || coil == Coil::HOLD) return Priority::Emergency;
-    if (off && (coil == Coil::SVON || coil == Coil::JOG_MINUS || coil == Coil::JOG_PLUS)) {
-      return Priority::Emergency;
-    }
-  }
-  return writes;
+  if (client::stops_or_releases(frame.pdu)) return Priority::Emergency;  // the one rule
+  return modbus::is_write(frame.pdu) ? writes : reads;
 }
 
 client::TransportError transport_error(const JobResult& r) {

@@ -7,6 +7,15 @@ namespace {
 
 constexpr std::size_t kRing = 2048;  // latency samples kept per priority for percentiles
 
+void keep(std::vector<double>& ring, std::size_t& next, double v) {
+  if (ring.size() < kRing) {
+    ring.push_back(v);
+  } else {
+    ring[next] = v;
+    next = (next + 1) % kRing;
+  }
+}
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   const auto k = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
@@ -56,13 +65,14 @@ void LineStats::latency(Priority p, Duration d) {
   for (std::size_t i = 0; i < kLatencyBucketsMs.size(); ++i) {
     if (ms <= kLatencyBucketsMs[i]) ++l.buckets[i];
   }
-  auto& ring = recent_latency_ms_[index(p)];
-  if (ring.size() < kRing) {
-    ring.push_back(ms);
-  } else {
-    ring[ring_next_[index(p)]] = ms;
-    ring_next_[index(p)] = (ring_next_[index(p)] + 1) % kRing;
-  }
+  keep(recent_latency_ms_[index(p)], ring_next_[index(p)], ms);
+}
+
+void LineStats::wait(Priority p, Duration d) {
+  const double ms = to_ms(d);
+  keep(recent_wait_ms_[index(p)], wait_next_[index(p)], ms);
+  wait_max_ms_[index(p)] = std::max(wait_max_ms_[index(p)], ms);
+  ++wait_count_[index(p)];
 }
 
 void LineStats::trim(TimePoint now) const {
@@ -89,7 +99,19 @@ LineStatsSnapshot LineStats::snapshot(
   for (std::size_t p = 0; p < kPriorities; ++p) {
     s.latency[p].p50_ms = percentile(recent_latency_ms_[p], 0.50);
     s.latency[p].p99_ms = percentile(recent_latency_ms_[p], 0.99);
+    s.latency[p].wait_p50_ms = percentile(recent_wait_ms_[p], 0.50);
+    s.latency[p].wait_p99_ms = percentile(recent_wait_ms_[p], 0.99);
+    s.latency[p].wait_max_ms = wait_max_ms_[p];
+    s.latency[p].wait_count = wait_count_[p];
   }
+  // The last emergency waits, oldest first: the ring starts at its next slot once full.
+  constexpr std::size_t kRecent = 16;
+  const auto& ring = recent_wait_ms_[index(Priority::Emergency)];
+  const std::size_t n = std::min(kRecent, ring.size());
+  const std::size_t newest =
+      ring.size() < kRing ? ring.size() : wait_next_[index(Priority::Emergency)];
+  auto& recent = s.latency[index(Priority::Emergency)].recent_waits_ms;
+  for (std::size_t i = n; i > 0; --i) recent.push_back(ring[(newest + kRing - i) % kRing]);
   s.devices = devices_;
   return s;
 }

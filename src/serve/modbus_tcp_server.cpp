@@ -18,13 +18,16 @@ using asio::ip::tcp;
 class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
  public:
   Session(ModbusTcpServer& server, tcp::socket socket)
-      : server_(server), socket_(std::move(socket)) {
+      : server_(server), socket_(std::move(socket)), idle_(socket_.get_executor()) {
     asio::error_code ec;
     const auto peer = socket_.remote_endpoint(ec);
     peer_ = ec ? "?" : fmt::format("{}:{}", peer.address().to_string(), peer.port());
   }
 
-  void start() { read(); }
+  void start() {
+    arm_idle();
+    read();
+  }
 
   // lec serve is stopping: answer what is owed, then close.
   void shutdown() {
@@ -35,6 +38,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   void close() {
     if (closed_) return;
     closed_ = true;
+    idle_.cancel();
     for (const auto& [key, job] : outstanding_) server_.line_.cancel(job);
     asio::error_code ec;
     socket_.shutdown(tcp::socket::shutdown_both, ec);
@@ -43,13 +47,39 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   }
 
  private:
+  // Requests queued on the line plus replies not yet written: what this
+  // connection holds. At the limit its socket is not read (and frames already
+  // read wait in the framer), so a connection holds at most that many.
+  bool full() const { return outstanding_.size() + writes_.size() >= server_.limits_.max_queued; }
+
+  // No request for idle_timeout, and nothing owed: the master is gone or
+  // forgot us; close (a PLC that polls never meets it).
+  void arm_idle() {
+    if (server_.limits_.idle_timeout.count() <= 0) return;
+    idle_.expires_after(server_.limits_.idle_timeout);
+    idle_.async_wait([weak = weak_from_this()](asio::error_code ec) {
+      auto self = weak.lock();
+      if (ec || !self || self->closed_) return;
+      if (!self->outstanding_.empty() || !self->writes_.empty()) return self->arm_idle();
+      self->server_.log_(LogLevel::Info,
+                         fmt::format("Modbus TCP {}: closing the connection from {}: no request "
+                                     "for {:.0f} s",
+                                     self->server_.url(), self->peer_,
+                                     to_seconds(self->server_.limits_.idle_timeout)));
+      self->close();
+    });
+  }
+
   void read() {
-    if (closed_ || closing_ || reading_ || outstanding_.size() >= kMaxOutstanding) return;
+    if (closed_ || closing_ || reading_) return;
+    frames();  // those already read first
+    if (closed_ || full()) return;
     reading_ = true;
     socket_.async_read_some(asio::buffer(buffer_),
                             [self = shared_from_this()](asio::error_code ec, std::size_t n) {
                               self->reading_ = false;
                               if (ec) return self->close();
+                              self->arm_idle();
                               self->received(std::span(self->buffer_.data(), n));
                               self->read();
                             });
@@ -58,7 +88,21 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   void received(std::span<const uint8_t> bytes) {
     if (server_.framing_ == Framing::Mbap) {
       mbap_.feed(bytes);
-      while (auto adu = mbap_.next()) handle(adu->header.transaction, adu->header.unit, adu->pdu);
+    } else {
+      rtu_.insert(rtu_.end(), bytes.begin(), bytes.end());
+    }
+    frames();
+  }
+
+  // Handles the frames read, while the connection has room (see full()).
+  void frames() {
+    if (closed_) return;
+    if (server_.framing_ == Framing::Mbap) {
+      while (!full()) {
+        auto adu = mbap_.next();
+        if (!adu) break;
+        handle(adu->header.transaction, adu->header.unit, adu->pdu);
+      }
       if (mbap_.status() == modbus::MbapFramer::Status::Broken) {
         server_.log_(LogLevel::Warning,
                      fmt::format("Modbus TCP {}: closing the connection from {}: {}", server_.url(),
@@ -67,7 +111,6 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
       }
       return;
     }
-    rtu_.insert(rtu_.end(), bytes.begin(), bytes.end());
     rtu_frames();
   }
 
@@ -77,7 +120,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   // unknown function is all that arrived (devices servers send a frame per
   // segment) and gets exception 01 if its CRC holds.
   void rtu_frames() {
-    while (rtu_.size() >= 4) {
+    while (rtu_.size() >= 4 && !full()) {
       const auto length = modbus::request_length(rtu_);
       std::size_t size = rtu_.size();
       if (length.status == modbus::FrameLength::Status::NeedMore) return;
@@ -103,7 +146,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
     const auto& request = std::get<LineRequest>(decision);
     const uint64_t key = next_key_++;
     Job job;
-    job.priority = Priority::Command;
+    job.priority = request.priority;
     job.frame = request.frame;
     job.max_cache_age = request.max_cache_age;
     job.not_before = seen_[unit];
@@ -174,15 +217,19 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   std::map<uint64_t, JobId> outstanding_;
   std::map<uint8_t, TimePoint> seen_;  // per unit: the newest data this master was shown
   uint64_t next_key_ = 1;
+  asio::steady_timer idle_;
   bool reading_ = false;
   bool closing_ = false;
   bool closed_ = false;
 };
 
 ModbusTcpServer::ModbusTcpServer(asio::io_context& io, const ListenerConfig& config,
-                                 Framing framing, Line& line, GatewayPolicy policy, Log log)
+                                 Framing framing, Line& line, GatewayPolicy policy, Log log,
+                                 ModbusTcpLimits limits)
     : io_(io),
       acceptor_(io),
+      retry_(io),
+      limits_(limits),
       framing_(framing),
       line_(line),
       policy_(std::move(policy)),
@@ -215,19 +262,53 @@ std::string ModbusTcpServer::url() const {
 
 void ModbusTcpServer::accept() {
   acceptor_.async_accept([this](asio::error_code ec, tcp::socket socket) {
-    if (ec || stopped_) return;
-    socket.set_option(tcp::no_delay(true));
-    auto session = std::make_shared<Session>(*this, std::move(socket));
-    sessions_.insert(session);
-    session->start();
+    if (stopped_ || ec == asio::error::operation_aborted) return;
+    if (ec) {
+      // Out of file descriptors and the like: try again shortly, not in a spin.
+      log_(LogLevel::Warning, fmt::format("Modbus TCP {}: accept failed: {}; retrying in 100 ms",
+                                          url(), ec.message()));
+      retry_.expires_after(std::chrono::milliseconds(100));
+      retry_.async_wait([this](asio::error_code e) {
+        if (!e && !stopped_) accept();
+      });
+      return;
+    }
+    if (sessions_.size() >= limits_.max_connections) {
+      refuse(std::move(socket));
+    } else {
+      socket.set_option(tcp::no_delay(true), ec);
+      auto session = std::make_shared<Session>(*this, std::move(socket));
+      sessions_.insert(session);
+      session->start();
+    }
     accept();
   });
+}
+
+// Over the connection cap: closed at once, with a log line (at most one a
+// second, so a flood of connections does not flood the log).
+void ModbusTcpServer::refuse(tcp::socket socket) {
+  ++refused_;
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_refusal_log_ >= std::chrono::seconds(1)) {
+    last_refusal_log_ = now;
+    asio::error_code ec;
+    const auto peer = socket.remote_endpoint(ec);
+    log_(LogLevel::Warning,
+         fmt::format("Modbus TCP {}: refused the connection from {}: {} connections open (at most "
+                     "{}); {} refused so far",
+                     url(), ec ? "?" : peer.address().to_string(), sessions_.size(),
+                     limits_.max_connections, refused_));
+  }
+  asio::error_code ec;
+  socket.close(ec);
 }
 
 void ModbusTcpServer::shutdown() {
   stopped_ = true;
   asio::error_code ec;
   acceptor_.close(ec);
+  retry_.cancel();
   const auto sessions = sessions_;
   for (const auto& s : sessions) s->shutdown();
 }

@@ -9,6 +9,7 @@
 #include "lec6/lec/alarms.hpp"
 #include "lec6/serve/mqtt_discovery.hpp"
 #include "lec6/serve/views.hpp"
+#include "history/history.hpp"
 #include "mqtt_bridge_core.hpp"
 
 namespace lec6::serve {
@@ -60,7 +61,8 @@ MqttBridge::Core::Core(Daemon& daemon, Operations& o, const MqttConfig& c, Log l
       topics(c.prefix, mqtt_bridge_name(c)),
       axes(daemon.axes()),
       commands(axes.size()),
-      timer(io) {
+      timer(io),
+      history(daemon.history()) {
   for (std::size_t i = 0; i < axes.size(); ++i) {
     const std::string& line = axes[i].line_config->name;
     const std::string& name = axes[i].name;
@@ -106,6 +108,21 @@ void MqttBridge::Core::start() {
       if (auto c = weak.lock()) c->wake(it->second);
     });
   }
+  // issue 26: each motion record to .../history (QoS 1), the axis' health
+  // retained to .../health, from whichever thread recorded it.
+  if (history) {
+    std::map<std::string, std::string> line_of;
+    for (const AxisRef& a : axes) line_of[a.name] = a.line_config->name;
+    history->add_listener(
+        [weak, line_of](const std::string& axis, std::string_view kind, const json& j) {
+          if (kind != "history" && kind != "health") return;
+          const auto it = line_of.find(axis);
+          auto c = weak.lock();
+          if (!c || c->stopped || it == line_of.end()) return;
+          c->client->publish(c->topics.axis(it->second, axis, kind), j.dump(), 1,
+                             kind == "health");
+        });
+  }
   client->start();
   next_tick = std::chrono::steady_clock::now();
   tick();
@@ -140,6 +157,12 @@ void MqttBridge::Core::connected() {
 
 void MqttBridge::Core::republish() {
   for (std::size_t i = 0; i < axes.size(); ++i) publish_axis(i, true);
+  if (history) {  // issue 26
+    for (const AxisRef& a : axes) {
+      client->publish(topics.axis(a.line_config->name, a.name, "health"),
+                      history->health(a.name).dump(), 1, true);
+    }
+  }
   if (!config.home_assistant) return;
   for (const AxisRef& a : axes) {
     for (const auto& p : home_assistant_discovery(topics, a.line_config->name, a.name, a.id)) {

@@ -25,6 +25,9 @@
 #include "lec6/serve/operations.hpp"
 
 namespace lec6::serve {
+namespace history {
+class History;
+}
 
 struct MqttBridge::Core : std::enable_shared_from_this<MqttBridge::Core> {
   Core(Daemon& daemon, Operations& ops, const MqttConfig& config, Log log);
@@ -70,6 +73,7 @@ struct MqttBridge::Core : std::enable_shared_from_this<MqttBridge::Core> {
   asio::steady_timer timer;
   std::chrono::steady_clock::time_point next_tick{};
   std::atomic<bool> stopped{false};
+  history::History* history = nullptr;  // issue 26: .../history and .../health (retained)
 };
 
 double unix_now();

@@ -5,6 +5,7 @@
 #include "lec6/client/step_sync.hpp"
 #include "lec6/lec/step_table.hpp"
 #include "lec6/serve/line_master.hpp"
+#include "history/motion_settings.hpp"  // issue 26: what the history groups moves by
 #include "op_results.hpp"
 
 namespace lec6::serve {
@@ -32,8 +33,20 @@ struct Operations::Running {
   }
 };
 
+// A motion that ended without the daemon knowing the axis stopped (a deadline,
+// no answer, the line down): the axis may still be moving, so the slot stays
+// taken until a read of the flags taken after that end shows BUSY = 0
+// (docs/protocol-decisions.md, "One motion per axis").
+struct Operations::Unsettled {
+  Op op = Op::Move;
+  std::string source;
+  std::string why;
+  TimePoint ended{};  // on the line's clock
+};
+
 struct Operations::Slot {
   std::shared_ptr<Running> motion;
+  std::optional<Unsettled> unsettled;
   std::optional<nlohmann::json> last;
 };
 
@@ -84,6 +97,9 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
                     {"op", "jog-stop"},
                     {"message", slot.motion && slot.motion->op == Op::Jog ? "jog released"
                                                                           : "no jog was running"}}};
+    } else if (is_motion(cmd.op) && !slot.motion && slot.unsettled &&
+               !settled(axis, *slot.unsettled)) {
+      at_once = unsettled_refusal(axis, *slot.unsettled);
     } else if (is_motion(cmd.op) && slot.motion) {
       Running& r = *slot.motion;
       if (cmd.op == Op::Jog && r.op == Op::Jog && r.jog_plus == cmd.jog_plus &&
@@ -104,7 +120,7 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
       run->since = kClock.now();
       run->jog_plus = cmd.jog_plus;
       if (cmd.op == Op::Jog && cmd.jog_lease > Duration{}) renew(run->lease_until, cmd.jog_lease);
-      if (is_motion(cmd.op)) slot.motion = run;
+      if (is_motion(cmd.op)) slot.motion = run, slot.unsettled.reset();
       const bool stop_like =
           cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
       if (stop_like && slot.motion && slot.motion != run) slot.motion->stopped_by_other = true;
@@ -113,7 +129,9 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
     }
   }
   if (at_once) return done(std::move(*at_once));
-  notify(axis.name, {{"event", "started"}, {"op", op_name(cmd.op)}, {"source", source}});
+  nlohmann::json started{{"event", "started"}, {"op", op_name(cmd.op)}, {"source", source}};
+  started.update(history::motion_settings(cmd));  // issue 26: the move's settings
+  notify(axis.name, started);
   start_thread(axis, std::move(cmd), std::move(run), std::move(done));
 }
 
@@ -130,7 +148,7 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
     } catch (...) {
       result = result_of(std::current_exception(), run->stopped_by_other);
     }
-    finished(axis.name, run, result);
+    finished(axis, run, result);
     done(result);
     std::lock_guard lock(active_mutex_);
     if (--active_ == 0) idle_.notify_all();
@@ -169,18 +187,50 @@ void Operations::run_task(const AxisRef& axis, std::string name, std::string sou
   }).detach();
 }
 
-void Operations::finished(const std::string& axis, const std::shared_ptr<Running>& run,
+void Operations::finished(const AxisRef& axis, const std::shared_ptr<Running>& run,
                           const OpResult& result) {
   {
     std::lock_guard lock(mutex_);
-    Slot& slot = slots_[axis];
-    if (slot.motion == run) slot.motion.reset();
+    Slot& slot = slots_[axis.name];
+    if (slot.motion == run) {
+      slot.motion.reset();
+      // 5xx: no answer, a deadline, the line down: nothing says the axis stopped.
+      if (result.status >= 500) {
+        slot.unsettled = Unsettled{run->op, run->source, result.body.value("error", "no answer"),
+                                   axis.line->clock().now()};
+      }
+    }
     if (is_motion(run->op)) slot.last = result.body;
   }
   nlohmann::json event = result.body;
   event["event"] = "finished";
   event["status"] = result.status;
-  notify(axis, event);
+  notify(axis.name, event);
+}
+
+bool Operations::settled(const AxisRef& axis, const Unsettled& u) const {
+  const AxisSnapshot s = axis.line->snapshot(axis.id);
+  return s.flags && s.flags_at > u.ended && !s.flags->busy();
+}
+
+OpResult Operations::unsettled_refusal(const AxisRef& axis, const Unsettled& u) const {
+  const AxisSnapshot s = axis.line->snapshot(axis.id);
+  const bool fresh = s.flags && s.flags_at > u.ended;
+  if (!fresh) {
+    // Ask the controller (no client waits): the next request finds the answer
+    // in the cache, also on an axis without telemetry.
+    Job read;
+    read.priority = Priority::Command;
+    read.frame = {axis.id, block_request(Block::Flags)};
+    axis.line->submit(std::move(read));
+  }
+  return refusal(
+      409, fmt::format("axis {} may still be moving: its {} (started by {}) ended {:.1f} s ago "
+                       "without the axis seen stopped ({}); a new motion is accepted once a read "
+                       "of its flags shows BUSY = 0 ({}); stop it to be sure",
+                       axis.name, op_name(u.op), u.source,
+                       to_seconds(axis.line->clock().now() - u.ended), u.why,
+                       fresh ? "the last read shows BUSY = 1" : "no read since"));
 }
 
 void Operations::tie_jog(const std::string& axis, std::function<bool()> closed) {
@@ -191,10 +241,16 @@ void Operations::tie_jog(const std::string& axis, std::function<bool()> closed) 
   it->second.motion->tie = std::move(closed);
 }
 
-std::optional<OpStatus> Operations::running(const std::string& axis) const {
+std::optional<OpStatus> Operations::running(const AxisRef& axis) const {
   std::lock_guard lock(mutex_);
-  const auto it = slots_.find(axis);
-  if (it == slots_.end() || !it->second.motion) return std::nullopt;
+  const auto it = slots_.find(axis.name);
+  if (it == slots_.end()) return std::nullopt;
+  if (!it->second.motion) {
+    const auto& u = it->second.unsettled;
+    if (!u || settled(axis, *u)) return std::nullopt;
+    return OpStatus{std::string(op_name(u->op)), u->source,
+                    to_seconds(axis.line->clock().now() - u->ended), true};
+  }
   const Running& r = *it->second.motion;
   return OpStatus{std::string(op_name(r.op)), r.source, to_seconds(kClock.now() - r.since)};
 }
@@ -222,7 +278,9 @@ void Operations::shutdown() {
 // ---- execution -----------------------------------------------------------------
 
 OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& run) {
-  const bool urgent = cmd.op == Op::Stop || cmd.op == Op::Reset || cmd.op == Op::Hold;
+  // Stop, reset and hold (not HOLD off: it resumes motion) go at Emergency,
+  // their reads too; their writes would anyway (priority_of).
+  const bool urgent = cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
   LineMaster master(*axis.line, urgent ? Priority::Emergency : Priority::Completion,
                     urgent ? Priority::Emergency : Priority::Command);
   client::ClientOptions co;

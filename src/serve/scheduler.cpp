@@ -4,6 +4,8 @@
 
 #include <algorithm>
 
+#include "lec6/error.hpp"
+
 namespace lec6::serve {
 namespace {
 
@@ -100,6 +102,10 @@ std::optional<JobResult> Scheduler::refuse_now(const Job& job, TimePoint now) co
     r.error = line_down_;
     return r;
   }
+  // A stop, hold or reset goes to a controller that stopped answering too:
+  // only its replies may be lost (noise, a drive switching), and it counts as
+  // a probe. Only a port that is gone or a shutdown refuses it (above).
+  if (job.priority == Priority::Emergency) return std::nullopt;
   const uint8_t id = job.frame.id;
   const auto h = health_.find(id);
   if (id != modbus::kBroadcastId && h != health_.end() && h->second.offline) {
@@ -116,7 +122,17 @@ std::optional<JobResult> Scheduler::refuse_now(const Job& job, TimePoint now) co
 }
 
 JobId Scheduler::submit(Job job, TimePoint now) {
+  if (job.priority == Priority::Telemetry) {
+    // Telemetry is the scheduler's own round-robin, not a queue: such a job
+    // would never be taken, and its line would spin.
+    throw InvalidArgument(
+        "a job cannot be submitted at Priority::Telemetry (the scheduler's own reads): use "
+        "Command, Completion or Background");
+  }
   const JobId id = next_id_++;
+  if (job.priority == Priority::Emergency) {
+    job.attempts = std::max(job.attempts, config_.emergency_attempts);
+  }
   if (auto refused = refuse_now(job, now)) {
     complete(job, std::move(*refused));
     return id;
@@ -204,7 +220,7 @@ void Scheduler::completed(const modbus::ResponseFrame& reply, TimePoint start, T
   }
   note_reply(f, reply, start, end);
   if (const auto t = telemetry_.find(id);
-      f.internal && t != telemetry_.end() && t->second.pass.empty()) {
+      is_telemetry(f) && t != telemetry_.end() && t->second.pass.empty()) {
     Telemetry& tel = t->second;
     tel.due =
         std::max(tel.due + tel.schedule.telemetry_period, end - tel.schedule.telemetry_period);
@@ -244,7 +260,7 @@ void Scheduler::failed(const client::TransportError& error, TimePoint start, Tim
   flight_.reset();
   const uint8_t id = f.job.frame.id;
   record(f, start, end, result_of(error.kind()));
-  if (const auto t = telemetry_.find(id); f.internal && t != telemetry_.end()) {
+  if (const auto t = telemetry_.find(id); is_telemetry(f) && t != telemetry_.end()) {
     Telemetry& tel = t->second;
     tel.pass.clear();  // the sample is lost; the next one comes at the next period
     tel.due =
@@ -264,12 +280,14 @@ void Scheduler::failed(const client::TransportError& error, TimePoint start, Tim
   }
   const bool went_offline = note_failure(id, error.what(), end);
   const bool offline = id != modbus::kBroadcastId && health_[id].offline;
-  if (!f.internal && f.job.attempts > 1 && !offline) {
+  // A stop keeps its attempts on an offline controller: a lost reply must not cost the stop.
+  const bool emergency = f.job.priority == Priority::Emergency;
+  if (!f.internal && f.job.attempts > 1 && (!offline || emergency)) {
     --f.job.attempts;
-    queues_[index(f.job.priority)].push_front(Queued{f.id, std::move(f.job), f.submitted});
+    queues_[index(f.job.priority)].push_front(Queued{f.id, std::move(f.job), f.submitted, true});
     return;
   }
-  r.failure = offline && f.job.attempts > 1 ? Failure::Offline : Failure::NoAnswer;
+  r.failure = offline && f.job.attempts > 1 && !emergency ? Failure::Offline : Failure::NoAnswer;
   complete(f.job, std::move(r));
   if (went_offline) {
     const DeviceHealth& h = health_[id];
@@ -282,10 +300,11 @@ void Scheduler::failed(const client::TransportError& error, TimePoint start, Tim
   }
 }
 
+// Stops, holds and resets stay queued: they go to an offline controller too.
 void Scheduler::fail_queued(uint8_t id, Failure why, const std::string& text, TimePoint now) {
   for (auto& q : queues_) {
     for (auto it = q.begin(); it != q.end();) {
-      if (it->job.frame.id != id) {
+      if (it->job.frame.id != id || it->job.priority == Priority::Emergency) {
         ++it;
         continue;
       }

@@ -8,7 +8,8 @@
 
 namespace lec6::serve {
 
-std::optional<Dispatch> Scheduler::dispatch(Queued q, bool internal, TimePoint) {
+std::optional<Dispatch> Scheduler::dispatch(Queued q, bool internal, TimePoint now) {
+  if (!internal && !q.retry) stats_.wait(q.job.priority, now - q.submitted);
   // The dispatch is built from the flight, not kept in a local beside it:
   // GCC 12 at -O3 took the local's copy of the frame for uninitialised.
   const Flight& f = flight_.emplace(Flight{q.id, std::move(q.job), q.submitted, internal});

@@ -56,15 +56,35 @@ void health_into(nlohmann::json& j, const AxisRef& axis) {
   }
   const auto d = stats.devices.find(axis.id);
   double error_rate = 0;
-  std::optional<double> age_ms;
   if (d != stats.devices.end() && d->second.transactions > 0) {
     const auto& c = d->second;
     error_rate = static_cast<double>(c.timeouts + c.crc_errors + c.framing_errors) /
                  static_cast<double>(c.transactions);
-    if (c.last_answer != TimePoint{}) age_ms = to_ms(axis.line->clock().now() - c.last_answer);
   }
   j["error_rate"] = error_rate;
-  j["age_ms"] = age_ms ? nlohmann::json(*age_ms) : nlohmann::json(nullptr);
+}
+
+// How old each value shown is: per block read (flags, state, inputs), and
+// `age_ms`, the oldest of flags and state (what position and flags say is at
+// least that old). Never the newest answer's age: after an outage the flags
+// may be fresh while the position is the one from before it.
+void ages_into(nlohmann::json& j, const AxisRef& axis, const AxisSnapshot& s) {
+  const TimePoint now = axis.line->clock().now();
+  const auto age = [&](bool has, TimePoint at) -> std::optional<double> {
+    if (!has) return std::nullopt;
+    return to_ms(now - at);
+  };
+  const auto as_json = [](std::optional<double> v) {
+    return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+  };
+  const auto flags = age(s.flags.has_value(), s.flags_at);
+  const auto state = age(s.state.has_value(), s.state_at);
+  j["ages_ms"] = {{"flags", as_json(flags)},
+                  {"state", as_json(state)},
+                  {"inputs", as_json(age(s.controls.has_value(), s.controls_at))}};
+  std::optional<double> oldest = flags;
+  if (state && (!oldest || *state > *oldest)) oldest = state;
+  j["age_ms"] = as_json(oldest);
 }
 
 void state_into(nlohmann::json& j, const AxisSnapshot& s) {
@@ -88,6 +108,7 @@ nlohmann::json telemetry_json(const AxisRef& axis, const AxisSnapshot& snapshot)
   nlohmann::json j{{"name", axis.name}, {"line", axis.line_config->name}, {"id", axis.id}};
   state_into(j, snapshot);
   health_into(j, axis);
+  ages_into(j, axis, snapshot);
   return j;
 }
 
@@ -104,10 +125,11 @@ nlohmann::json axis_json(const AxisRef& axis, const Operations* ops) {
   j["alarm_history"] = history;
   j["telemetry_hz"] = axis.config->telemetry_hz;
   if (ops) {
-    const auto running = ops->running(axis.name);
+    const auto running = ops->running(axis);
     j["operation"] = running ? nlohmann::json{{"op", running->op},
                                               {"source", running->source},
-                                              {"running_s", running->running_s}}
+                                              {"running_s", running->running_s},
+                                              {"unsettled", running->unsettled}}
                              : nlohmann::json(nullptr);
     const auto last = ops->last_result(axis.name);
     j["last_result"] = last ? *last : nlohmann::json(nullptr);
@@ -125,8 +147,16 @@ nlohmann::json stats_json(const LineStatsSnapshot& s, const LineConfig& config) 
         {"count", l.count},
         {"p50_ms", l.p50_ms},
         {"p99_ms", l.p99_ms},
+        {"wait_p50_ms", l.wait_p50_ms},
+        {"wait_p99_ms", l.wait_p99_ms},
+        {"wait_max_ms", l.wait_max_ms},
+        {"wait_count", l.wait_count},
         {"buckets_le_ms", kLatencyBucketsMs},
         {"buckets", buckets}};
+    if (!l.recent_waits_ms.empty()) {
+      priorities[std::string(priority_name(static_cast<Priority>(p)))]["recent_waits_ms"] =
+          l.recent_waits_ms;
+    }
   }
   nlohmann::json devices = nlohmann::json::array();
   for (const auto& [id, d] : s.devices) {

@@ -37,14 +37,17 @@ std::shared_ptr<SimWire> make_twin(const LineConfig& line) {
   ac.stroke_max_mm = line.sim.stroke_max_mm;
   ac.initial_position_mm = line.sim.initial_position_mm;
   ac.workpiece_mm = line.sim.workpiece_mm;
-  for (const auto& axis : line.axes) twin->bus->add(axis.id, ac, twin->clock.now());
+  ac.wear_pct_per_m = line.sim.wear_pct_per_m;  // issue 26
+  for (const auto& axis : line.axes) {
+    if (!line.sim.absent_ids.contains(axis.id)) twin->bus->add(axis.id, ac, twin->clock.now());
+  }
   twin->link = std::make_unique<twin::SimLink>(*twin->bus, twin->clock);
   return twin;
 }
 
 }  // namespace
 
-Wire open_wire(const LineConfig& line) {
+Wire open_wire(const LineConfig& line, transport::LineTap record) {
   const auto spec = transport::parse_port_spec(line.port);
   Wire w;
   client::Link* link = nullptr;
@@ -80,6 +83,17 @@ Wire open_wire(const LineConfig& line) {
     }
     case transport::PortKind::Tcp:
       throw InvalidArgument("a line is driven in Modbus RTU, not Modbus TCP: " + line.port);
+  }
+  if (record) {  // the recording link keeps what the link needed alive
+    struct Recorded {
+      std::shared_ptr<void> inner;
+      std::unique_ptr<transport::RecordingLink> link;
+    };
+    auto r = std::make_shared<Recorded>();
+    r->inner = std::move(w.keep);
+    r->link = std::make_unique<transport::RecordingLink>(*link, std::move(record));
+    link = r->link.get();
+    w.keep = r;
   }
   const bool fast_twin = spec.kind == transport::PortKind::Sim && line.sim.fast;
   w.master = std::make_unique<client::RtuMaster>(*link, rtu_options(line, fast_twin));

@@ -1,3 +1,5 @@
+// The twin on the line (timing, exceptions, faults): rows R-TIME-* and R-EXC-* of
+// docs/twin-fidelity.md name this file.
 #include "lec6/sim/bus.hpp"
 #include "lec6/error.hpp"
 
@@ -231,6 +233,19 @@ void Bus::schedule(uint8_t id, modbus::Bytes bytes, TimePoint start) {
     if (p >= 1.0) return true;
     return std::bernoulli_distribution(p)(rng_);
   };
+  if (std::find(faults_.duplicate_ids.begin(), faults_.duplicate_ids.end(), id) !=
+          faults_.duplicate_ids.end() &&
+      bytes.size() > 1 && chance(faults_.collision)) {
+    // The twin's reply and its double's, a few bit times apart: the header
+    // (ID, function, byte count: the same in both) survives, the data and
+    // the CRC are a mix.
+    for (std::size_t i = std::min<std::size_t>(3, bytes.size() - 2); i < bytes.size(); ++i) {
+      if (std::bernoulli_distribution(0.5)(rng_))
+        bytes[i] = static_cast<uint8_t>(bytes[i] ^ std::uniform_int_distribution<unsigned>(1, 255)(rng_));
+    }
+    if (modbus::crc_ok(bytes)) bytes.back() = static_cast<uint8_t>(bytes.back() ^ 0x01);
+    ++stats_.collisions;
+  }
   if (chance(faults_.drop)) {
     ++stats_.faults_dropped;
     return;

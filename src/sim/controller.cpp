@@ -2,7 +2,8 @@
 // rising, phase ends, contact with the workpiece, stall alarms) and what the
 // master reads (flags, state data). Operations started by the inputs are in
 // controller_operations.cpp; the Modbus memory map onto those inputs and
-// outputs is register_adapter.cpp.
+// outputs is register_adapter.cpp. Each behaviour a master can observe is a row of
+// docs/twin-fidelity.md (its source and how to confirm it on a real controller).
 
 #include <fmt/format.h>
 
@@ -51,6 +52,9 @@ std::vector<std::string> validate(const ActuatorConfig& c) {
     e.push_back("shortest BUSY pulse must be 0 to 10 s");
   if (!(c.friction_thrust_pct >= 0.0) || !(c.accel_thrust_pct >= 0.0)) {
     e.push_back("thrust model shares must be ≥ 0");
+  }
+  if (!(c.wear_pct_per_m >= 0.0) || c.wear_pct_per_m > 1000.0) {
+    e.push_back("wear must be 0 to 1000 % per metre travelled");
   }
   if (auto n = lec::EquipmentName::make(c.equipment_name); !n) e.push_back(n.error());
   return e;
@@ -180,42 +184,40 @@ void Controller::fire(const Event& e) {
       inp_ = inp;
       return;
     }
-    case EventKind::Contact: {
+    case EventKind::Contact:
       // The carriage stops dead against the workpiece.
       profile_ = MotionProfile::hold(now_, *config_.workpiece_mm);
-      switch (op_.kind) {
-        case OpKind::Homing:
-          op_.kind = OpKind::Stalled;
-          op_.stall_alarm = lec::alarm::kOriginTimeout;
-          op_.stall_alarm_at = now_ + config_.stall_alarm_delay;
-          op_.stall_thrust = behaviour::kHomingThrustPct;
-          return;
-        case OpKind::Move:
-          if (op_.phase == MovePhase::Push) {
-            pressing_ = true;
-            pressing_force_ = op_.move.pushing_force;
-            // Thrust = pushing force ≥ trigger level (validated at start): INP at once.
-            complete(pressing_force_ >= op_.move.trigger_level);
-          } else {
-            op_.kind = OpKind::Stalled;
-            op_.stall_alarm = lec::alarm::kPositioningTimeout;
-            op_.stall_alarm_at = now_ + config_.stall_alarm_delay;
-            op_.stall_thrust = op_.move.moving_force;
-          }
-          return;
-        case OpKind::Jog:
-        case OpKind::JogStop:
-          busy_ = false;
-          op_ = Op{};
-          return;
-        case OpKind::Stalled:
-        case OpKind::None:
-          return;
-      }
-      return;
-    }
+      break;
     case EventKind::PhaseEnd:
       break;
+  }
+  // A jog ends where the carriage stopped, against a workpiece as at the end
+  // of its profile (its ramp down, a stroke end): BUSY falls, INP is not judged.
+  if (op_.kind == OpKind::Jog || op_.kind == OpKind::JogStop) {
+    busy_ = false;
+    op_ = Op{};
+    return;
+  }
+  if (e.kind == EventKind::Contact) {
+    if (op_.kind == OpKind::Homing) {
+      op_.kind = OpKind::Stalled;
+      op_.stall_alarm = lec::alarm::kOriginTimeout;
+      op_.stall_alarm_at = now_ + config_.stall_alarm_delay;
+      op_.stall_thrust = behaviour::kHomingThrustPct;
+    } else if (op_.kind == OpKind::Move) {
+      if (op_.phase == MovePhase::Push) {
+        pressing_ = true;
+        pressing_force_ = op_.move.pushing_force;
+        // Thrust = pushing force ≥ trigger level (validated at start): INP at once.
+        complete(pressing_force_ >= op_.move.trigger_level);
+      } else {
+        op_.kind = OpKind::Stalled;
+        op_.stall_alarm = lec::alarm::kPositioningTimeout;
+        op_.stall_alarm_at = now_ + config_.stall_alarm_delay;
+        op_.stall_thrust = op_.move.moving_force;
+      }
+    }
+    return;
   }
   // PhaseEnd: the current profile has ended at its target.
   switch (op_.kind) {
@@ -243,11 +245,8 @@ void Controller::fire(const Event& e) {
       // Pushing phase ended without meeting the workpiece: pushing missed, INP 0.
       complete(op_.phase == MovePhase::Approach);
       return;
-    case OpKind::Jog:
+    case OpKind::Jog:  // ended above
     case OpKind::JogStop:
-      busy_ = false;
-      op_ = Op{};
-      return;
     case OpKind::Stalled:
     case OpKind::None:
       return;
@@ -276,8 +275,9 @@ double Controller::thrust_pct(TimePoint t) {
   if (op_.kind == OpKind::Stalled) return op_.stall_thrust;
   const Kinematics k = kin();
   if (std::abs(k.velocity) < kEps && std::abs(k.acceleration) < kEps) return 0.0;
-  const double raw = config_.friction_thrust_pct +
-                     config_.accel_thrust_pct * std::abs(k.acceleration) / config_.max_accel_mm_s2;
+  const double raw = wear_factor() * (config_.friction_thrust_pct +
+                                      config_.accel_thrust_pct * std::abs(k.acceleration) /
+                                          config_.max_accel_mm_s2);
   double cap = behaviour::kJogThrustPct;
   if (op_.kind == OpKind::Move) {
     cap = op_.phase == MovePhase::Push ? op_.move.pushing_force : op_.move.moving_force;

@@ -5,6 +5,8 @@
 
 #include "lec6/sim/controller.hpp"
 
+#include <cmath>
+
 namespace lec6::sim {
 
 // A start was taken: it begins now, or after the configured BUSY delay
@@ -49,6 +51,7 @@ void Controller::begin_busy() {
       if (it->busy_rose && !it->busy_fell) it->superseded = true;
     }
   }
+  if (!busy_) busy_from_mm_ = kin().position;
   busy_ = true;
   busy_hold_.reset();
   busy_rose_at_ = now_;
@@ -79,6 +82,7 @@ void Controller::drop_busy() {
       }
     }
   }
+  if (busy_) travelled_mm_ += std::abs(kin().position - busy_from_mm_);
   busy_ = false;
   busy_hold_.reset();
 }

@@ -1,6 +1,7 @@
 // The twin controller's operations (digest §5–§6): what the inputs start and
 // stop (servo, homing, step and direct moves, pushing, jog, hold, reset,
-// alarms), acting on the edges of Y10–Y1F and Y30.
+// alarms), acting on the edges of Y10–Y1F and Y30. Rows of docs/twin-fidelity.md
+// name these functions: change one, update the other.
 
 #include <algorithm>
 #include <cmath>
@@ -62,6 +63,7 @@ void Controller::plan_phase() {
     case OpKind::None:
       return;
   }
+  limits.speed /= wear_factor();  // a worn axis runs slower (wear_pct_per_m)
   profile_ = MotionProfile::plan(now_, k.position, k.velocity, target, limits);
 }
 

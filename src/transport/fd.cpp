@@ -70,6 +70,23 @@ std::size_t write_all(int fd, std::span<const uint8_t> bytes, TimePoint deadline
   return done;
 }
 
+ReadSome read_until(int fd, std::span<uint8_t> buffer, TimePoint deadline, const Clock& clock,
+                    const std::function<ssize_t(uint8_t*, std::size_t)>& get) {
+  if (buffer.empty()) return {};
+  for (;;) {
+    const short revents = poll_until(fd, POLLIN, deadline, clock);
+    if (revents == 0) return {};
+    if (revents & POLLNVAL) throw SystemError(EBADF, "read");
+    const ssize_t n = get(buffer.data(), buffer.size());
+    if (n > 0) return {static_cast<std::size_t>(n), false};
+    if (n == 0) return {0, true};  // end of file: a hung-up tty, a closed connection
+    const int err = errno;
+    if (err != EAGAIN && err != EINTR) throw SystemError(err, "read");
+    if (revents & (POLLHUP | POLLERR)) return {0, true};
+    // a spurious wake-up: wait again
+  }
+}
+
 bool set_nonblocking(int fd, bool on) {
   int flags = ::fcntl(fd, F_GETFL);
   if (flags < 0) return false;

@@ -2,6 +2,7 @@
 // low-latency ioctls. See the header for why this is our own code.
 
 #include "lec6/transport/serial_link.hpp"
+#include "lec6/transport/port_holder.hpp"
 #include "lec6/error.hpp"
 
 #include <fcntl.h>
@@ -98,9 +99,7 @@ SerialLink::SerialLink(std::string path, SerialOptions options)
   if (fd < 0) {
     const int err = errno;
     if (err == EBUSY) {
-      throw LinkError(
-          LinkErrorKind::PortUnavailable,
-          fmt::format("cannot open {}: port busy (another program has it open)", path_));
+      throw LinkError(LinkErrorKind::PortUnavailable, port_busy_message(path_));
     }
     if (err == EACCES) {
       throw LinkError(LinkErrorKind::PortUnavailable,
@@ -122,9 +121,8 @@ SerialLink::SerialLink(std::string path, SerialOptions options)
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
       const int err = errno;
       if (err == EWOULDBLOCK) {
-        throw LinkError(
-            LinkErrorKind::PortUnavailable,
-            fmt::format("cannot open {}: port busy (another program has it open)", path_));
+        fd_.reset();  // not ours: do not name ourselves as a holder
+        throw LinkError(LinkErrorKind::PortUnavailable, port_busy_message(path_));
       }
       // Some file systems do not support locks; TIOCEXCL still applies.
     }
@@ -282,34 +280,20 @@ void SerialLink::swallow_echo(std::span<const uint8_t> sent) {
 }
 
 std::size_t SerialLink::read_some(std::span<uint8_t> buffer, TimePoint deadline) {
-  if (buffer.empty()) return 0;
   const int fd = fd_.get();
-  for (;;) {
-    short revents = 0;
-    try {
-      revents = poll_until(fd, POLLIN, deadline, clock_);
-    } catch (const SystemError& e) {
-      fail("poll", e.code().value());
-    }
-    if (revents == 0) return 0;
-    if (revents & POLLNVAL) fail("read", EBADF);
-    const ssize_t n = ::read(fd, buffer.data(), buffer.size());
-    if (n > 0) return static_cast<std::size_t>(n);
-    // VMIN=1 and O_NONBLOCK: 0 bytes is end of file, i.e. a hung-up tty.
-    if (n == 0) {
-      throw LinkError(LinkErrorKind::PortLost,
-                      fmt::format("the serial port {} went away (hung up)", path_));
-    }
-    const int err = errno;
-    if (err == EAGAIN || err == EINTR) {
-      if (revents & (POLLHUP | POLLERR)) {
-        throw LinkError(LinkErrorKind::PortLost,
-                        fmt::format("the serial port {} went away (hung up)", path_));
-      }
-      continue;  // spurious wake-up: wait again
-    }
-    fail("read", err);
+  ReadSome got;
+  try {
+    got = read_until(fd, buffer, deadline, clock_,
+                     [fd](uint8_t* p, std::size_t n) { return ::read(fd, p, n); });
+  } catch (const SystemError& e) {
+    fail(e.call().c_str(), e.code().value());
   }
+  // VMIN=1 and O_NONBLOCK: 0 bytes is end of file, i.e. a hung-up tty.
+  if (got.closed) {
+    throw LinkError(LinkErrorKind::PortLost,
+                    fmt::format("the serial port {} went away (hung up)", path_));
+  }
+  return got.bytes;
 }
 
 std::size_t SerialLink::read_some_exact(std::span<uint8_t> buffer, TimePoint deadline) {

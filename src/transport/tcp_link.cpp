@@ -1,5 +1,6 @@
 #include "lec6/transport/tcp_link.hpp"
 #include "lec6/error.hpp"
+#include "tcp_addresses.hpp"
 
 #include <netdb.h>
 #include <netinet/in.h>
@@ -40,55 +41,32 @@ TcpLink::TcpLink(std::string host, uint16_t port, TcpOptions options)
   };
   if (options_.baud == 0) throw InvalidArgument("TcpLink: baud must not be 0");
 
-  addrinfo hints{};
-  hints.ai_family = AF_UNSPEC;
-  hints.ai_socktype = SOCK_STREAM;
-  hints.ai_protocol = IPPROTO_TCP;
-  hints.ai_flags = AI_NUMERICSERV;
-  addrinfo* found = nullptr;
-  const std::string service = std::to_string(port_);
-  if (int err = ::getaddrinfo(host_.c_str(), service.c_str(), &hints, &found); err != 0) {
-    unavailable(err == EAI_SYSTEM ? errno_text(errno) : std::string(::gai_strerror(err)));
-  }
-  std::unique_ptr<addrinfo, void (*)(addrinfo*)> list(found, ::freeaddrinfo);
-
   const TimePoint deadline = clock_.now() + options_.connect_timeout;
-  std::string last_error = "no address";
-  for (const addrinfo* ai = list.get(); ai != nullptr; ai = ai->ai_next) {
-    UniqueFd fd(
-        ::socket(ai->ai_family, ai->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, ai->ai_protocol));
-    if (!fd) {
-      last_error = errno_text(errno);
-      continue;
-    }
-    int err = 0;
-    if (::connect(fd.get(), ai->ai_addr, ai->ai_addrlen) != 0) {
-      err = errno;
-      if (err == EINPROGRESS || err == EINTR) {
-        short revents = 0;
-        try {
-          revents = poll_until(fd.get(), POLLOUT, deadline, clock_);
-        } catch (const SystemError& e) {
-          unavailable(e.what());
+  FirstAddress first =
+      first_usable_address(host_.c_str(), port_, false, [&](const addrinfo& ai, int fd) {
+        int err = 0;
+        if (::connect(fd, ai.ai_addr, ai.ai_addrlen) != 0) {
+          err = errno;
+          if (err == EINPROGRESS || err == EINTR) {
+            short revents = 0;
+            try {
+              revents = poll_until(fd, POLLOUT, deadline, clock_);
+            } catch (const SystemError& e) {
+              unavailable(e.what());
+            }
+            if (revents == 0) {
+              return fmt::format("no answer within {:.0f} ms", to_ms(options_.connect_timeout));
+            }
+            socklen_t len = sizeof err;
+            if (::getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len) != 0) err = errno;
+          }
         }
-        if (revents == 0) {
-          last_error = fmt::format("no answer within {:.0f} ms", to_ms(options_.connect_timeout));
-          continue;
-        }
-        socklen_t len = sizeof err;
-        if (::getsockopt(fd.get(), SOL_SOCKET, SO_ERROR, &err, &len) != 0) err = errno;
-      }
-    }
-    if (err != 0) {
-      last_error = errno_text(err);
-      continue;
-    }
-    const int one = 1;
-    ::setsockopt(fd.get(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    fd_ = std::move(fd);
-    return;
-  }
-  unavailable(last_error);
+        return err != 0 ? errno_text(err) : std::string();
+      });
+  if (!first.fd) unavailable(first.error);
+  const int one = 1;
+  ::setsockopt(first.fd.get(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  fd_ = std::move(first.fd);
 }
 
 std::string TcpLink::url() const {
@@ -127,26 +105,19 @@ void TcpLink::write(std::span<const uint8_t> bytes) {
 }
 
 std::size_t TcpLink::read_some(std::span<uint8_t> buffer, TimePoint deadline) {
-  if (buffer.empty()) return 0;
   const int fd = fd_.get();
-  for (;;) {
-    short revents = 0;
-    try {
-      revents = poll_until(fd, POLLIN, deadline, clock_);
-    } catch (const SystemError& e) {
-      fail("poll", e.code().value());
-    }
-    if (revents == 0) return 0;
-    const ssize_t n = ::recv(fd, buffer.data(), buffer.size(), 0);
-    if (n > 0) return static_cast<std::size_t>(n);
-    if (n == 0) {
-      throw LinkError(LinkErrorKind::PortLost,
-                      fmt::format("the connection to {} was closed by the other end", url()));
-    }
-    const int err = errno;
-    if (err == EAGAIN || err == EINTR) continue;
-    fail("read", err);
+  ReadSome got;
+  try {
+    got = read_until(fd, buffer, deadline, clock_,
+                     [fd](uint8_t* p, std::size_t n) { return ::recv(fd, p, n, 0); });
+  } catch (const SystemError& e) {
+    fail(e.call().c_str(), e.code().value());
   }
+  if (got.closed) {
+    throw LinkError(LinkErrorKind::PortLost,
+                    fmt::format("the connection to {} was closed by the other end", url()));
+  }
+  return got.bytes;
 }
 
 void TcpLink::discard_input() {

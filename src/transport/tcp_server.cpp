@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "lec6/client/link.hpp"
+#include "tcp_addresses.hpp"
 
 namespace lec6::transport {
 
@@ -25,46 +26,26 @@ TcpListener::TcpListener(uint16_t port, std::string address, int backlog)
     throw LinkError(LinkErrorKind::PortUnavailable,
                     fmt::format("cannot listen on {}: {}", url(), why));
   };
-  addrinfo hints{};
-  hints.ai_family = AF_UNSPEC;
-  hints.ai_socktype = SOCK_STREAM;
-  hints.ai_protocol = IPPROTO_TCP;
-  hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
-  addrinfo* found = nullptr;
-  const std::string service = std::to_string(port);
   const char* node = address_.empty() ? nullptr : address_.c_str();
-  if (int err = ::getaddrinfo(node, service.c_str(), &hints, &found); err != 0) {
-    unavailable(err == EAI_SYSTEM ? errno_text(errno) : std::string(::gai_strerror(err)));
-  }
-  std::unique_ptr<addrinfo, void (*)(addrinfo*)> list(found, ::freeaddrinfo);
-
-  std::string last_error = "no address";
-  for (const addrinfo* ai = list.get(); ai != nullptr; ai = ai->ai_next) {
-    UniqueFd fd(
-        ::socket(ai->ai_family, ai->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, ai->ai_protocol));
-    if (!fd) {
-      last_error = errno_text(errno);
-      continue;
-    }
+  FirstAddress first = first_usable_address(node, port, true, [&](const addrinfo& ai, int fd) {
     const int one = 1;
-    ::setsockopt(fd.get(), SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    if (::bind(fd.get(), ai->ai_addr, ai->ai_addrlen) != 0 || ::listen(fd.get(), backlog) != 0) {
-      last_error = errno_text(errno);
-      continue;
+    ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    if (::bind(fd, ai.ai_addr, ai.ai_addrlen) != 0 || ::listen(fd, backlog) != 0) {
+      return errno_text(errno);
     }
-    sockaddr_storage bound{};
-    socklen_t len = sizeof bound;
-    if (::getsockname(fd.get(), reinterpret_cast<sockaddr*>(&bound), &len) == 0) {
-      if (bound.ss_family == AF_INET) {
-        port_ = ntohs(reinterpret_cast<const sockaddr_in*>(&bound)->sin_port);
-      } else if (bound.ss_family == AF_INET6) {
-        port_ = ntohs(reinterpret_cast<const sockaddr_in6*>(&bound)->sin6_port);
-      }
+    return std::string();
+  });
+  if (!first.fd) unavailable(first.error);
+  sockaddr_storage bound{};
+  socklen_t len = sizeof bound;
+  if (::getsockname(first.fd.get(), reinterpret_cast<sockaddr*>(&bound), &len) == 0) {
+    if (bound.ss_family == AF_INET) {
+      port_ = ntohs(reinterpret_cast<const sockaddr_in*>(&bound)->sin_port);
+    } else if (bound.ss_family == AF_INET6) {
+      port_ = ntohs(reinterpret_cast<const sockaddr_in6*>(&bound)->sin6_port);
     }
-    fd_ = std::move(fd);
-    return;
   }
-  unavailable(last_error);
+  fd_ = std::move(first.fd);
 }
 
 std::string TcpListener::url() const {

@@ -69,6 +69,8 @@ const std::vector<Key>& keys() {
        [](P& p, const N& n) { p.actuator.busy_min = ms_of(n); }},
       {"actuator", "target_update_late", Key::Flag, 0, 0, "",
        [](P& p, const N& n) { p.actuator.target_update_late = n.as<bool>(); }},
+      {"actuator", "wear_pct_per_m", Key::Number, 0, 1000, "% per metre",
+       [](P& p, const N& n) { p.actuator.wear_pct_per_m = number_of(n); }},
       {"line", "baud", Key::Integer, 9600, 230400, "",
        [](P& p, const N& n) { p.line.line.baud = n.as<uint32_t>(); }},
       {"line", "silent_interval", Key::Integer, 1, 100, "",

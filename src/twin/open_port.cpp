@@ -1,5 +1,8 @@
 #include "lec6/twin/open_port.hpp"
 
+#include <fmt/format.h>
+
+#include "lec6/error.hpp"
 #include "lec6/client/rtu_master.hpp"
 #include "lec6/transport/modbus_tcp_master.hpp"
 #include "lec6/transport/tcp_link.hpp"
@@ -51,6 +54,12 @@ std::unique_ptr<OpenPort> open_port(const transport::PortSpec& spec, const PortO
       break;
     }
     case transport::PortKind::Tcp: {
+      if (options.record) {
+        throw InvalidArgument(fmt::format(
+            "--record records a serial line (Modbus RTU); {} is Modbus TCP: record on the "
+            "machine that owns the line (lec serve --record FILE)",
+            spec.host));
+      }
       transport::ModbusTcpOptions mo;
       mo.line = line_timing(options);
       // The gateway queues us behind other clients on its line: a second on
@@ -70,7 +79,12 @@ std::unique_ptr<OpenPort> open_port(const transport::PortSpec& spec, const PortO
     }
   }
   if (port->link_) {
-    port->master_ = std::make_unique<client::RtuMaster>(*port->link_, rtu_options(options));
+    client::Link* link = port->link_.get();
+    if (options.record) {
+      port->recording_ = std::make_unique<transport::RecordingLink>(*link, options.record);
+      link = port->recording_.get();
+    }
+    port->master_ = std::make_unique<client::RtuMaster>(*link, rtu_options(options));
   }
   port->description_ = port->master_->describe();
   return port;

@@ -8,6 +8,7 @@
 #include <sys/eventfd.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -23,6 +24,9 @@
 #include <fmt/format.h>
 
 #include "lec6/client/link.hpp"
+#include "lec6/lec/memory_map.hpp"
+#include "lec6/modbus/pdu.hpp"
+#include "twin/lumped_writer.hpp"
 #include "twin/state_saver.hpp"
 #include "twin/trace_mirror.hpp"
 
@@ -38,6 +42,31 @@ using transport::UniqueFd;
 constexpr int kPtySource = 0;
 constexpr int kNoSource = -1;
 constexpr int kEverySource = -2;  // idle-line noise: every master hears it
+constexpr int kOtherMaster = -4;  // SimServerOptions::other_master_period
+
+speed_t speed_of(uint32_t baud) {
+  switch (baud) {
+    case 9600:
+      return B9600;
+    case 19200:
+      return B19200;
+    case 38400:
+      return B38400;
+    case 57600:
+      return B57600;
+    case 115200:
+      return B115200;
+    default:
+      return B230400;
+  }
+}
+
+// What a UART at the wrong speed makes of bytes: fewer of them, none the same.
+modbus::Bytes garble(std::span<const uint8_t> bytes) {
+  modbus::Bytes out;
+  for (std::size_t i = 0; i < bytes.size(); i += 2) out.push_back(static_cast<uint8_t>(bytes[i] ^ 0x5A));
+  return out;
+}
 
 timespec to_timespec(Duration d) {
   if (d < Duration::zero()) d = Duration::zero();
@@ -96,7 +125,13 @@ struct SimServer::Impl {
   int next_source = kPtySource + 1;
   bool pty_full_warned = false;
 
+  std::optional<TimePoint> next_other_query;  // SimServerOptions::other_master_period
+  modbus::Bytes other_query;
+
   std::optional<TraceMirror> mirror;  // --trace
+  std::optional<LumpedWriter> tap;    // --tap
+  std::optional<LumpedWriter> usb;    // --usb-latency: the master pty's replies
+  bool tap_full_warned = false;
   StateSaver saver;
 
   std::atomic<uint64_t> bytes_in{0}, replies_sent{0}, replies_undeliverable{0}, accepted{0};
@@ -107,6 +142,12 @@ struct SimServer::Impl {
         bus(b),
         options(o),
         saver(b, {o.state_file, o.save_interval, o.state_carry, o.warn}) {
+    if (options.other_master_period > Duration::zero()) {
+      next_other_query = clock.now() + options.other_master_period;
+      other_query = *modbus::encode_request(
+          {options.other_master_id,
+           modbus::ReadRegistersRequest{lec::kStateData, lec::kStateDataRegisters}});
+    }
     if (options.trace) {
       mirror.emplace(bus.line().line.silent_interval(),
                      real ? modbus::FrameEnd::Silence : modbus::FrameEnd::LengthOrSilence, origin,
@@ -116,6 +157,38 @@ struct SimServer::Impl {
 
   void warn(const std::string& text) {
     if (options.warn) options.warn(text);
+  }
+
+  // The ptys exist only once the server's constructor is done.
+  void open_writers() {
+    if (self.tap_) tap.emplace(self.tap_->master_fd(), options.tap_latency, char_time, origin);
+    if (self.pty_ && options.usb_latency > Duration::zero())
+      usb.emplace(self.pty_->master_fd(), options.usb_latency, char_time, origin);
+  }
+
+  // Bytes on the line whose last bit is there at `last_byte`.
+  void on_line(std::span<const uint8_t> bytes, TimePoint last_byte) {
+    if (tap) tap->put(bytes, last_byte);
+  }
+
+  void flush_writers(TimePoint now) {
+    if (tap && !tap->flush(now) && !tap_full_warned) {
+      tap_full_warned = true;
+      warn(fmt::format("{}: the tap is not being read; its bytes are dropped until it is",
+                       self.tap_->client_path()));
+    }
+    if (usb && !usb->flush(now) && !pty_full_warned) {
+      pty_full_warned = true;
+      warn(fmt::format("{}: a reply could not be written; is a client reading it?",
+                       self.pty_->client_path()));
+    }
+  }
+
+  // Reads and discards what someone wrote to the tap: it is listen-only.
+  void drain_tap() {
+    std::array<uint8_t, 256> buf{};
+    while (::read(self.tap_->master_fd(), buf.data(), buf.size()) > 0) {
+    }
   }
 
   // ---- the bus -----------------------------------------------------------
@@ -153,6 +226,7 @@ struct SimServer::Impl {
     bytes_in += bytes.size();
     if (!real) {
       feed(bytes, t, source);
+      on_line(bytes, t);
       return;
     }
     // The virtual RS485 line: one character per char time from when the
@@ -161,6 +235,7 @@ struct SimServer::Impl {
       line_in = std::max(line_in, t) + char_time;
       feed(bytes.subspan(i, 1), line_in, source);
     }
+    on_line(bytes, line_in);
   }
 
   void collect(TimePoint now) {
@@ -187,6 +262,7 @@ struct SimServer::Impl {
     while (!outbox.empty() && outbox.front().at <= now) {
       Outgoing o = std::move(outbox.front());
       outbox.pop_front();
+      on_line(o.bytes, o.at);
       if (o.owner == kEverySource) {
         spread(o.bytes);
         continue;
@@ -199,9 +275,34 @@ struct SimServer::Impl {
     }
   }
 
+  // strict_baud: whether the master set its port to a rate other than the line's.
+  bool master_at_wrong_baud() const {
+    if (!options.strict_baud || !self.pty_) return false;
+    termios t{};
+    if (::tcgetattr(self.pty_->master_fd(), &t) != 0) return false;
+    return cfgetospeed(&t) != speed_of(bus.line().line.baud);
+  }
+
+  // Bytes the pty's master hears (garbled when it listens at the wrong rate).
+  ssize_t to_pty(const modbus::Bytes& bytes) {
+    const modbus::Bytes heard = master_at_wrong_baud() ? garble(bytes) : bytes;
+    const ssize_t n = ::write(self.pty_->master_fd(), heard.data(), heard.size());
+    return n == static_cast<ssize_t>(heard.size()) ? static_cast<ssize_t>(bytes.size()) : n;
+  }
+
   bool deliver(const Outgoing& o) {
+    if (o.owner == kOtherMaster) {  // the other master's reply: every master hears it
+      spread(o.bytes);
+      return true;
+    }
+    if (o.owner == kPtySource && self.pty_ && usb) {
+      // written at the adapter's tick (flush_writers), garbled at a wrong baud
+      usb->put(master_at_wrong_baud() ? garble(o.bytes) : o.bytes, o.at);
+      ++replies_sent;
+      return true;
+    }
     if (o.owner == kPtySource && self.pty_) {
-      const ssize_t n = ::write(self.pty_->master_fd(), o.bytes.data(), o.bytes.size());
+      const ssize_t n = to_pty(o.bytes);
       if (n == static_cast<ssize_t>(o.bytes.size())) {
         ++replies_sent;
         return true;
@@ -231,9 +332,10 @@ struct SimServer::Impl {
 
   // Noise goes to every master, best effort (not traced, not counted as replies).
   void spread(const modbus::Bytes& bytes) {
-    if (self.pty_) {
-      [[maybe_unused]] const ssize_t n =
-          ::write(self.pty_->master_fd(), bytes.data(), bytes.size());
+    if (self.pty_ && usb) {
+      usb->put(master_at_wrong_baud() ? garble(bytes) : bytes, clock.now());
+    } else if (self.pty_) {
+      [[maybe_unused]] const ssize_t n = to_pty(bytes);
     }
     for (auto& [source, c] : connections)
       c.pending.insert(c.pending.end(), bytes.begin(), bytes.end());
@@ -261,7 +363,16 @@ struct SimServer::Impl {
 
   // ---- the loop --------------------------------------------------------------
 
+  // The other master's next query, when due: on the line, and heard by every master.
+  void poll_other_master(TimePoint now) {
+    if (!next_other_query || *next_other_query > now) return;
+    next_other_query = now + options.other_master_period;
+    ingest(other_query, now, kOtherMaster);
+    spread(other_query);
+  }
+
   void step(TimePoint now) {
+    poll_other_master(now);
     advance(now);
     collect(now);
     // The last moments before a reply's instant: spin, the timer would be late
@@ -272,6 +383,7 @@ struct SimServer::Impl {
       while ((now = clock.now()) < at) cpu_relax();
     }
     flush_outbox(now);
+    flush_writers(now);
     saver.check(now);
   }
 
@@ -282,6 +394,9 @@ struct SimServer::Impl {
       min_into(d, outbox.front().at - (noise ? Duration{} : options.spin_before_write));
     }
     min_into(d, saver.due());
+    if (tap) min_into(d, tap->deadline());
+    if (usb) min_into(d, usb->deadline());
+    min_into(d, next_other_query);
     return d;
   }
 
@@ -290,8 +405,17 @@ struct SimServer::Impl {
     for (;;) {
       const ssize_t n = ::read(self.pty_->master_fd(), buf.data(), buf.size());
       if (n > 0) {
-        ingest(std::span<const uint8_t>(buf.data(), static_cast<std::size_t>(n)), clock.now(),
-               kPtySource);
+        const std::span<const uint8_t> bytes(buf.data(), static_cast<std::size_t>(n));
+        const TimePoint now = clock.now();
+        if (options.echo_adapter) {  // the adapter hears itself (best effort, as noise)
+          [[maybe_unused]] const ssize_t e = ::write(self.pty_->master_fd(), buf.data(), bytes.size());
+        }
+        if (master_at_wrong_baud()) {
+          const modbus::Bytes heard = garble(bytes);
+          ingest(heard, now, kPtySource);
+        } else {
+          ingest(bytes, now, kPtySource);
+        }
         continue;
       }
       if (n < 0 && errno == EINTR) continue;
@@ -336,7 +460,8 @@ struct SimServer::Impl {
     saver.start();
     std::vector<pollfd> fds;
     std::vector<int> sources;  // per entry of fds: -2 stop, -3 listener, else a source
-    constexpr int kStop = -2, kListener = -3;
+    constexpr int kStop = -2, kListener = -3, kTap = -4;
+    open_writers();
     for (;;) {
       step(clock.now());
 
@@ -351,6 +476,10 @@ struct SimServer::Impl {
       if (self.listener_) {
         fds.push_back({self.listener_->fd(), POLLIN, 0});
         sources.push_back(kListener);
+      }
+      if (self.tap_) {
+        fds.push_back({self.tap_->master_fd(), POLLIN, 0});
+        sources.push_back(kTap);
       }
       for (const auto& [source, c] : connections) {
         const short events = static_cast<short>(POLLIN | (c.pending.empty() ? 0 : POLLOUT));
@@ -379,6 +508,8 @@ struct SimServer::Impl {
           stop = true;
         } else if (source == kListener) {
           accept_all();
+        } else if (source == kTap) {
+          drain_tap();
         } else if (source == kPtySource) {
           if (re & (POLLIN | POLLERR | POLLHUP)) read_pty();
         } else {
@@ -408,12 +539,14 @@ SimServer::SimServer(sim::Bus& bus, SimServerOptions options)
     listener_ = std::make_unique<transport::TcpListener>(options_.tcp->second, options_.tcp->first);
   }
   // Last: the symlink appears only once everything else is ready.
+  if (!options_.tap_link.empty()) tap_ = std::make_unique<transport::Pty>(options_.tap_link);
   if (options_.pty) pty_ = std::make_unique<transport::Pty>(options_.pty_link);
 }
 
 SimServer::~SimServer() {
   impl_.reset();  // joins the saver
   pty_.reset();   // removes the symlink
+  tap_.reset();
 }
 
 void SimServer::run() {
@@ -446,6 +579,7 @@ SimServer::Stats SimServer::stats() const {
   s.save_failures = impl_->saver.failures();
   s.lateness_total = Duration(impl_->late_total_ns.load());
   s.lateness_max = Duration(impl_->late_max_ns.load());
+  s.tap_bytes_dropped = impl_->tap ? impl_->tap->bytes_dropped() : 0;
   return s;
 }
 

@@ -1,4 +1,5 @@
-// "Did you mean": the nearest command for a typo, nothing for a word far from all.
+// "Did you mean": the nearest command for a typo, nothing for a word far from all
+// (the rule itself: tests/lec/nearest_test.cpp).
 
 #include "cli/suggest.hpp"
 
@@ -6,24 +7,6 @@
 
 namespace lec6::cli {
 namespace {
-
-TEST(Suggest, EditDistanceCountsInsertionsDeletionsSubstitutionsAndSwaps) {
-  EXPECT_EQ(edit_distance("status", "status"), 0u);
-  EXPECT_EQ(edit_distance("stauts", "status"), 1u);  // two neighbours swapped
-  EXPECT_EQ(edit_distance("satus", "status"), 1u);
-  EXPECT_EQ(edit_distance("stop", "step"), 1u);
-  EXPECT_EQ(edit_distance("hom", "home"), 1u);
-  EXPECT_EQ(edit_distance("", "move"), 4u);
-}
-
-TEST(Suggest, NearestIsATypoNotAGuess) {
-  const std::vector<std::string> names{"status", "move", "home", "serve", "sim", "step"};
-  EXPECT_EQ(nearest("stauts", names), "status");
-  EXPECT_EQ(nearest("mvoe", names), "move");
-  EXPECT_EQ(nearest("serv", names), "serve");
-  EXPECT_EQ(nearest("frobnicate", names), std::nullopt);
-  EXPECT_EQ(nearest("xy", names), std::nullopt);  // too short to tell a typo from another word
-}
 
 TEST(Suggest, TheCommandWordSkipsOptionsAndTheirValues) {
   CLI::App app;

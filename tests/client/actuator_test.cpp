@@ -341,3 +341,27 @@ TEST(Actuator, RetargetWritesOnlyThePositionAndTheStart) {
 
 }  // namespace
 }  // namespace lec6::client
+
+namespace lec6::client {
+namespace {
+
+// A stop whose RESET ← 1 was heard but whose replies were all lost still
+// sends RESET ← 0: otherwise RESET stays at 1 in the controller and the next
+// stop (the next RESET ← 1) is no rising edge, so no stop at all.
+TEST(Actuator, AStopReleasesResetEvenWhenTheRisingHalfGotNoAnswer) {
+  testing::SimFixture f;
+  f.axis->set_serial_mode(true);
+  sim::FaultConfig faults;
+  faults.drop = 1.0;  // the controller hears every query; its replies are lost
+  f.bus.set_faults(faults);
+  f.sent.clear();
+  EXPECT_THROW(f.axis->stop(), TransportError);
+  const modbus::Bytes reset_off =
+      *modbus::encode_request({1, modbus::WriteCoilRequest{0x1B, modbus::kCoilOff}});
+  EXPECT_FALSE(f.sent.empty());
+  EXPECT_EQ(f.sent.back(), reset_off) << "the falling half was never sent";
+  EXPECT_FALSE(f.bus.find(1)->control().test(lec::Coil::RESET)) << "RESET left at 1";
+}
+
+}  // namespace
+}  // namespace lec6::client

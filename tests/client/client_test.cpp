@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "lec6/client/rtu_master.hpp"
 #include "lec6/modbus/timing.hpp"
 #include "sim_fixture.hpp"
 
@@ -226,6 +227,28 @@ TEST(Client, ReadsAllStepsInTenTransactions) {
   EXPECT_EQ(steps[0], step_150mm());
   EXPECT_EQ(steps[63].position_001mm, -2500);
   EXPECT_TRUE(steps[5].is_blank());
+}
+
+// The line settings of ClientOptions act only on a Client made on a Link: a
+// Client given a Master refuses them rather than drop them unseen.
+TEST(Client, OnAMasterRefusesTheLineSettingsItCannotApply) {
+  SimFixture f;
+  RtuMaster master(*f.link);
+  ClientOptions o;
+  o.trace = [](const TraceEvent&) {};
+  o.timeout_margin = std::chrono::milliseconds(200);
+  try {
+    Client c(master, o);
+    FAIL() << "a trace and a margin that would do nothing were taken";
+  } catch (const lec6::InvalidArgument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("timeout_margin, trace"));
+    EXPECT_THAT(e.what(), HasSubstr("RtuOptions"));
+  }
+  ClientOptions interrupted;
+  interrupted.interrupted = [] { return false; };
+  EXPECT_THROW({ Client c(master, interrupted); }, lec6::InvalidArgument);
+  Client ok(master, {.id = 1, .retries = 0});  // id and retries act on any master
+  EXPECT_FALSE(ok.read_flags().busy());
 }
 
 }  // namespace

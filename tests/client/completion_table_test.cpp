@@ -235,7 +235,7 @@ TEST_P(Table, NeverEarlyNeverHung) {
       }
       EXPECT_EQ(outcome_name(r.outcome), outcome_name(op.outcome)) << r.describe();
       EXPECT_LT(f->clock.now() - began, std::chrono::seconds(60)) << "past its deadline";
-      const int32_t tol = op.outcome == MoveOutcome::Reached ? r.goal.band_001mm : 1;
+      const int32_t tol = op.outcome == MoveOutcome::Reached ? r.goal.in_position_001mm : 1;
       EXPECT_LE(std::abs(r.state.position_001mm - op.where_001mm), tol) << r.describe();
       EXPECT_TRUE(
           judged_in_time(*f, sampled_at(*f, r.started_at + r.elapsed), r.state.position_001mm));

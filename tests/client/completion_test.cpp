@@ -38,7 +38,7 @@ lec::StateData state(int32_t pos, int32_t target, uint16_t thrust = 0) {
 MoveGoal positioning(int32_t target, int32_t band = 50) {
   MoveGoal g;
   g.target_001mm = target;
-  g.band_001mm = band;
+  g.in_position_001mm = band;
   return g;
 }
 
@@ -46,7 +46,7 @@ MoveGoal pushing(int32_t start, int32_t distance, uint16_t trigger = 40) {
   MoveGoal g;
   g.operation = Operation::Pushing;
   g.target_001mm = start;
-  g.band_001mm = distance;
+  g.pushing_distance_001mm = distance;
   g.trigger_level_pct = trigger;
   return g;
 }

@@ -81,22 +81,6 @@ TEST(Silence, CtrlCNeverStopsAStop) {
   EXPECT_EQ(f.sent.size(), 3u);
 }
 
-TEST(Interrupt, OnlyStopsAndReleasesGoThrough) {
-  auto coil = [](lec::Coil c, bool on) {
-    return modbus::Request{
-        modbus::WriteCoilRequest{lec::address(c), on ? modbus::kCoilOn : modbus::kCoilOff}};
-  };
-  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::RESET, true)));
-  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::RESET, false)));
-  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::HOLD, true)));
-  EXPECT_FALSE(stops_or_releases(coil(lec::Coil::HOLD, false)));  // resumes motion
-  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::SVON, false)));
-  EXPECT_FALSE(stops_or_releases(coil(lec::Coil::SVON, true)));
-  EXPECT_TRUE(stops_or_releases(coil(lec::Coil::JOG_PLUS, false)));
-  EXPECT_FALSE(stops_or_releases(coil(lec::Coil::DRIVE, true)));
-  EXPECT_FALSE(stops_or_releases(modbus::ReadRegistersRequest{0x9000, 7}));
-}
-
 TEST(Silence, IdleUntilListensToTheLine) {
   SimFixture f;
   noise(f, 200);

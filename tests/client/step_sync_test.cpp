@@ -19,6 +19,7 @@
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/modbus/crc.hpp"
 #include "lec6/transport/file.hpp"
+#include "lec6/transport/step_table_file.hpp"
 
 namespace lec6::client {
 namespace {
@@ -30,17 +31,9 @@ using ::testing::AllOf;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-// Tables in files, as `lec step` keeps them (cli/step_files.cpp).
-Expected<StepTable, lec::TableErrors> read_table_file(const std::filesystem::path& path) {
-  auto text = transport::read_file(path);
-  if (!text) return unexpected(lec::TableErrors{text.error()});
-  return lec::parse_table(*text, lec::table_format_for_path(path.string()));
-}
-Expected<void, std::string> write_table_file(const std::filesystem::path& path,
-                                             const StepTable& table) {
-  return transport::write_file_atomically(
-      path, lec::format_table(table, lec::table_format_for_path(path.string())));
-}
+// Tables in files, as `lec step backup/restore` keeps them.
+using transport::read_table_file;
+using transport::write_table_file;
 
 StepData step(int32_t position_001mm, uint16_t speed = 500) {
   StepData s;
@@ -414,6 +407,35 @@ TEST_F(StepSync, CancelStopsBetweenSteps) {
   EXPECT_THAT(r.steps_with(StepOutcome::Written), ElementsAre(1u));
   EXPECT_THAT(r.steps_with(StepOutcome::NotAttempted), ElementsAre(2u, 3u));
   EXPECT_THAT(written_steps(), ElementsAre(1u));
+}
+
+// Ctrl-C that lands while a step's FC10 is on the wire (sent, reply not yet
+// in): reported as cancelled, the step as possibly written, the rest not
+// attempted; nothing escapes as an exception.
+TEST_F(StepSync, ACancelMidTransactionIsReportedWithWhatMayBeWritten) {
+  StepTable want = backup_steps(*f.client);
+  for (unsigned n : {1u, 2u, 3u}) want.steps[n].speed_mm_s = 10;
+  const RestorePlan plan = plan_restore(*f.client, want);
+  bool interrupted = false;
+  ClientOptions o;
+  o.interrupted = [&] { return interrupted; };
+  f.reconnect(o);
+  int step_writes = 0;
+  f.on_trace = [&](const TraceEvent& e) {
+    // The second step's write is on the wire: Ctrl-C now.
+    if (e.outgoing && e.bytes.size() > 1 && e.bytes[1] == 0x10 && ++step_writes == 2) {
+      interrupted = true;
+    }
+  };
+  RestoreReport r;
+  ASSERT_NO_THROW(r = apply_restore(*f.client, plan));
+  EXPECT_EQ(r.failure, FailureKind::Cancelled);
+  EXPECT_THAT(r.steps_with(StepOutcome::Written), ElementsAre(1u));
+  EXPECT_THAT(r.steps_with(StepOutcome::Failed), ElementsAre(2u));
+  EXPECT_THAT(r.steps_with(StepOutcome::NotAttempted), ElementsAre(3u));
+  EXPECT_TRUE(r.steps[2].maybe_written);
+  EXPECT_THAT(r.steps[2].error, HasSubstr("interrupted"));
+  EXPECT_THAT(r.summary(), HasSubstr("1 failed"));
 }
 
 TEST_F(StepSync, ABadFileGivesNoTableAndSoNothingToSend) {

@@ -67,7 +67,7 @@ refused "speed 0" "speed" "1 to 65535" -- lec --trace move --to 10 --speed 0
 refused "speed 70000" "speed" "1 to 65535" -- lec --trace move --to 10 --speed 70000
 refused "moving force" "moving-force" "0 to 300" -- lec --trace move --to 10 --moving-force 301
 refused "pushing force" "push" "0 to 100" -- lec --trace move --to 10 --push 101
-refused "in-position 0" "in-position" "0.01" -- lec --trace move --to 10 --in-position 0
+refused "in-position below 0" "in-position" "0.00 to" -- lec --trace move --to 10 --in-position=-0.01
 refused "trigger without push" "--trigger" "--push" -- lec --trace move --to 10 --trigger 20
 refused "area" "--area" "A:B" -- lec --trace move --to 10 --area 100
 refused "step and to" "exactly one" -- lec --trace move --step 1 --to 5

@@ -46,6 +46,9 @@ expect_exit 0 "move json" -- lec move --to 150 --speed 400 --json
 [[ $(json 'd["timeline"]["busy_up_ms"] > 10 and d["timeline"]["busy_down_ms"] > d["timeline"]["busy_up_ms"] and d["timeline"]["inp_ms"] >= d["timeline"]["busy_down_ms"]') == "True" ]] && ok || bad "timeline: $out"
 expect_exit 0 "move to where it is" -- lec move --to 150
 contains "at target" "reached 150.00 mm (INP, within ±0.50 mm)"
+# In position 0 (issue 24: real controllers accept it): INP exactly at the target.
+expect_exit 0 "in-position 0" -- lec move --to 160 --speed 16 --in-position 0
+contains "in-position 0" "reached 160.00 mm (INP, within ±0.00 mm)"
 
 expect_exit 0 "push" -- lec move --to 330 --push 50 --trigger 40 --push-speed 20 --in-position 30
 contains "push" "pushed: workpiece at 350.00 mm, thrust 50 % (INP)"

@@ -86,7 +86,7 @@ TEST(Validation, ABlankStepNamesEveryMissingField) {
   for (const auto& i : issues) fields.push_back(i.field);
   EXPECT_EQ(fields, (std::vector<StepField>{StepField::MovementMode, StepField::Speed,
                                             StepField::Acceleration, StepField::Deceleration,
-                                            StepField::PushingSpeed, StepField::InPosition}));
+                                            StepField::PushingSpeed}));  // in position 0 is valid
   EXPECT_TRUE(StepData{}.is_blank());
 }
 
@@ -112,7 +112,9 @@ TEST(StepFields, ParseChecksRangesAndUnits) {
   ASSERT_FALSE(decimals);
   EXPECT_NE(decimals.error().find("two decimals"), std::string::npos);
   EXPECT_FALSE(parse_field(StepField::Speed, "12.5"));
-  EXPECT_FALSE(parse_field(StepField::InPosition, "0"));
+  // In position 0 is accepted (field evidence, issue 24); below 0 is not.
+  EXPECT_EQ(*parse_field(StepField::InPosition, "0"), 0);
+  EXPECT_FALSE(parse_field(StepField::InPosition, "-0.01"));
   EXPECT_EQ(format_field(StepField::Position, 15000), "150.00");
   EXPECT_EQ(format_field(StepField::MovementMode, 2), "inc");
 }

@@ -33,6 +33,16 @@ TEST(Commands, AMoveInTheManualsUnits) {
   EXPECT_EQ(step->step, 3u);
 }
 
+// Issue 24: real controllers accept in position 0, so the HTTP API and MQTT
+// (both parse_command) do too; below 0 is refused, naming the field.
+TEST(Commands, InPositionZeroIsAccepted) {
+  auto c = parse_command("move", json{{"position_mm", 50}, {"speed_mm_s", 16}, {"in_position_mm", 0}});
+  ASSERT_TRUE(c) << c.error().message;
+  EXPECT_EQ(c->move.in_position_001mm, 0);
+  EXPECT_EQ(error_of("move", json{{"position_mm", 50}, {"in_position_mm", -0.01}}).field,
+            "in_position_mm");
+}
+
 TEST(Commands, BadValuesNameTheField) {
   auto e = error_of("move", json{{"position_mm", 150}, {"speed_mm_s", 70000}});
   EXPECT_EQ(e.field, "speed_mm_s");

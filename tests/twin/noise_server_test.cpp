@@ -9,37 +9,17 @@
 #include "lec6/client/client.hpp"
 #include "lec6/transport/serial_link.hpp"
 #include "lec6/twin/sim_server.hpp"
+#include "twin/served_twin.hpp"
 
 namespace lec6::twin {
 namespace {
 
 using namespace std::chrono_literals;
 
-class Served {
- public:
-  explicit Served(double noise_rate) : bus_({}, faults(noise_rate)) {
-    bus_.add(1, {}, SteadyClock{}.now());
-    SimServerOptions o;
-    o.pty = true;
-    server_ = std::make_unique<SimServer>(bus_, o);
-    thread_ = std::thread([this] { server_->run(); });
-  }
-  ~Served() {
-    server_->stop();
-    thread_.join();
-  }
-  std::string path() const { return server_->pty()->slave_path(); }
-  uint64_t noise_bytes() const { return bus_.stats().noise_bytes; }  // read after stop: racy
-
- private:
-  static sim::FaultConfig faults(double rate) {
-    sim::FaultConfig f;
-    f.noise_rate = rate;
-    return f;
-  }
-  sim::Bus bus_;
-  std::unique_ptr<SimServer> server_;
-  std::thread thread_;
+// A pty twin whose idle line makes `noise_rate` bytes of noise a second.
+struct Served : testing::ServedTwin {
+  explicit Served(double noise_rate)
+      : ServedTwin({1}, testing::pty_only(), {}, sim::FaultConfig{.noise_rate = noise_rate}) {}
 };
 
 TEST(NoiseOnThePty, AMasterHearsItWhileIdle) {

@@ -11,6 +11,7 @@
 #include "lec6/transport/serial_link.hpp"
 #include "lec6/twin/open_port.hpp"
 #include "lec6/twin/sim_server.hpp"
+#include "twin/served_twin.hpp"
 
 namespace lec6::twin {
 namespace {
@@ -19,21 +20,9 @@ using ::testing::HasSubstr;
 using transport::parse_port_spec;
 
 // A pty twin on its own thread for the test's duration.
-struct ServedTwin {
-  explicit ServedTwin(sim::Timing timing) : bus({{}, timing}) {
-    bus.add(1, {}, SteadyClock().now());
-    SimServerOptions o;
-    o.pty = true;
-    server = std::make_unique<SimServer>(bus, o);
-    thread = std::thread([this] { server->run(); });
-  }
-  ~ServedTwin() {
-    server->stop();
-    thread.join();
-  }
-  sim::Bus bus;
-  std::unique_ptr<SimServer> server;
-  std::thread thread;
+struct ServedTwin : testing::ServedTwin {
+  explicit ServedTwin(sim::Timing timing)
+      : testing::ServedTwin({1}, testing::pty_only(), sim::LineConfig{{}, timing}) {}
 };
 
 TEST(OpenPort, SimIsATwinInThisProcessWithTheGivenId) {
@@ -53,7 +42,7 @@ TEST(OpenPort, SerialDeviceSpeaksRtuWithTheGivenLineSettings) {
   PortOptions o;
   o.baud = 115200;
   o.wait_for_silence = false;
-  const std::string path = twin.server->pty()->client_path();
+  const std::string path = twin.server().pty()->client_path();
   auto port = open_port(parse_port_spec(path), o);
   EXPECT_EQ(port->twin(), nullptr);
   EXPECT_THAT(port->description(), HasSubstr(path));

@@ -31,6 +31,7 @@
 #include "lec6/transport/tcp_link.hpp"
 #include "lec6/twin/sim_server.hpp"
 #include "lec6/twin/state_file_io.hpp"
+#include "twin/served_twin.hpp"
 
 namespace lec6::twin {
 using namespace transport;
@@ -90,47 +91,8 @@ class TempDir {
   fs::path path_;
 };
 
-// A bus with controllers, served on a thread until the fixture ends.
-class Running {
- public:
-  Running(std::vector<uint8_t> ids, SimServerOptions options, sim::LineConfig line = {})
-      : bus_(line) {
-    for (uint8_t id : ids) bus_.add(id, {}, kClock.now());
-    server_ = std::make_unique<SimServer>(bus_, std::move(options));
-    thread_ = std::thread([this] {
-      try {
-        server_->run();
-      } catch (const std::exception& e) {
-        error_ = e.what();
-      }
-      done_ = true;
-    });
-  }
-  ~Running() { stop(); }
-
-  void stop() {
-    if (!thread_.joinable()) return;
-    server_->stop();
-    thread_.join();
-    EXPECT_EQ(error_, "");
-  }
-  SimServer& server() { return *server_; }
-  sim::Bus& bus() { return bus_; }
-  bool done() const { return done_; }
-
- private:
-  sim::Bus bus_;
-  std::unique_ptr<SimServer> server_;
-  std::thread thread_;
-  std::string error_;
-  std::atomic<bool> done_{false};
-};
-
-SimServerOptions pty_only() {
-  SimServerOptions o;
-  o.pty = true;
-  return o;
-}
+using testing::pty_only;
+using ServedTwin = testing::ServedTwin;
 
 // Round trip / limit. Scheduling (a loaded machine, sanitizers) only ever
 // adds delay, so the best of N round trips shows the twin's own timing: within
@@ -154,7 +116,7 @@ double median(std::vector<double> v) {
 // benchmark does; on a pty that must come out at the limit (wire(query) + Ts +
 // 4 ms + Td + wire(reply)): never below it, and the median within the margin.
 TEST(SimServer, ReadStateRoundTripOnAPtyMatchesTheLimit) {
-  Running twin({1}, pty_only());
+  ServedTwin twin({1}, pty_only());
   SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 38400});
   const Bytes query = read_state();
   const Duration limit = modbus::LineTiming{}.transaction_limit(query.size(), kReadStateReply);
@@ -190,7 +152,7 @@ TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
   line.line.baud = 9600;
   line.line.silent_interval_k = 2;
   line.line.delay_td = std::chrono::milliseconds(8);
-  Running twin({1}, pty_only(), line);
+  ServedTwin twin({1}, pty_only(), line);
   SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 9600});
   const Bytes query = echo(1, 0x1234);
   const Duration limit = line.line.transaction_limit(query.size(), query.size());
@@ -210,7 +172,7 @@ TEST(SimServer, SlowerLineAndLongerDelayStretchTheRoundTripToItsLimit) {
 TEST(SimServer, FastTimingAnswersWellWithinTheLimit) {
   sim::LineConfig line;
   line.timing = sim::Timing::Fast;
-  Running twin({1}, pty_only(), line);
+  ServedTwin twin({1}, pty_only(), line);
   SerialLink link(twin.server().pty()->slave_path());
   const Bytes query = read_state();
   const Duration limit = line.line.transaction_limit(query.size(), kReadStateReply);
@@ -234,7 +196,7 @@ TEST(SimServer, AQueryWrittenInPiecesIsOneFrame) {
   sim::LineConfig line;
   line.line.baud = 9600;
   line.line.silent_interval_k = 10;
-  Running twin({1}, pty_only(), line);
+  ServedTwin twin({1}, pty_only(), line);
   SerialLink link(twin.server().pty()->slave_path(), SerialOptions{.baud = 9600});
   const Bytes query = echo(1, 0xBEEF);
   link.write(std::span(query).first(3));
@@ -245,7 +207,7 @@ TEST(SimServer, AQueryWrittenInPiecesIsOneFrame) {
 // ---- routing, IDs, broadcast ------------------------------------------------------
 
 TEST(SimServer, EachIdAnswersAndOthersAreSilent) {
-  Running twin({1, 2, 3}, pty_only());
+  ServedTwin twin({1, 2, 3}, pty_only());
   SerialLink link(twin.server().pty()->slave_path());
   for (uint8_t id : {1, 2, 3}) {
     const Bytes q = echo(id, static_cast<uint16_t>(0x0100 + id));
@@ -258,7 +220,7 @@ TEST(SimServer, EachIdAnswersAndOthersAreSilent) {
 }
 
 TEST(SimServer, BroadcastWriteActsWithoutAReply) {
-  Running twin({1, 2}, pty_only());
+  ServedTwin twin({1, 2}, pty_only());
   SerialLink link(twin.server().pty()->slave_path());
   link.write(frame(0, modbus::WriteCoilRequest{0x30, modbus::kCoilOn}));
   EXPECT_TRUE(read_link(link, 1, 100ms).empty());
@@ -275,7 +237,7 @@ TEST(SimServer, TcpClientsShareTheBusAndGetTheirOwnReplies) {
   SimServerOptions o;
   o.tcp = std::make_pair(std::string("127.0.0.1"), uint16_t{0});
   o.pty = true;
-  Running twin({1}, o);
+  ServedTwin twin({1}, o);
   const uint16_t port = twin.server().tcp()->port();
   EXPECT_THAT(twin.server().endpoints(), HasSubstr("tcp://127.0.0.1:"));
   TcpLink a("127.0.0.1", port);
@@ -302,7 +264,7 @@ TEST(SimServer, TcpClientsShareTheBusAndGetTheirOwnReplies) {
 TEST(SimServer, AClientThatLeavesBeforeItsReplyDoesNotDisturbOthers) {
   SimServerOptions o;
   o.tcp = std::make_pair(std::string("127.0.0.1"), uint16_t{0});
-  Running twin({1}, o);
+  ServedTwin twin({1}, o);
   const uint16_t port = twin.server().tcp()->port();
   {
     TcpLink gone("127.0.0.1", port);
@@ -322,7 +284,7 @@ TEST(SimServer, StopEndsTheLoopPromptlyAndRemovesTheLink) {
   TempDir dir;
   SimServerOptions o = pty_only();
   o.pty_link = dir.path() / "lec0";
-  auto twin = std::make_unique<Running>(std::vector<uint8_t>{1}, o);
+  auto twin = std::make_unique<ServedTwin>(std::vector<uint8_t>{1}, o);
   EXPECT_TRUE(fs::is_symlink(dir.path() / "lec0"));
   EXPECT_EQ(fs::read_symlink(dir.path() / "lec0"), fs::path(twin->server().pty()->slave_path()));
   const TimePoint t0 = kClock.now();
@@ -358,7 +320,7 @@ TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
   SimServerOptions o = pty_only();
   o.state_file = state;
   o.save_interval = std::chrono::milliseconds(50);
-  auto twin = std::make_unique<Running>(std::vector<uint8_t>{1}, o);
+  auto twin = std::make_unique<ServedTwin>(std::vector<uint8_t>{1}, o);
   SerialLink link(twin->server().pty()->slave_path());
   std::vector<uint16_t> step(16, 0);
   step[0] = 1;      // ABS
@@ -390,7 +352,7 @@ TEST(SimServer, TraceShowsEachFrameDecoded) {
     std::lock_guard lock(m);
     lines.push_back(l);
   };
-  Running twin({1}, o);
+  ServedTwin twin({1}, o);
   SerialLink link(twin.server().pty()->slave_path());
   const Bytes q = echo(1, 0x1234);
   link.write(q);

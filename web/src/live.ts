@@ -31,6 +31,8 @@ export class Live {
   readonly ops = new Topic<OpEvent>();
   readonly statsUpdate = new Topic<Map<string, LineStats>>();
   readonly link = new Topic<boolean>();
+  // The move history's health of an axis after each record (docs/history.md).
+  readonly health = new Topic<{ axis: string }>();
 
   private source: EventSource | null = null;
 
@@ -66,6 +68,7 @@ export class Live {
     });
     es.addEventListener("telemetry", (e) => this.onTelemetry(JSON.parse((e as MessageEvent).data)));
     es.addEventListener("op", (e) => this.onOp(JSON.parse((e as MessageEvent).data)));
+    es.addEventListener("health", (e) => this.health.emit(JSON.parse((e as MessageEvent).data)));
     es.addEventListener("stats", (e) => {
       const data = JSON.parse((e as MessageEvent).data) as { lines: { name: string; stats: LineStats }[] };
       for (const l of data.lines) this.stats.set(l.name, l.stats);

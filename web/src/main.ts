@@ -9,6 +9,7 @@ import { Live } from "./live";
 import { alarmsPage } from "./pages/alarms";
 import { axisPage } from "./pages/axis";
 import { busPage } from "./pages/bus";
+import { historyPage } from "./pages/history";
 import { overviewPage } from "./pages/overview";
 import { stepsPage } from "./pages/steps";
 import { twinPage } from "./pages/twin";
@@ -21,6 +22,7 @@ const routes: Record<string, Route> = {
   axis: { label: "Axis", make: axisPage, axis: true },
   steps: { label: "Step table", make: stepsPage, axis: true },
   alarms: { label: "Alarms", make: alarmsPage },
+  history: { label: "History", make: historyPage, axis: true },
   bus: { label: "Bus", make: busPage },
   twin: { label: "Twin", make: twinPage },
 };

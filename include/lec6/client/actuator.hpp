@@ -18,6 +18,9 @@
 //
 // Thread safety: one thread at a time, like the Client underneath. Used by
 // the CLI, `lec serve` and the Python bindings: nothing here knows about them.
+// Lifetime: an Actuator keeps a reference to its Client, which must outlive
+// it; it holds no other state between calls, so any number of Actuators may
+// be made on one Client (one at a time in use) and thrown away.
 
 #include <chrono>
 #include <functional>
@@ -40,8 +43,10 @@ struct Progress {
 struct WaitOptions {
   std::function<void(const Progress&)> progress;  // called after every poll
   std::function<bool()> cancel;                   // polled between transactions
-  // From the start of one poll (flags, then state) to the start of the next;
-  // 0: back to back at the wire's speed. `lec serve` polls at a sane rate.
+  // From the start of one poll (flags, then state) to the start of the next,
+  // waited with Client::idle_until (the line stays free for others meanwhile,
+  // e.g. other threads on a SharedMaster); 0 (the default, and what `lec`
+  // uses): back to back at the wire's speed.
   Duration poll_interval{};
   CompletionOptions completion{};  // the start window
 };

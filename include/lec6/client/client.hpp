@@ -46,8 +46,10 @@ enum class Retry {
 struct ClientOptions {
   uint8_t id = 1;
   int retries = 2;  // for Retry::Safe requests
-  // For a Client made on a Link (Modbus RTU): the line and the controller's
-  // settings, see RtuOptions. Ignored when the Client is given a Master.
+  // For a Client made on a Link (Modbus RTU) only: the line and the
+  // controller's settings, see RtuOptions. A Client given a Master refuses them
+  // (InvalidArgument, naming them) when they differ from these defaults: the
+  // master has its own (RtuOptions, twin::PortOptions).
   unsigned silent_interval_k = 1;                           // the controller's "Silent INT"
   Duration delay_td = std::chrono::milliseconds(5);         // the controller's "Min Resp delay"
   Duration timeout_margin = std::chrono::milliseconds(50);  // added to Tx
@@ -57,7 +59,13 @@ struct ClientOptions {
 };
 
 // Thread safety: one thread at a time (a Client owns its line while a call
-// runs; lec serve shares a line between clients with its scheduler instead).
+// runs). To share a line between threads, give each thread its own Client on
+// one client::SharedMaster (shared_master.hpp); lec serve shares a line with
+// its scheduler instead.
+// Lifetime: a Client made on a Link keeps a reference to the Link (its own
+// RtuMaster is inside it); one given a Master keeps a reference to the Master.
+// Either must outlive the Client. ClientOptions' callbacks (trace, interrupted)
+// are called on the thread making the call and must stay valid as long.
 class Client {
  public:
   // Modbus RTU on a byte link (serial port, RTU over TCP, the in-process twin).

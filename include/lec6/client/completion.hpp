@@ -39,6 +39,10 @@
 //
 // The start window must exceed the controller's BUSY delay plus its
 // shortest BUSY pulse (the field profile: 20 + 60 ms).
+//
+// Thread safety: a Completion is one move's and one thread's; it does no I/O
+// and keeps no references (the MoveStart and the polls are copied in), so it
+// may outlive the Client that fed it. The free functions are pure.
 
 #include <optional>
 

@@ -9,6 +9,11 @@
 //   Follower f(axis, {.move = {.speed_mm_s = 200}});
 //   while (auto p = newest_setpoint()) f.apply(*p);   // drop stale ones yourself
 //   auto r = f.finish(axis.deadline_in(seconds(30)));  // wait for the last one
+//
+// Thread safety and lifetime: one thread at a time. A Follower keeps a
+// reference to its Actuator (which keeps one to its Client), so both must
+// outlive it; nothing else may use that Client while the Follower follows
+// (a SharedMaster lets other threads share the line through Clients of their own).
 
 #include <cstdint>
 #include <optional>

@@ -3,6 +3,9 @@
 // controller showed at the end, and a timeline of the flags. Every front end
 // prints MoveResult::describe(), so an engineer reads the same sentence in
 // `lec move`, `lec serve` and the Python bindings.
+//
+// Thread safety: plain values (no references, no I/O); copies may be used
+// from any thread, one writer at a time. The functions are pure.
 
 #include <chrono>
 #include <cstdint>
@@ -64,8 +67,12 @@ struct MoveGoal {
   // Positioning: the target (INC already added to the previous target);
   // pushing: the pushing start; homing: 0 (the origin).
   int32_t target_001mm = 0;
-  // Positioning: the in-position width; pushing: the pushing distance.
-  int32_t band_001mm = 0;
+  // Positioning and homing: the in-position width, ± around the target
+  // (the step's "In position" field). 0 for a push.
+  int32_t in_position_001mm = 0;
+  // Pushing: the pushing distance beyond the pushing start (the same
+  // step field, which means this when the step pushes). 0 otherwise.
+  int32_t pushing_distance_001mm = 0;
   uint16_t trigger_level_pct = 0;  // pushing
   // Direct moves with keep: the values that came from the controller, not
   // from this command ("in position 20.00 mm"); describe() names them.

@@ -22,7 +22,8 @@
 // and then nothing was written.
 //
 // Files are not this layer's: the table is text (lec/step_table.hpp) and
-// `lec step backup/restore` reads and writes it (cli/step_files.cpp).
+// `lec step backup/restore` reads and writes it with
+// transport/step_table_file.hpp (read_table_file, write_table_file).
 //
 // Thread safety: the functions use the Client they are given, from the calling thread; one at a
 // time per Client.

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -63,6 +64,9 @@ struct SimLineConfig {
   double initial_position_mm = 10;
   double drop_rate = 0, corrupt_rate = 0, garbage_rate = 0;
   uint64_t seed = 1;
+  // Axes configured on the line but not on the twin: a dead ID (nothing answers).
+  std::set<uint8_t> absent_ids;
+  double wear_pct_per_m = 0;  // sim::ActuatorConfig::wear_pct_per_m (docs/history.md)
 };
 
 struct LineConfig {
@@ -91,6 +95,9 @@ struct LineConfig {
   bool allow_broadcast = false;  // unit id 0 from Modbus TCP: a broadcast write
   std::optional<ListenerConfig> modbus_tcp;
   std::optional<ListenerConfig> rtu_tcp;
+  // `lec serve --record FILE`: every frame of this line into a capture file
+  // (docs/capture-format.md); empty: none.
+  std::string record;
 
   Duration cache_max_age() const;
 };
@@ -128,11 +135,28 @@ struct MqttConfig {
   BrokerUrl url() const { return parse_broker_url(broker); }
 };
 
+// The move history, odometer and drift warnings (docs/history.md).
+struct HistoryConfig {
+  std::filesystem::path state_dir;  // history.db lives here
+  double max_age_days = 365;
+  double max_size_mb = 100;
+  unsigned queue = 4096;  // records waiting for the disk; beyond: dropped and counted
+  double drift_threshold_pct = 10;
+  unsigned drift_baseline_moves = 20;
+  double drift_tolerance_mm = 0.5;
+  struct Service {
+    std::string what;  // "lubricate"
+    std::optional<double> every_km, every_moves, every_hours;
+  };
+  std::vector<Service> services;
+};
+
 struct ServeConfig {
   std::string source;  // the file read, or "command line"
   std::vector<LineConfig> lines;
   std::optional<HttpConfig> http;
   std::optional<MqttConfig> mqtt;
+  std::optional<HistoryConfig> history;  // issue 26
 
   // The axis called `name`, with its line; nullopt when there is none.
   struct Found {
@@ -159,6 +183,7 @@ struct FlagConfig {
   std::string http = "127.0.0.1:8080";        // empty: none
   std::string token;
   bool fast_sim = false;
+  std::string state_dir;  // empty: no move history
 };
 ServeConfig config_from_flags(const FlagConfig& flags);
 

@@ -33,6 +33,9 @@ class HttpServer;
 class HttpApi;
 class MqttBridge;
 class Operations;
+namespace history {
+class History;
+}
 
 // An axis of the daemon, by name.
 struct AxisRef {
@@ -67,16 +70,21 @@ class Daemon {
   Operations& operations() noexcept { return *ops_; }
   // The HTTP API, when an HTTP listener is configured.
   HttpApi* http_api() noexcept { return api_.get(); }
+  // The move history (issue 26), when configured (history: / --state-dir).
+  history::History* history() noexcept { return history_.get(); }
 
  private:
   void start_lines();
   void warn_if_telemetry_overfills(const LineConfig& lc, const SchedulerConfig& s);
   void start_listeners();
+  void start_history();
   void begin_stop();
   void tick_stats();
 
   ServeConfig config_;
   Log log_;
+  // Before everything that feeds it, so that it goes last.
+  std::unique_ptr<history::History> history_;
   asio::io_context io_;
   std::map<std::string, std::unique_ptr<Line>, std::less<>> lines_;
   std::vector<AxisRef> axes_;

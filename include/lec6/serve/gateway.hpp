@@ -44,6 +44,9 @@ struct LineRequest {
   modbus::RequestFrame frame;
   Duration max_cache_age{};
   int attempts = 1;
+  // A PLC's stop is a stop too: RESET, HOLD, SVON off… go at Emergency
+  // (priority_of, the one rule), everything else at Command.
+  Priority priority = Priority::Command;
 };
 using GatewayDecision = std::variant<LocalAnswer, LineRequest>;
 

@@ -15,10 +15,13 @@
 //                                           write, nothing written; bad rows: 400 with every error
 //   POST /api/axes/{name}/steps[?dry_run=1] restore it: only differing steps written, read back
 //   GET  /api/axes/{name}/alarms            active alarms and the 16-group history
+//   GET  /api/axes/{name}/history           recorded motions (filters, paging, CSV), and
+//   GET  /api/axes/{name}/health            odometer, drift warnings (history/history_http.hpp)
 //   GET  /api/lines/{line}/twin             the built-in twin's settings (sim lines)
 //   POST /api/lines/{line}/twin             change them: workpiece, fault rates
 //   GET  /api/fields                        the step fields: ranges, defaults, rules
-//   GET  /api/events                        Server-Sent Events: hello, telemetry, op, stats
+//   GET  /api/events                        Server-Sent Events: hello, telemetry, op, stats,
+//                                           history, drift, health
 //   GET  /metrics                           Prometheus text
 //   GET  /…                                 the dashboard's files
 //

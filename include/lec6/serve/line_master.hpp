@@ -4,7 +4,7 @@
 // completion logic) run unchanged inside the daemon, while the line's
 // scheduler decides when each of their transactions goes out.
 //
-// Priorities: stop-type writes (RESET, HOLD, SVON off, JOG off) go first
+// Priorities: stops (client::stops_or_releases, the one rule) go first
 // (Priority::Emergency); other writes at `writes`; reads at `reads` (an
 // operation polling for completion reads at Priority::Completion).
 //
@@ -19,8 +19,9 @@
 
 namespace lec6::serve {
 
-// The priority a request from a client at `base` gets: stop-type writes are
-// always Emergency.
+// The priority a client's request gets: a stop (client::stops_or_releases)
+// is always Emergency; other writes `writes`, reads `reads`. Every front-end
+// (operations, Modbus TCP, RTU over TCP) classifies with this.
 Priority priority_of(const modbus::RequestFrame& frame, Priority reads, Priority writes);
 
 // What a failed job means to a Client: the TransportError it would have met

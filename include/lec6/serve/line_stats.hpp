@@ -31,6 +31,14 @@ struct LatencyStats {
   std::array<uint64_t, kLatencyBucketsMs.size()> buckets{};  // cumulative: ≤ bound
   double p50_ms = 0;
   double p99_ms = 0;
+  // Submit → the request's frame on the wire (its first attempt), of the
+  // requests that reached the line: how long a stop waits behind the queue.
+  double wait_p50_ms = 0;
+  double wait_p99_ms = 0;
+  double wait_max_ms = 0;
+  uint64_t wait_count = 0;
+  // Emergency only: the last waits, oldest first (each stop's own figure).
+  std::vector<double> recent_waits_ms;
 };
 
 struct DeviceCounters {
@@ -64,6 +72,8 @@ class LineStats {
   void exchange(uint8_t id, TimePoint start, TimePoint end, Duration limit, ExchangeResult result);
   // A request answered (from the line or the cache), submit → reply.
   void latency(Priority p, Duration d);
+  // A request's first attempt went on the wire `d` after its submit.
+  void wait(Priority p, Duration d);
   void cache_hit() { ++cache_hits_; }
 
   LineStatsSnapshot snapshot(TimePoint now,
@@ -85,6 +95,10 @@ class LineStats {
   std::array<LatencyStats, kPriorities> latency_{};
   std::array<std::vector<double>, kPriorities> recent_latency_ms_;  // ring, for percentiles
   std::array<std::size_t, kPriorities> ring_next_{};
+  std::array<std::vector<double>, kPriorities> recent_wait_ms_;  // ring, for percentiles
+  std::array<std::size_t, kPriorities> wait_next_{};
+  std::array<double, kPriorities> wait_max_ms_{};
+  std::array<uint64_t, kPriorities> wait_count_{};
   std::map<uint8_t, DeviceCounters> devices_;
 };
 

@@ -7,7 +7,10 @@
 // Rules:
 //   - one motion (home, move, run-step, jog) per axis at a time; another one
 //     is refused with 409 naming what runs and who started it (two clients
-//     fighting over one axis is how machines crash);
+//     fighting over one axis is how machines crash). A motion that ended
+//     without the axis seen stopped (5xx: deadline, no answer, line down)
+//     keeps the axis taken until a read of its flags, taken after that end,
+//     shows BUSY = 0;
 //   - stop, hold and reset always go, at Priority::Emergency, and the motion
 //     under way then ends as "stopped";
 //   - a hold-to-run jog lives while its lease is renewed (repeating the jog
@@ -55,6 +58,9 @@ struct OpStatus {
   std::string op;
   std::string source;  // "http 127.0.0.1", "mqtt", ...
   double running_s = 0;
+  // The operation ended without the axis seen stopped (deadline, no answer):
+  // the axis may still be moving; a new motion waits for BUSY = 0.
+  bool unsettled = false;
 };
 
 using OpObserver = std::function<void(const std::string& axis, const nlohmann::json& event)>;
@@ -78,7 +84,9 @@ class Operations {
   // the jog polls), the jog is released.
   void tie_jog(const std::string& axis, std::function<bool()> closed);
 
-  std::optional<OpStatus> running(const std::string& axis) const;
+  // The motion under way on `axis`, or the one that ended unsettled (until a
+  // read shows BUSY = 0: then nothing).
+  std::optional<OpStatus> running(const AxisRef& axis) const;
   std::optional<nlohmann::json> last_result(const std::string& axis) const;
   void add_observer(OpObserver observer);
 
@@ -89,12 +97,14 @@ class Operations {
 
  private:
   struct Running;
+  struct Unsettled;
   struct Slot;
   OpResult execute(const AxisRef& axis, const Command& cmd, Running& run);
   void start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
                     std::function<void(OpResult)> done);
-  void finished(const std::string& axis, const std::shared_ptr<Running>& run,
-                const OpResult& result);
+  void finished(const AxisRef& axis, const std::shared_ptr<Running>& run, const OpResult& result);
+  bool settled(const AxisRef& axis, const Unsettled& u) const;
+  OpResult unsettled_refusal(const AxisRef& axis, const Unsettled& u) const;
   void notify(const std::string& axis, const nlohmann::json& event);
 
   Log log_;

@@ -24,6 +24,13 @@
 // answers. So a dead device costs the others at most one timeout per probe
 // interval.
 //
+// Emergency jobs (stop, hold, reset: client::stops_or_releases) are the
+// exception to every refusal but two: they go to an offline controller (its
+// replies may be what is lost; the job counts as a probe), stay queued when
+// their controller goes offline, go ahead of everything, and get at least
+// `emergency_attempts` exchanges. Only a port that is gone (LineDown) or a
+// shutdown fails them, and the result says so.
+//
 // Reads of the telemetry blocks may be answered from the cache
 // (telemetry_cache.hpp) when the request allows it (Job::max_cache_age):
 // at submit, and again when their turn comes (what they read may have come
@@ -108,7 +115,10 @@ struct SchedulerConfig {
   Duration controls_period = std::chrono::milliseconds(500);  // Y10–Y30 within telemetry
   Duration background_max_wait = std::chrono::seconds(1);     // then it goes before telemetry
   Duration poll_max_wait = std::chrono::milliseconds(100);    // then polls take turns with commands
-  modbus::LineTiming timing;                                  // for the utilisation figure
+  // Exchanges an Emergency job (stop, hold, reset) gets on a line fault, at
+  // least: also to an offline controller (a lost reply must not cost the stop).
+  int emergency_attempts = 3;
+  modbus::LineTiming timing;  // for the utilisation figure
 };
 
 // The share of the line's limit that telemetry asks for at the configured
@@ -151,8 +161,10 @@ class Scheduler {
  public:
   Scheduler(SchedulerConfig config, TimePoint now);
 
-  // Queues a job. A cache hit, an offline controller or a down line complete
-  // it at once (collected like any completion).
+  // Queues a job. A cache hit, an offline controller (except for an
+  // Emergency job) or a down line complete it at once (collected like any
+  // completion). Throws InvalidArgument for a job at Priority::Telemetry
+  // (the scheduler's own reads: it would never be taken).
   JobId submit(Job job, TimePoint now);
   // Removes a job that has not started (its completion says Cancelled).
   // Returns false when it is on the wire or already done.
@@ -191,6 +203,7 @@ class Scheduler {
     JobId id;
     Job job;
     TimePoint submitted;
+    bool retry = false;  // a further attempt (its first one's wait is counted)
   };
   struct Flight {
     JobId id;
@@ -198,6 +211,11 @@ class Scheduler {
     TimePoint submitted;
     bool internal;  // telemetry, probe or background read: no client waits
   };
+  // A telemetry read or probe (not a background read: an alarm history read
+  // must not move or cut short an axis's telemetry sample).
+  static bool is_telemetry(const Flight& f) {
+    return f.internal && f.job.priority == Priority::Telemetry;
+  }
   struct Telemetry {
     AxisSchedule schedule;
     TimePoint due{};

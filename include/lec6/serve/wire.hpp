@@ -12,6 +12,7 @@
 #include "lec6/serve/config.hpp"
 #include "lec6/serve/line.hpp"
 #include "lec6/sim/bus.hpp"
+#include "lec6/transport/recording_link.hpp"
 
 namespace lec6::serve {
 
@@ -22,8 +23,9 @@ struct SimWire {
   std::unique_ptr<client::Link> link;
 };
 
-// Throws TransportError/LinkError when the port cannot be opened.
-Wire open_wire(const LineConfig& line);
+// Throws TransportError/LinkError when the port cannot be opened. With a
+// `record` tap, every byte of the line also goes to it (lec serve --record).
+Wire open_wire(const LineConfig& line, transport::LineTap record = {});
 
 // The scheduler settings a configured line implies.
 SchedulerConfig scheduler_config(const LineConfig& line);

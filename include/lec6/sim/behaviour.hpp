@@ -6,6 +6,11 @@
 // fixed decisions ("assumed" in the digest, docs/protocol-decisions.md), each
 // citing the digest section it implements.
 //
+// docs/twin-fidelity.md (the fidelity ledger) lists every behaviour a master
+// can observe, with its source (manual, field evidence, or assumption), the
+// code that implements it and how to confirm it with a capture of a real
+// controller. A change here changes a ledger row: update both.
+//
 // Thread safety: value types and pure functions; const objects may be shared between threads,
 // writes need the caller's synchronisation.
 
@@ -66,6 +71,11 @@ struct ActuatorConfig {
   // while pressing on the workpiece.
   double friction_thrust_pct = 10.0;
   double accel_thrust_pct = 50.0;
+  // Wear (issue 26): every metre the carriage travels adds this many % to
+  // its thrust (friction) and takes it off its speed (the drive runs slower
+  // against it), so a repeated move grows longer and needs more thrust. 0:
+  // never wears. E.g. 0.5 %/m: +10 % after 20 m.
+  double wear_pct_per_m = 0.0;
   // Equipment name at D000E (≤ 14 ASCII characters), unless a state file has one.
   std::string equipment_name = "LEC6-TWIN";
 
@@ -124,6 +134,13 @@ namespace behaviour {
 // Checks on a start, first failing wins: alarm present → refused (no new
 // alarm); SVRE = 0 → 98; blank step → 51; lec::validate → 48; ABS before
 // homing → 99; target beyond the stroke → 52/62.
+
+// Decision (field, issue 24; ledger R-FLAG-INP0, R-RANGE-INP): in position 0
+// (D9110) is valid, although the manual prints 1…2147483647: a published driver
+// written against real LECP6 hardware sends 0 and its move completes. With a
+// band of 0, INP rises only exactly on the target (0.01 mm units), which is
+// where every positioning profile ends; a pushing distance of 0 ends the push
+// at once (INP only if the workpiece is exactly at the pushing start).
 
 // Decision (assumed): RESET clears the alarm when lec::alarm_resettable() says
 // so (48–99); other codes (149) clear only with RESET while the servo is off

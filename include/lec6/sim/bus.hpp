@@ -68,9 +68,17 @@ struct FaultConfig {
   // from its own generator (seeded from `seed`), so turning noise on does not
   // change which replies the other faults hit.
   double noise_rate = 0.0;
+  // Two controllers set to one ID (each of these IDs is there twice): both
+  // answer, and with probability `collision` per reply their replies collide
+  // on the line: the master gets a reply whose header (ID, function, byte
+  // count: the same in both) is intact but whose data and CRC are garbled.
+  // Otherwise they happened to agree.
+  std::vector<uint8_t> duplicate_ids;
+  double collision = 0.5;
   uint64_t seed = 1;
   bool any() const noexcept {
-    return drop > 0 || corrupt > 0 || garbage > 0 || delay > 0 || noise_rate > 0;
+    return drop > 0 || corrupt > 0 || garbage > 0 || delay > 0 || noise_rate > 0 ||
+           !duplicate_ids.empty();
   }
 };
 
@@ -98,6 +106,7 @@ class Bus {
     uint64_t faults_delayed = 0;
     uint64_t noise_bytes = 0;  // idle-line noise put on the line
     uint64_t long_frames = 0;  // sound frames over 256 data bytes: exception 03
+    uint64_t collisions = 0;   // replies garbled by a second controller with the same ID
   };
 
   explicit Bus(const LineConfig& line = {}, const FaultConfig& faults = {});

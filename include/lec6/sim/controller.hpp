@@ -118,6 +118,8 @@ class Controller {
   double position_mm(TimePoint t);
   Kinematics physical(TimePoint t);
   double thrust_pct(TimePoint t);
+  // Metres travelled so far (wear_pct_per_m applies to it).
+  double travelled_m() const { return travelled_mm_ / 1000.0; }
   // The alarm present (X4F), if any, as of now() (does not advance).
   std::optional<uint8_t> alarm() const { return alarm_; }
   // A start taken whose BUSY has not risen yet (ActuatorConfig::busy_delay).
@@ -248,6 +250,10 @@ class Controller {
   double offset_mm_ = 0.0;  // reported = physical − offset
   int workpiece_side_ = 1;  // which side of the workpiece the carriage is on
   Op op_;
+  // Wear (ActuatorConfig::wear_pct_per_m): travel counted from BUSY up to down.
+  double travelled_mm_ = 0.0;
+  double busy_from_mm_ = 0.0;
+  double wear_factor() const { return 1.0 + config_.wear_pct_per_m / 100.0 * travelled_m(); }
 };
 
 }  // namespace lec6::sim

@@ -53,6 +53,22 @@ std::string errno_text(int err);
 // if poll itself fails.
 short poll_until(int fd, short events, TimePoint deadline, const Clock& clock);
 
+// What read_until got: bytes (> 0), or none because the deadline passed
+// (closed false) or because the other end is gone (closed true: end of file,
+// a hang-up).
+struct ReadSome {
+  std::size_t bytes = 0;
+  bool closed = false;
+};
+
+// Reads what is there from a non-blocking descriptor, waiting for POLLIN up to
+// `deadline` (a spurious wake-up waits again). `get(data, size)` makes one
+// attempt (read(2) or recv(2)) and returns its result. Errors other than
+// EINTR/EAGAIN throw lec6::SystemError with the errno and the call ("poll",
+// "read"), for the caller to word. The one read loop of every byte link.
+ReadSome read_until(int fd, std::span<uint8_t> buffer, TimePoint deadline, const Clock& clock,
+                    const std::function<ssize_t(uint8_t*, std::size_t)>& get);
+
 // Sets or clears O_NONBLOCK; returns false (errno set) on failure.
 bool set_nonblocking(int fd, bool on = true);
 

@@ -18,6 +18,10 @@
 // Every key is optional; a missing one keeps the value of `defaults`. Errors
 // (ProfileError) name the file, the line and the rule: "f.yaml:4:
 // actuator.busy_delay_ms: -5 is outside 0 to 10000 ms".
+//
+// Thread safety: the functions keep no state and may be called from any
+// thread; a FieldProfile is a plain value (no references to the file or text
+// it came from).
 
 #include <filesystem>
 #include <set>
@@ -25,6 +29,7 @@
 #include <string>
 #include <string_view>
 
+#include "lec6/error.hpp"
 #include "lec6/sim/behaviour.hpp"
 #include "lec6/sim/bus.hpp"
 
@@ -41,9 +46,11 @@ struct FieldProfile {
   std::set<std::string> given;
 };
 
-class ProfileError : public std::runtime_error {
+// A profile the twin cannot use (the message names the file, line and rule):
+// an InvalidArgument, so one catch (const lec6::Error&) catches it too.
+class ProfileError : public InvalidArgument {
  public:
-  using std::runtime_error::runtime_error;
+  using InvalidArgument::InvalidArgument;
 };
 
 // Reads and checks a profile file. Throws ProfileError.

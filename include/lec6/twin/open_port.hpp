@@ -13,6 +13,12 @@
 //
 // It lives in twin/ because `sim` needs the twin; the other kinds only need
 // transport/.
+//
+// Thread safety and lifetime: open_port may be called from any thread. An
+// OpenPort owns everything behind its master (link, clock, in-process twin) and
+// must outlive every Client made on master(); its master is used by one thread
+// at a time (client::SharedMaster shares it between threads). The twin() of a
+// `sim` port is touched only between exchanges, by the thread using the master.
 
 #include <functional>
 #include <memory>
@@ -22,6 +28,7 @@
 #include "lec6/client/master.hpp"
 #include "lec6/sim/bus.hpp"
 #include "lec6/transport/port_spec.hpp"
+#include "lec6/transport/recording_link.hpp"
 #include "lec6/transport/serial_link.hpp"
 
 namespace lec6::twin {
@@ -43,6 +50,9 @@ struct PortOptions {
   std::function<bool()> interrupted{};
   // `sim`: the ID of its one controller.
   uint8_t sim_id = 1;
+  // Every byte on the line, both directions (`lec --record`), when set; RTU
+  // links only (a tcp:// Modbus TCP port is refused: it is not a line).
+  transport::LineTap record{};
 };
 
 // Everything behind one opened port. Not movable: the links keep references
@@ -66,6 +76,7 @@ class OpenPort {
   SteadyClock clock_;
   std::unique_ptr<sim::Bus> twin_;
   std::unique_ptr<client::Link> link_;
+  std::unique_ptr<transport::RecordingLink> recording_;  // over link_, with PortOptions::record
   std::unique_ptr<client::Master> master_;  // declared last: destroyed first
   std::string description_;
   std::vector<std::string> warnings_;

@@ -87,6 +87,27 @@ struct SimServerOptions {
   // this much before it and spins the rest (only then: idle, it blocks).
   // Zero: sleep only.
   Duration spin_before_write = std::chrono::microseconds(200);
+  // The pty hands replies (and noise) to the master the way a USB adapter
+  // does: in lumps at latency-timer ticks (sim/usb_latency.hpp). Zero: each
+  // reply whole, at its instant.
+  Duration usb_latency{};
+  // The tap: a listen-only pseudo-terminal (symlink at `tap_link`) carrying
+  // every byte on the simulated line, from every master and controller, and
+  // the line's noise, each at the instant its last bit is on the line (in
+  // lumps with a non-zero `tap_latency`). What is written to it is discarded.
+  std::filesystem::path tap_link;
+  Duration tap_latency{};
+  // Line faults the pty plays (lec doctor's test bench; TCP clients are not affected):
+  // a 2-wire adapter that echoes: every byte the master writes comes back to it at once;
+  bool echo_adapter = false;
+  // the controllers answer only at the line's baud: a master whose port is set to
+  // another rate (its termios, read on the pty's master side) is heard as
+  // garbage, as a UART at the wrong speed would hear it, and hears garbage;
+  bool strict_baud = false;
+  // a second master on the line, reading D9000 of `other_master_id` every
+  // `other_master_period` (0: none): its queries and the replies reach every master.
+  Duration other_master_period{};
+  uint8_t other_master_id = 1;
 };
 
 class SimServer {
@@ -102,6 +123,7 @@ class SimServer {
     // gives (wake-up latency of the loop): sum and worst case.
     Duration lateness_total{};
     Duration lateness_max{};
+    uint64_t tap_bytes_dropped = 0;  // the tap's reader was too slow (or absent)
   };
 
   // Opens the pty and/or the listener (throws client::LinkError
@@ -120,6 +142,7 @@ class SimServer {
   void stop() noexcept;
 
   const transport::Pty* pty() const { return pty_.get(); }
+  const transport::Pty* tap() const { return tap_.get(); }
   const transport::TcpListener* tcp() const { return listener_.get(); }
   // Where masters connect: the pty's client path and/or the TCP URL.
   std::string endpoints() const;
@@ -132,6 +155,7 @@ class SimServer {
   sim::Bus& bus_;
   SimServerOptions options_;
   std::unique_ptr<transport::Pty> pty_;
+  std::unique_ptr<transport::Pty> tap_;
   std::unique_ptr<transport::TcpListener> listener_;
   transport::UniqueFd stop_fd_;
   std::unique_ptr<Impl> impl_;

@@ -1,0 +1,69 @@
+#pragma once
+// Capture files (docs/capture-format.md) on disk: read whole, or written as
+// the traffic comes.
+//
+// Thread safety: read_capture_file shares nothing. A CaptureWriter may be
+// written from several threads (write() takes a lock); its flushing runs on
+// a thread of its own.
+
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "lec6/modbus/capture.hpp"
+
+namespace lec6::transport {
+
+// Reads and parses `path`. A missing or unreadable file throws
+// lec6::InvalidArgument ("cannot read capture.jsonl: No such file or
+// directory"); a malformed one modbus::CaptureError (file, line, byte offset).
+modbus::Capture read_capture_file(const std::string& path);
+
+// Writes a capture as it happens: the header at construction, then one line
+// per write(). write() only appends to a buffer in memory (no system call,
+// so recording never costs a transaction time); a background thread writes
+// the buffer out at least every `flush_interval`, and flush()/close()/the
+// destructor write out everything before returning.
+class CaptureWriter {
+ public:
+  // Creates (or truncates) `path` and writes the header. Throws
+  // lec6::InvalidArgument naming the path if it cannot be created.
+  explicit CaptureWriter(const std::string& path, const modbus::CaptureHeader& header,
+                         std::chrono::milliseconds flush_interval = std::chrono::milliseconds(200));
+  ~CaptureWriter();
+  CaptureWriter(const CaptureWriter&) = delete;
+  CaptureWriter& operator=(const CaptureWriter&) = delete;
+
+  void write(const modbus::CaptureRecord& record);
+
+  // Writes out what is buffered now. Throws lec6::Error naming the path if
+  // writing failed (here or earlier, on the background thread).
+  void flush();
+  // flush(), then closes the file; later writes are refused. Idempotent.
+  void close();
+
+  const std::string& path() const noexcept { return path_; }
+  std::size_t records_written() const;
+
+ private:
+  void run();
+  void write_out(std::unique_lock<std::mutex>& lock);
+  void throw_if_failed() const;
+
+  std::string path_;
+  int fd_ = -1;
+  std::chrono::milliseconds flush_interval_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::condition_variable written_;
+  std::string pending_;
+  bool writing_ = false;
+  bool stop_ = false;
+  bool closed_ = false;
+  std::string error_;
+  std::size_t records_ = 0;
+  std::thread thread_;
+};
+
+}  // namespace lec6::transport

@@ -1,0 +1,362 @@
+// The listen-only line observer (see the header for the rules).
+
+#include "lec6/modbus/sniffer.hpp"
+
+#include <algorithm>
+
+#include "lec6/modbus/crc.hpp"
+#include "lec6/modbus/length.hpp"
+
+namespace lec6::modbus {
+namespace {
+
+constexpr uint8_t kChunkFirst = 1;
+constexpr uint8_t kChunkLast = 2;
+// The share of frames arriving in a chunk that other bytes began (a moving
+// average over about fifty frames): above 10 % the adapter is taken to
+// deliver in lumps, until it falls below 2 % again. An adapter without a
+// latency timer merges frames only when the reader falls behind (rarely);
+// a 16 ms timer merges a third of them or more.
+constexpr double kMergedWeight = 0.02;
+constexpr double kLumpyOn = 0.10;
+constexpr double kLumpyOff = 0.02;
+
+uint16_t word_at(std::span<const uint8_t> b, std::size_t i) {
+  return static_cast<uint16_t>(b[i] << 8 | b[i + 1]);
+}
+
+// The normal reply's length for a query (a CRC-confirmed request frame).
+std::size_t reply_length_for(std::span<const uint8_t> q) {
+  switch (q[1]) {
+    case 0x01:
+    case 0x02: return 5 + (word_at(q, 4) + 7u) / 8u;
+    case 0x03:
+    case 0x04: return 5 + 2u * word_at(q, 4);
+    case 0x07: return 5;
+    case 0x16: return 10;
+    case 0x17: return 5 + 2u * word_at(q, 6);
+    case 0x0C:
+    case 0x11: return 0;  // variable: any length the reply's byte count gives
+    default: return 8;
+  }
+}
+
+// Standard Modbus functions the LEC does not have (length.hpp sizes only the
+// LEC's): a master may still send them, and the controller answers exception 01.
+FrameLength other_request_length(std::span<const uint8_t> head) {
+  switch (head[1]) {
+    case 0x04:  // read input registers
+    case 0x06:  // write single register
+      return FrameLength::known(8);
+    case 0x07:  // read exception status
+    case 0x0B:  // get comm event counter
+    case 0x0C:  // get comm event log
+    case 0x11:  // report server ID
+      return FrameLength::known(4);
+    case 0x16:  // mask write register
+      return FrameLength::known(10);
+    case 0x17:  // read/write multiple registers
+      if (head.size() < 11) return FrameLength::need_more();
+      return FrameLength::known(13u + head[10]);
+    default:
+      return FrameLength::unknown();
+  }
+}
+
+FrameLength other_response_length(std::span<const uint8_t> head) {
+  switch (head[1]) {
+    case 0x06:
+    case 0x0B:
+      return FrameLength::known(8);
+    case 0x07:
+      return FrameLength::known(5);
+    case 0x16:
+      return FrameLength::known(10);
+    case 0x04:
+    case 0x0C:
+    case 0x11:
+    case 0x17:
+      if (head.size() < 3) return FrameLength::need_more();
+      return FrameLength::known(5u + head[2]);
+    default:
+      return FrameLength::unknown();
+  }
+}
+
+}  // namespace
+
+Duration response_percentile(const SniffIdStats& s, double p) {
+  if (s.response_us.empty()) return Duration::zero();
+  std::vector<uint32_t> v = s.response_us;
+  const auto k = static_cast<std::size_t>(std::clamp(p, 0.0, 1.0) * static_cast<double>(v.size() - 1) + 0.5);
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return std::chrono::microseconds(v[k]);
+}
+
+Sniffer::Sniffer(const SnifferOptions& options) : options_(options) {}
+
+Sniffer::Reading Sniffer::try_query(std::span<const uint8_t> head, std::size_t& length) const {
+  FrameLength l = request_length(head);
+  if (l.status == FrameLength::Status::Unknown) l = other_request_length(head);
+  if (l.status == FrameLength::Status::NeedMore) return Reading::Incomplete;
+  if (l.status == FrameLength::Status::Unknown) return Reading::Failed;
+  length = l.bytes;
+  if (head.size() < length) return Reading::Incomplete;
+  return crc_ok(head.first(length)) ? Reading::Confirmed : Reading::BadCrc;
+}
+
+Sniffer::Reading Sniffer::try_reply(std::span<const uint8_t> head, std::size_t& length) const {
+  FrameLength l = response_length(head);
+  if (l.status == FrameLength::Status::Unknown) l = other_response_length(head);
+  if (l.status == FrameLength::Status::NeedMore) return Reading::Incomplete;
+  if (l.status == FrameLength::Status::Unknown) return Reading::Failed;
+  length = l.bytes;
+  if (head.size() < length) return Reading::Incomplete;
+  return crc_ok(head.first(length)) ? Reading::Confirmed : Reading::BadCrc;
+}
+
+// The reply the waiting query asks for: its ID, its function (or the
+// exception to it), and for a normal reply its length.
+bool Sniffer::matches_pending(std::span<const uint8_t> frame) const {
+  if (!pending_ || frame.size() < 2 || frame[0] != pending_->query[0]) return false;
+  const uint8_t fc = pending_->query[1];
+  if (frame[1] == (fc | kExceptionFlag)) return true;
+  return frame[1] == fc &&
+         (pending_->reply_length == 0 || frame.size() == pending_->reply_length);
+}
+
+bool Sniffer::timed_frame(std::size_t first, std::size_t length) const {
+  return options_.check_timing && !lumpy_now_ && (marks_[first] & kChunkFirst) &&
+         (marks_[first + length - 1] & kChunkLast);
+}
+
+void Sniffer::note_frame_boundary(std::size_t first) {
+  const double merged = (marks_[first] & kChunkFirst) ? 0.0 : 1.0;
+  merged_ratio_ = (1 - kMergedWeight) * merged_ratio_ + kMergedWeight * merged;
+  lumpy_now_ = merged_ratio_ > (lumpy_now_ ? kLumpyOff : kLumpyOn);
+  if (lumpy_now_) stats_.lumpy = true;
+}
+
+SniffEvent Sniffer::make_event(SniffKind kind, std::size_t first, std::size_t length) const {
+  SniffEvent e;
+  e.kind = kind;
+  e.bytes.assign(buf_.begin() + static_cast<std::ptrdiff_t>(first),
+                 buf_.begin() + static_cast<std::ptrdiff_t>(first + length));
+  e.first_byte = times_[first];
+  e.last_byte = times_[first + length - 1];
+  return e;
+}
+
+void Sniffer::flush_noise() {
+  if (noise_length_ == 0) return;
+  SniffEvent e = make_event(SniffKind::Noise, head_ - noise_length_, noise_length_);
+  if (noise_bad_crc_) e.flags |= kSniffBadCrc;
+  ++stats_.noise_bursts;
+  stats_.noise_bytes += noise_length_;
+  noise_length_ = 0;
+  noise_bad_crc_ = false;
+  events_.push_back(std::move(e));
+}
+
+void Sniffer::emit_no_reply() {
+  SniffEvent e;
+  e.kind = SniffKind::NoReply;
+  e.bytes = pending_->query;
+  e.first_byte = e.last_byte = pending_->end;
+  e.query_number = pending_->number;
+  ++stats_.ids[pending_->query[0]].timeouts;
+  pending_.reset();
+  events_.push_back(std::move(e));
+}
+
+void Sniffer::emit_query(std::size_t length) {
+  flush_noise();
+  note_frame_boundary(head_);
+  SniffEvent e = make_event(SniffKind::Query, head_, length);
+  const bool timed = timed_frame(head_, length);
+  const TimePoint start = e.last_byte - options_.timing.wire_time(length);
+  if (pending_) {
+    // Within the controller's response time of the waiting query: no single
+    // master would send now.
+    if (start < pending_->end + options_.timing.response_time(std::max<std::size_t>(
+                                    pending_->reply_length, kExceptionLength))) {
+      e.flags |= kSniffSecondMaster;
+      ++stats_.second_master;
+    }
+    emit_no_reply();
+  }
+  e.limit = options_.timing.silent_interval();
+  if (timed && previous_timed_ && previous_end_) {
+    e.silence = start - *previous_end_;
+    // A quarter of Ts is left for the adapter's delivery jitter.
+    if (*e.silence < e.limit * 3 / 4) {
+      e.flags |= kSniffShortSilence;
+      ++stats_.short_silences;
+    }
+  } else {
+    ++stats_.untimed;
+  }
+  e.query_number = ++queries_;
+  ++stats_.frames;
+  const uint8_t id = e.bytes[0];
+  ++stats_.ids[id].queries;
+  if (id == kBroadcastId) {
+    e.flags |= kSniffBroadcast;
+  } else {
+    pending_ = Pending{e.bytes, e.query_number, e.last_byte, timed, reply_length_for(e.bytes)};
+  }
+  previous_end_ = e.last_byte;
+  previous_timed_ = timed;
+  head_ += length;
+  events_.push_back(std::move(e));
+}
+
+void Sniffer::emit_reply(std::size_t length, bool paired) {
+  flush_noise();
+  note_frame_boundary(head_);
+  SniffEvent e = make_event(SniffKind::Reply, head_, length);
+  const bool timed = timed_frame(head_, length);
+  const uint8_t id = e.bytes[0];
+  SniffIdStats& s = stats_.ids[id];
+  ++stats_.frames;
+  if (paired) {
+    e.query = std::move(pending_->query);
+    e.query_number = pending_->number;
+    e.limit = options_.timing.response_time(length);
+    if (timed && pending_->timed) {
+      e.response = e.last_byte - pending_->end;
+      s.response_us.push_back(static_cast<uint32_t>(
+          std::clamp<int64_t>(std::chrono::duration_cast<std::chrono::microseconds>(*e.response).count(),
+                              0, UINT32_MAX)));
+      if (*e.response > e.limit + options_.tolerance) {
+        e.flags |= kSniffLate;
+        ++s.late;
+      }
+    } else {
+      ++stats_.untimed;
+    }
+    ++s.exchanges;
+    if (e.bytes[1] & kExceptionFlag) ++s.exceptions;
+    pending_.reset();
+  } else {
+    e.flags |= kSniffUnsolicited;
+    ++s.unsolicited;
+  }
+  previous_end_ = e.last_byte;
+  previous_timed_ = timed;
+  head_ += length;
+  events_.push_back(std::move(e));
+}
+
+void Sniffer::scan(bool settle) {
+  while (unresolved()) {
+    const std::span<const uint8_t> head(buf_.data() + head_, buf_.size() - head_);
+    std::size_t qlen = 0, rlen = 0;
+    const Reading q = try_query(head, qlen);
+    const Reading r = try_reply(head, rlen);
+    // Could these bytes still become the awaited reply?
+    const bool may_be_reply =
+        pending_ && head[0] == pending_->query[0] &&
+        (head.size() < 2 || (head[1] & ~kExceptionFlag) == pending_->query[1]);
+    if (pending_) {
+      if (r == Reading::Confirmed && matches_pending(head.first(rlen))) {
+        emit_reply(rlen, true);
+        continue;
+      }
+      if (r == Reading::Incomplete && may_be_reply && !settle) return;
+      if (q == Reading::Confirmed) {
+        emit_query(qlen);
+        continue;
+      }
+      if (q == Reading::Incomplete && !settle) return;
+      if (r == Reading::Confirmed) {
+        emit_reply(rlen, false);
+        continue;
+      }
+    } else {
+      if (q == Reading::Confirmed) {
+        emit_query(qlen);
+        continue;
+      }
+      if (q == Reading::Incomplete && !settle) return;
+      if (r == Reading::Confirmed) {
+        emit_reply(rlen, false);
+        continue;
+      }
+      if (r == Reading::Incomplete && !settle) return;
+    }
+    // No reading confirms a frame here: this byte is noise.
+    if (noise_length_ == 0) {
+      // Where a frame should have begun: a frame of the right shape whose
+      // CRC failed is a CRC error of that ID.
+      const bool bad_reply = r == Reading::BadCrc && may_be_reply;
+      const bool bad_query = !pending_ && q == Reading::BadCrc && stats_.ids.count(head[0]) > 0;
+      if (bad_reply || bad_query) {
+        noise_bad_crc_ = true;
+        ++stats_.ids[head[0]].crc_errors;
+      }
+    }
+    ++noise_length_;
+    ++head_;
+  }
+  if (settle) flush_noise();
+}
+
+void Sniffer::compact() {
+  const std::size_t keep_from = head_ - noise_length_;
+  if (keep_from < 4096) return;
+  const auto n = static_cast<std::ptrdiff_t>(keep_from);
+  buf_.erase(buf_.begin(), buf_.begin() + n);
+  times_.erase(times_.begin(), times_.begin() + n);
+  marks_.erase(marks_.begin(), marks_.begin() + n);
+  head_ -= keep_from;
+}
+
+void Sniffer::feed(std::span<const uint8_t> bytes, TimePoint arrival) {
+  advance(arrival);
+  if (bytes.empty()) return;
+  const std::size_t first = buf_.size();
+  buf_.insert(buf_.end(), bytes.begin(), bytes.end());
+  times_.resize(buf_.size(), arrival);
+  marks_.resize(buf_.size(), 0);
+  marks_[first] |= kChunkFirst;
+  marks_.back() |= kChunkLast;
+  last_arrival_ = arrival;
+  have_arrival_ = true;
+  scan(false);
+  compact();
+}
+
+void Sniffer::advance(TimePoint now) {
+  if (unresolved() && have_arrival_ && now - last_arrival_ >= options_.idle_gap) {
+    scan(true);
+    compact();
+  }
+  if (pending_ && !unresolved() && now >= pending_->end + options_.reply_wait) emit_no_reply();
+}
+
+void Sniffer::finish(TimePoint now) {
+  advance(now);
+  scan(true);
+  if (pending_) emit_no_reply();
+  compact();
+}
+
+std::vector<SniffEvent> Sniffer::take() {
+  std::vector<SniffEvent> out(std::make_move_iterator(events_.begin()),
+                              std::make_move_iterator(events_.end()));
+  events_.clear();
+  return out;
+}
+
+std::optional<TimePoint> Sniffer::deadline() const {
+  std::optional<TimePoint> d;
+  if (unresolved() && have_arrival_) d = last_arrival_ + options_.idle_gap;
+  if (pending_) {
+    const TimePoint t = pending_->end + options_.reply_wait;
+    if (!d || t < *d) d = t;
+  }
+  return d;
+}
+
+}  // namespace lec6::modbus

@@ -1,0 +1,171 @@
+#include "tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lec6::serve::history {
+namespace {
+
+std::optional<double> number(const nlohmann::json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || !it->is_number()) return std::nullopt;
+  return it->get<double>();
+}
+
+bool is_motion_op(const std::string& op) {
+  return op == "home" || op == "move" || op == "run-step" || op == "jog";
+}
+
+}  // namespace
+
+std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event, TimePoint at,
+                                                    int64_t wall_ms) {
+  const std::string kind = event.value("event", "");
+  const std::string op = event.value("op", "");
+  if (kind == "started" && is_motion_op(op)) {
+    Motion m;
+    m.started = at;
+    MotionRecord& r = m.record;
+    r.start_ms = wall_ms;
+    r.axis = axis_;
+    r.source = event.value("source", "");
+    r.kind = op;
+    if (const auto s = number(event, "step")) r.step = static_cast<int>(*s);
+    r.target_mm = number(event, "target_mm");
+    r.speed_mm_s = number(event, "speed_mm_s");
+    r.accel_mm_s2 = number(event, "acceleration_mm_s2");
+    r.force_pct = number(event, "moving_force_pct");
+    r.pushing_force_pct = number(event, "pushing_force_pct");
+    if (op == "home") r.target_mm = 0;
+    if (last_) {
+      r.start_mm = last_->position_mm;
+      m.samples.push_back(*last_);
+    }
+    motion_ = std::move(m);  // a motion telemetry was following becomes this one
+    return std::nullopt;
+  }
+  if (kind != "finished" || !motion_ || motion_->by_telemetry) return std::nullopt;
+  // Operations end one at a time per axis: a finished event without a
+  // motion op is a stop/reset/hold reply; the motion's own comes later.
+  if (!is_motion_op(op) && op != "") return std::nullopt;
+  Motion m = std::move(*motion_);
+  motion_.reset();
+  wait_idle_ = true;
+  MotionRecord& r = m.record;
+  r.outcome = event.value("outcome", event.value("ok", false) ? "reached" : "not_started");
+  if (const auto it = event.find("timeline"); it != event.end() && it->is_object()) {
+    r.busy_up_s = number(*it, "busy_up_s");
+    r.busy_down_s = number(*it, "busy_down_s");
+    r.inp_s = number(*it, "inp_s");
+  }
+  const auto elapsed = number(event, "elapsed_s");
+  r.duration_s = r.busy_down_s.value_or(elapsed.value_or(to_seconds(at - m.started)));
+  if (r.busy_down_s && r.inp_s) r.settle_s = std::max(0.0, *r.inp_s - *r.busy_down_s);
+  if (!r.target_mm || r.kind == "move" || r.kind == "run-step") {
+    if (const auto t = number(event, "target_mm")) r.target_mm = t;
+  }
+  if (const auto it = event.find("alarms"); it != event.end() && it->is_array()) {
+    for (const auto& a : *it) {
+      if (a.is_object() && a.contains("code")) r.alarms.push_back(a["code"].get<int>());
+    }
+  }
+  const auto final_mm = number(event, "position_mm");
+  if (final_mm) {
+    m.samples.push_back({at, *final_mm, number(event, "speed_mm_s").value_or(0),
+                         number(event, "thrust_pct").value_or(0)});
+  }
+  return finish(m, final_mm);
+}
+
+std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::StateData>& state,
+                                                     const std::optional<lec::StatusFlags>& flags,
+                                                     TimePoint at, int64_t wall_ms) {
+  const std::optional<Sample> before = last_;
+  if (state) {
+    last_ = Sample{at, state->position_001mm / 100.0, double(state->speed_mm_s),
+                   double(state->thrust_pct)};
+    if (motion_) motion_->samples.push_back(*last_);
+  }
+  if (!flags) return std::nullopt;
+  const bool busy = flags->busy();
+  const bool rose = busy && !last_busy_;
+  last_busy_ = busy;
+  if (!busy) wait_idle_ = false;
+  if (!motion_) {
+    if (!rose || wait_idle_) return std::nullopt;
+    // Moving, and not by an operation of ours: another master or Modbus TCP.
+    Motion m;
+    m.by_telemetry = true;
+    m.started = at;
+    m.record.start_ms = wall_ms;
+    m.record.axis = axis_;
+    m.record.source = "telemetry";
+    m.record.kind = "move";
+    if (state) {
+      m.record.target_mm = state->target_001mm / 100.0;
+      if (state->step_no > 0) m.record.step = state->step_no;
+    }
+    // The last sample before this read is where it started from.
+    if (const auto& from = before ? before : last_) {
+      m.record.start_mm = from->position_mm;
+      m.samples.push_back(*from);
+      if (before && state) m.samples.push_back(*last_);
+    }
+    m.record.busy_up_s = 0;
+    motion_ = std::move(m);
+    return std::nullopt;
+  }
+  if (!motion_->by_telemetry) return std::nullopt;
+  Motion& m = *motion_;
+  if (state) m.record.target_mm = state->target_001mm / 100.0;
+  if (!busy && !m.busy_down) {
+    m.busy_down = at;
+    m.record.busy_down_s = to_seconds(at - m.started);
+  }
+  if (!m.busy_down) return std::nullopt;
+  const bool settled = flags->inp() || flags->alarm() || at - *m.busy_down >= std::chrono::seconds(1);
+  if (!settled) return std::nullopt;
+  MotionRecord& r = m.record;
+  r.duration_s = *r.busy_down_s;
+  if (flags->inp()) {
+    r.inp_s = to_seconds(at - m.started);
+    r.settle_s = *r.inp_s - *r.busy_down_s;
+  }
+  r.outcome = flags->alarm() ? "alarm" : flags->inp() ? "reached" : "stopped";
+  Motion done = std::move(m);
+  motion_.reset();
+  return finish(done, last_ ? std::optional<double>(last_->position_mm) : std::nullopt);
+}
+
+MotionRecord MotionTracker::finish(Motion& m, std::optional<double> final_mm) {
+  MotionRecord& r = m.record;
+  if (m.samples.empty()) return r;
+  double peak_thrust = 0, sum_thrust = 0, peak_speed = 0, distance = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < m.samples.size(); ++i) {
+    const Sample& s = m.samples[i];
+    if (i > 0) distance += std::abs(s.position_mm - m.samples[i - 1].position_mm);
+    // The sample taken before the start is the start position, not the motion.
+    if (i == 0 && m.samples.size() > 1) continue;
+    peak_thrust = std::max(peak_thrust, s.thrust_pct);
+    peak_speed = std::max(peak_speed, s.speed_mm_s);
+    sum_thrust += s.thrust_pct;
+    ++n;
+  }
+  r.distance_mm = distance;
+  if (n > 0) {
+    r.peak_thrust_pct = peak_thrust;
+    r.mean_thrust_pct = sum_thrust / double(n);
+    r.peak_speed_mm_s = peak_speed;
+  }
+  if (r.target_mm && r.start_mm && r.kind != "jog") {
+    const double dir = *r.target_mm >= *r.start_mm ? 1.0 : -1.0;
+    double over = 0;
+    for (const Sample& s : m.samples) over = std::max(over, (s.position_mm - *r.target_mm) * dir);
+    r.overshoot_mm = over;
+  }
+  if (r.target_mm && final_mm && r.kind != "jog") r.final_error_mm = *final_mm - *r.target_mm;
+  return r;
+}
+
+}  // namespace lec6::serve::history

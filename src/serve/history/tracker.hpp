@@ -1,0 +1,67 @@
+#pragma once
+// One axis' motions as lec serve sees them (sans-I/O): the operations it runs
+// (started / finished events of operations.hpp, with the move's result) and
+// the telemetry reads of the axis, turned into MotionRecords.
+//
+//   - An operation of lec serve (HTTP, MQTT, the CLI through the daemon): its
+//     record takes the kind, source and settings from the start, the outcome
+//     and timeline from the result, and start position, peak and mean thrust,
+//     peak speed, overshoot and distance from the telemetry samples between.
+//   - A motion no operation of lec serve started (a Modbus TCP client writing
+//     D9100 or DRIVE, another master on the line): BUSY rising in the
+//     telemetry starts it, BUSY falling ends it (then INP, or 1 s, for the
+//     settle time); its source is "telemetry". Its timeline is as fine as the
+//     telemetry rate.
+//
+// Time points are the line's clock (a VirtualClock in tests); wall-clock
+// milliseconds are given by the caller for the record's start.
+// Thread safety: none (History locks around it).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lec6/clock.hpp"
+#include "lec6/lec/flags.hpp"
+#include "lec6/lec/state_data.hpp"
+#include "motion_record.hpp"
+
+namespace lec6::serve::history {
+
+class MotionTracker {
+ public:
+  explicit MotionTracker(std::string axis) : axis_(std::move(axis)) {}
+
+  // An operations event ("started" / "finished", operations.hpp) for this
+  // axis. Returns the record of a motion that finished.
+  std::optional<MotionRecord> op_event(const nlohmann::json& event, TimePoint at, int64_t wall_ms);
+  // A telemetry read of the axis: its state and flags as the cache has them.
+  std::optional<MotionRecord> telemetry(const std::optional<lec::StateData>& state,
+                                        const std::optional<lec::StatusFlags>& flags,
+                                        TimePoint at, int64_t wall_ms);
+
+ private:
+  struct Sample {
+    TimePoint at;
+    double position_mm, speed_mm_s, thrust_pct;
+  };
+  struct Motion {
+    bool by_telemetry = false;
+    MotionRecord record;
+    TimePoint started{};
+    std::optional<TimePoint> busy_down;
+    std::vector<Sample> samples;
+  };
+  MotionRecord finish(Motion& m, std::optional<double> final_mm);
+
+  std::string axis_;
+  std::optional<Motion> motion_;
+  std::optional<Sample> last_;
+  bool last_busy_ = false;
+  bool wait_idle_ = false;  // after an operation: BUSY must fall before telemetry starts one
+};
+
+}  // namespace lec6::serve::history

@@ -1,0 +1,125 @@
+// Capture files on disk: the reader, and the writer that never makes its
+// caller wait for the disk.
+
+#include "lec6/transport/capture_file.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "lec6/transport/file.hpp"
+
+namespace lec6::transport {
+
+modbus::Capture read_capture_file(const std::string& path) {
+  auto text = read_file(path);
+  if (!text) throw InvalidArgument(text.error());
+  return modbus::parse_capture(*text, path);
+}
+
+CaptureWriter::CaptureWriter(const std::string& path, const modbus::CaptureHeader& header,
+                             std::chrono::milliseconds flush_interval)
+    : path_(path), flush_interval_(flush_interval) {
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd_ < 0)
+    throw InvalidArgument(fmt::format("cannot create {}: {}", path, std::strerror(errno)));
+  pending_ = modbus::encode_capture_header(header);
+  thread_ = std::thread([this] { run(); });
+}
+
+CaptureWriter::~CaptureWriter() {
+  try {
+    close();
+  } catch (...) {  // a destructor cannot report it; close() could have
+  }
+}
+
+void CaptureWriter::write(const modbus::CaptureRecord& record) {
+  std::string line = modbus::encode_capture_record(record);
+  std::lock_guard lock(mutex_);
+  if (closed_ || stop_) throw Error(fmt::format("{}: the capture is already closed", path_));
+  pending_ += line;
+  ++records_;
+}
+
+std::size_t CaptureWriter::records_written() const {
+  std::lock_guard lock(mutex_);
+  return records_;
+}
+
+// Called with the lock held; releases it while the bytes go to the file.
+void CaptureWriter::write_out(std::unique_lock<std::mutex>& lock) {
+  std::string chunk;
+  chunk.swap(pending_);
+  writing_ = true;
+  lock.unlock();
+  std::string failure;
+  std::size_t done = 0;
+  while (done < chunk.size()) {
+    const ssize_t n = ::write(fd_, chunk.data() + done, chunk.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      failure = fmt::format("cannot write {}: {}", path_, std::strerror(errno));
+      break;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  lock.lock();
+  writing_ = false;
+  if (!failure.empty() && error_.empty()) error_ = failure;
+  written_.notify_all();
+}
+
+void CaptureWriter::run() {
+  std::unique_lock lock(mutex_);
+  while (!stop_) {
+    wake_.wait_for(lock, flush_interval_, [this] { return stop_; });
+    if (!pending_.empty() && !writing_) write_out(lock);
+  }
+}
+
+void CaptureWriter::throw_if_failed() const {
+  if (!error_.empty()) throw Error(error_);
+}
+
+void CaptureWriter::flush() {
+  std::unique_lock lock(mutex_);
+  while (writing_ || !pending_.empty()) {
+    if (writing_) {
+      written_.wait(lock);
+    } else if (fd_ >= 0) {
+      write_out(lock);
+    } else {
+      break;
+    }
+  }
+  throw_if_failed();
+}
+
+void CaptureWriter::close() {
+  {
+    std::lock_guard lock(mutex_);
+    if (closed_) {
+      throw_if_failed();
+      return;
+    }
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  {
+    std::unique_lock lock(mutex_);
+    if (!pending_.empty()) write_out(lock);
+    if (fd_ >= 0 && ::close(fd_) != 0 && error_.empty())
+      error_ = fmt::format("cannot write {}: {}", path_, std::strerror(errno));
+    fd_ = -1;
+    closed_ = true;
+    throw_if_failed();
+  }
+}
+
+}  // namespace lec6::transport

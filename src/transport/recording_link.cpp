@@ -1,0 +1,60 @@
+#include "lec6/transport/recording_link.hpp"
+
+#include <algorithm>
+
+namespace lec6::transport {
+
+RecordingLink::RecordingLink(client::Link& inner, LineTap tap)
+    : inner_(inner), tap_(std::move(tap)) {
+  timing_.baud = inner_.baud();
+}
+
+RecordingLink::~RecordingLink() {
+  try {
+    flush();
+  } catch (...) {  // a tap that throws at exit loses its last group, nothing more
+  }
+}
+
+void RecordingLink::flush() {
+  if (pending_.bytes.empty()) return;
+  LineChunk out = std::move(pending_);
+  pending_ = LineChunk{};
+  tap_(std::move(out));
+}
+
+void RecordingLink::write(std::span<const uint8_t> bytes) {
+  flush();
+  const TimePoint start = inner_.clock().now();
+  inner_.write(bytes);
+  const TimePoint end = std::max(inner_.clock().now(), start + timing_.wire_time(bytes.size()));
+  tap_(LineChunk{true, start, end, modbus::Bytes(bytes.begin(), bytes.end())});
+}
+
+void RecordingLink::received(std::span<const uint8_t> bytes) {
+  if (bytes.empty()) return;
+  const TimePoint end = inner_.clock().now();
+  const TimePoint start = end - timing_.wire_time(bytes.size());
+  if (!pending_.bytes.empty() && start - pending_.end > timing_.silent_interval()) flush();
+  if (pending_.bytes.empty()) pending_.start = start;
+  pending_.end = end;
+  pending_.bytes.insert(pending_.bytes.end(), bytes.begin(), bytes.end());
+}
+
+std::size_t RecordingLink::read_some(std::span<uint8_t> buffer, TimePoint deadline) {
+  const std::size_t n = inner_.read_some(buffer, deadline);
+  received(buffer.first(n));
+  return n;
+}
+
+std::size_t RecordingLink::read_some_exact(std::span<uint8_t> buffer, TimePoint deadline) {
+  const std::size_t n = inner_.read_some_exact(buffer, deadline);
+  received(buffer.first(n));
+  return n;
+}
+
+void RecordingLink::discard_input() {
+  inner_.discard_input();
+}
+
+}  // namespace lec6::transport

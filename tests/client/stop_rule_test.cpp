@@ -1,0 +1,97 @@
+// The one rule for what is a stop (client::stops_or_releases): every coil at
+// both levels, single and multiple coil writes, and what is never a stop.
+// lec serve's priorities (serve::priority_of) and Ctrl-C on the client's own
+// line both use it; tests/serve/scheduler_test.cpp checks the former.
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "lec6/client/interrupt.hpp"
+#include "lec6/lec/flags.hpp"
+
+namespace lec6::client {
+namespace {
+
+using lec::Coil;
+
+modbus::Request coil(uint16_t address, bool on) {
+  return modbus::WriteCoilRequest{address, on ? modbus::kCoilOn : modbus::kCoilOff};
+}
+
+modbus::Request coils(uint16_t start, std::vector<bool> levels) {
+  bool bits[32] = {};
+  for (std::size_t i = 0; i < levels.size(); ++i) bits[i] = levels[i];
+  return modbus::WriteCoilsRequest::of(start, std::span<const bool>(bits, levels.size()));
+}
+
+struct Row {
+  uint16_t address;
+  const char* name;
+  bool stops_when_on;
+  bool stops_when_off;
+};
+
+// Every coil of the map (Y10–Y1E, Y30) and every address between: at 1, at 0.
+TEST(StopRule, EveryCoilAtBothLevels) {
+  const std::vector<Row> table = {
+      {0x10, "IN0", false, false},
+      {0x11, "IN1", false, false},
+      {0x12, "IN2", false, false},
+      {0x13, "IN3", false, false},
+      {0x14, "IN4", false, false},
+      {0x15, "IN5", false, false},
+      {0x16, "(unused)", false, false},
+      {0x17, "(unused)", false, false},
+      {0x18, "HOLD", true, false},  // HOLD off resumes a held operation
+      {0x19, "SVON", false, true},
+      {0x1A, "DRIVE", false, true},
+      {0x1B, "RESET", true, true},  // both halves of the pulse
+      {0x1C, "SETUP", false, true},
+      {0x1D, "JOG-", false, true},
+      {0x1E, "JOG+", false, true},
+      {0x1F, "(unused)", false, false},
+      {0x30, "Y30 serial mode", false, false},
+  };
+  for (const Row& r : table) {
+    EXPECT_EQ(stops_or_releases(coil(r.address, true)), r.stops_when_on) << r.name << " <- 1";
+    EXPECT_EQ(stops_or_releases(coil(r.address, false)), r.stops_when_off) << r.name << " <- 0";
+    // The same level written by FC0F over that one coil reads the same.
+    EXPECT_EQ(stops_or_releases(coils(r.address, {true})), r.stops_when_on) << r.name << " FC0F 1";
+    EXPECT_EQ(stops_or_releases(coils(r.address, {false})), r.stops_when_off)
+        << r.name << " FC0F 0";
+  }
+}
+
+TEST(StopRule, ACoilValueTheControllerRefusesIsNoStop) {
+  EXPECT_FALSE(stops_or_releases(modbus::WriteCoilRequest{lec::address(Coil::RESET), 0x1234}));
+}
+
+TEST(StopRule, ABlockWriteStopsWhenAnyLevelStops) {
+  // Y18–Y1F as a PLC writes them each scan: HOLD, SVON, DRIVE, RESET, SETUP, JOG-, JOG+.
+  EXPECT_TRUE(stops_or_releases(coils(0x18, {false, true, false, true, false, false, false})))
+      << "RESET <- 1 with the servo on and HOLD off is a stop";
+  EXPECT_TRUE(stops_or_releases(coils(0x18, {true, true, false, false, false, false, false})))
+      << "HOLD <- 1";
+  EXPECT_TRUE(stops_or_releases(coils(0x18, {false, false, false, false, false, false, false})))
+      << "SVON <- 0";
+  EXPECT_FALSE(stops_or_releases(coils(0x18, {false, true, true, false, false, false, false})))
+      << "DRIVE <- 1 starts a step";
+  EXPECT_FALSE(stops_or_releases(coils(0x18, {false, true, false, false, false, false, false})))
+      << "HOLD <- 0 and SVON <- 1 with nothing else: levels that may start";
+  EXPECT_TRUE(stops_or_releases(coils(0x1A, {false, false})))
+      << "DRIVE <- 0 and RESET <- 0: releases only";
+  EXPECT_FALSE(stops_or_releases(coils(0x10, {true, false, true, false, false, false})))
+      << "a step number";
+}
+
+TEST(StopRule, ReadsAndRegisterWritesAreNoStops) {
+  EXPECT_FALSE(stops_or_releases(modbus::ReadRegistersRequest{0x9000, 7}));
+  EXPECT_FALSE(stops_or_releases(
+      modbus::ReadBitsRequest{modbus::FunctionCode::ReadCoils, lec::address(Coil::RESET), 1}));
+  EXPECT_FALSE(stops_or_releases(modbus::WriteRegistersRequest{0x9100, 1, {0x01, 0x00}}));
+  EXPECT_FALSE(stops_or_releases(modbus::EchoRequest{0}));
+}
+
+}  // namespace
+}  // namespace lec6::client

@@ -1,0 +1,176 @@
+#!/usr/bin/env bash
+# lec doctor against `lec sim` on real pseudo-terminals, each line fault the
+# twin plays alone and three combinations: the doctor names each fault with
+# its fix, exits 0/7/8 (healthy/degraded/broken); a clean line is healthy
+# with information only; IDs 1 and 3 at 57600 with an alarm are found with
+# no options; a dead line ends within the budget; bad input (a missing port,
+# a port held by lec serve) is named.
+# Needs: LEC (the lec binary), /usr/bin/python3.
+
+source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
+need
+
+# doctor NAME ARGS...: runs `lec ARGS... doctor`, output in $TMP/NAME.doc, exit in RC, seconds in SECS.
+doctor() {
+  local name=$1
+  shift
+  local t0=${EPOCHREALTIME/./}
+  RC=0
+  timeout 60 "$LEC" "$@" >"$TMP/$name.doc" 2>&1 || RC=$?
+  SECS=$(((${EPOCHREALTIME/./} - t0) / 1000000))
+  sed 's/^/    /' "$TMP/$name.doc"
+}
+has() { grep -qF -- "$2" "$TMP/$1.doc"; }
+# only_info NAME: no WARN or BROKEN line.
+only_info() { ! grep -qE '^  (WARN|BROKEN) ' "$TMP/$1.doc"; }
+
+# A clean line: healthy, information only.
+start_twin clean --pty "$TMP/clean" --ids 1 --strict-baud || exit 1
+doctor clean --port "$TMP/clean" doctor --ids 1-4
+check "clean: exit 0" test "$RC" -eq 0
+check "clean: healthy" has clean "healthy"
+check "clean: information only" only_info clean
+check "clean: the baud and ID" has clean "ID 1 at 38400"
+check "clean: line quality clean" has clean "the line is clean"
+doctor clean-json --port "$TMP/clean" --json doctor --ids 1-4
+check_sh "clean --json: health and baud" \
+  "/usr/bin/python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d[\"health\"]==\"healthy\" and d[\"baud\"]==38400 and d[\"ids\"]==[1], d' '$TMP/clean-json.doc'"
+stop_twin "$TWIN_PID"
+
+# The integration case: IDs 1 and 3 at 57600, ID 3 with an alarm; no options.
+start_twin two --pty "$TMP/two" --ids 1,3 --baud 57600 --strict-baud || exit 1
+L3() { "$LEC" --port "$TMP/two" --baud 57600 --id 3 "$@" >/dev/null 2>&1; }
+L3 serial on && L3 servo on && L3 home
+L3 move --to 900  # beyond the stroke: alarm 62
+doctor two --port "$TMP/two" doctor
+check "two: exit 7 (degraded: an alarm)" test "$RC" -eq 7
+check "two: both IDs and the baud" has two "ID 1 and 3 at 57600; nothing at 38400, 9600, 19200"
+check "two: --baud named" has two "give --baud 57600"
+check "two: the alarm and its meaning" has two "alarm 62"
+check "two: the command that clears it" has two "lec --port $TMP/two --baud 57600 --id 3 reset"
+check "two: ID 1 needs serial mode first" has two "--id 1 serial on"
+doctor two-fix --port "$TMP/two" --baud 57600 doctor --ids 1-3 --fix
+check "two --fix: the alarm cleared" has two-fix "alarm 62 cleared (RESET)"
+check "two --fix: serial mode on" has two-fix "serial mode on (Y30)"
+check "two --fix: nothing moved" has two-fix "nothing was moved"
+stop_twin "$TWIN_PID"
+
+# Echo: a 2-wire adapter.
+start_twin echo --pty "$TMP/echo" --ids 1 --echo-adapter || exit 1
+doctor echo --port "$TMP/echo" doctor --ids 1-4
+check "echo: exit 8" test "$RC" -eq 8
+check "echo: named, with --echo verified" has echo "add --echo to every lec command (verified"
+doctor echo-fixed --port "$TMP/echo" --echo doctor --ids 1-4
+check "echo with --echo: healthy" test "$RC" -eq 0
+stop_twin "$TWIN_PID"
+
+# Noise on the line.
+start_twin noise --pty "$TMP/noise" --ids 1 --noise-rate 400 --seed 7 || exit 1
+doctor noise --port "$TMP/noise" doctor --ids 1-4
+check "noise: degraded or broken" test "$RC" -eq 7 -o "$RC" -eq 8
+check "noise: the causes in order" has noise "likely causes, in order: termination"
+stop_twin "$TWIN_PID"
+
+# Two controllers with ID 2.
+start_twin dup --pty "$TMP/dup" --ids 1,2 --duplicate-ids 2 || exit 1
+doctor dup --port "$TMP/dup" doctor --ids 1-4
+check "duplicate: exit 8" test "$RC" -eq 8
+check "duplicate: ID 2 named" has dup "two controllers answer ID 2"
+stop_twin "$TWIN_PID"
+
+# A second master polling ID 1.
+start_twin other --pty "$TMP/other" --ids 1 --other-master 20 || exit 1
+doctor other --port "$TMP/other" doctor --ids 1-4
+check "other master: exit 8" test "$RC" -eq 8
+check "other master: named" has other "another master polls this line"
+stop_twin "$TWIN_PID"
+
+# Td of 20 ms (the controller's Min Resp delay), lec assumes 5.
+start_twin td --pty "$TMP/td" --ids 1 --td 20ms || exit 1
+doctor td --port "$TMP/td" doctor --ids 1-4
+check "Td: exit 7" test "$RC" -eq 7
+check "Td: inferred and named" has td "--td 20ms"
+stop_twin "$TWIN_PID"
+
+# A USB adapter's latency timer at 16 ms (a stand-in sysfs: a pty has none), then --fix.
+start_twin usb --pty "$TMP/usb" --ids 1 || exit 1
+PTS=$(basename "$(readlink -f "$TMP/usb")")
+mkdir -p "$TMP/sys/bus/usb-serial/devices/$PTS"
+echo 16 >"$TMP/sys/bus/usb-serial/devices/$PTS/latency_timer"
+LEC6_SYSFS_ROOT=$TMP/sys doctor usb --port "$TMP/usb" doctor --ids 1-4
+check "usb latency: exit 7" test "$RC" -eq 7
+check "usb latency: the command" has usb "echo 1 | sudo tee $TMP/sys/bus/usb-serial/devices/$PTS/latency_timer"
+LEC6_SYSFS_ROOT=$TMP/sys doctor usb-fix --port "$TMP/usb" doctor --ids 1-4 --fix
+check "usb latency --fix: set to 1 ms" test "$(cat "$TMP/sys/bus/usb-serial/devices/$PTS/latency_timer")" = 1
+check "usb latency --fix: healthy" test "$RC" -eq 0
+stop_twin "$TWIN_PID"
+
+# Silent INT 20 (Ts = 70 chars, 18 ms at 38400), lec assumes 1: a query in two parts is still one frame.
+start_twin ts --pty "$TMP/ts" --ids 1 --silent-interval 20 || exit 1
+doctor ts --port "$TMP/ts" doctor --ids 1-4
+check "Silent INT: exit 7" test "$RC" -eq 7
+# (On a loaded host the split-query probe may not bracket Ts; the Td finding
+# then names Silent INT too.)
+check "Silent INT: named" has ts "Silent INT is"
+stop_twin "$TWIN_PID"
+
+# Combination 1: echo and a wrong baud.
+start_twin c1 --pty "$TMP/c1" --ids 2 --baud 19200 --strict-baud --echo-adapter || exit 1
+doctor c1 --port "$TMP/c1" doctor --ids 1-4
+check "echo + baud: exit 8" test "$RC" -eq 8
+check "echo + baud: the baud" has c1 "ID 2 at 19200"
+check "echo + baud: the echo" has c1 "add --echo"
+stop_twin "$TWIN_PID"
+
+# Combination 2: another master and a long Td.
+start_twin c2 --pty "$TMP/c2" --ids 1 --other-master 10 --td 20ms || exit 1
+doctor c2 --port "$TMP/c2" doctor --ids 1-4
+check "other master + Td: the master" has c2 "another master polls this line"
+check "other master + Td: broken" test "$RC" -eq 8
+stop_twin "$TWIN_PID"
+
+# Combination 3: a duplicate ID at 115200 with an alarm on the other ID.
+start_twin c3 --pty "$TMP/c3" --ids 1,4 --duplicate-ids 4 --baud 115200 --strict-baud || exit 1
+L1() { "$LEC" --port "$TMP/c3" --baud 115200 --id 1 "$@" >/dev/null 2>&1; }
+L1 serial on && L1 servo on && L1 home
+L1 move --to 900
+doctor c3 --port "$TMP/c3" doctor --ids 1-4
+check "dup + baud + alarm: exit 8" test "$RC" -eq 8
+check "dup + baud + alarm: the baud" has c3 "at 115200"
+check "dup + baud + alarm: the duplicate" has c3 "two controllers answer ID 4"
+check "dup + baud + alarm: the alarm" has c3 "alarm 62"
+stop_twin "$TWIN_PID"
+
+# A dead line: nothing answers at any baud, within the budget.
+start_twin dead --pty "$TMP/dead" --ids 1 --drop-rate 1 || exit 1
+doctor dead --port "$TMP/dead" doctor
+check "dead: exit 8" test "$RC" -eq 8
+check "dead: nothing answers at any baud" has dead "nothing answers at any baud"
+check "dead: the list of what to check" has dead "A/B (+/-) are not swapped"
+check "dead: within 30 s (took $SECS s)" test "$SECS" -lt 30
+stop_twin "$TWIN_PID"
+
+# Bad input: a port that does not exist.
+doctor missing --port "$TMP/no-such-port" doctor
+check "missing port: exit 3" test "$RC" -eq 3
+check "missing port: named" has missing "$TMP/no-such-port"
+
+# Bad input: the port held by lec serve: named, with the way through it.
+start_twin held --pty "$TMP/held" --ids 1 || exit 1
+MB=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
+"$LEC" serve --port "$TMP/held" --ids 1 --modbus-tcp "127.0.0.1:$MB" --http "" >"$TMP/serve.out" 2>&1 &
+SERVE=$!
+TWIN_PIDS+=("$SERVE")
+wait_for 10 "lec serve's Modbus TCP port" -- \
+  /usr/bin/python3 -c "import socket,sys; socket.create_connection(('127.0.0.1',$MB),0.2)"
+doctor busy --port "$TMP/held" doctor
+check "busy: exit 3" test "$RC" -eq 3
+check "busy: the holder named" has busy "port busy (another program has it open: pid $SERVE"
+check "busy: lec serve and the way through it" has busy "go through it with --port tcp://127.0.0.1:$MB"
+doctor through --port "tcp://127.0.0.1:$MB" doctor --ids 1-2
+check "through lec serve: the controller's state" has through "ID 1"
+check "through lec serve: not broken" test "$RC" -ne 8 -a "$RC" -ne 3
+stop_twin "$SERVE"
+stop_twin "$TWIN_PID"
+
+finish

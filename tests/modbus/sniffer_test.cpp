@@ -1,0 +1,257 @@
+// The listen-only sniffer, on virtual time: framing by length and CRC,
+// pairing, noise, timing judgements.
+
+#include "lec6/modbus/sniffer.hpp"
+
+#include <gtest/gtest.h>
+
+#include "lec6/modbus/crc.hpp"
+
+namespace lec6::modbus {
+namespace {
+
+using namespace std::chrono_literals;
+
+Bytes frame(std::initializer_list<uint8_t> body) {
+  Bytes b(body);
+  append_crc(b);
+  return b;
+}
+
+Bytes cat(std::initializer_list<Bytes> parts) {
+  Bytes out;
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+  return out;
+}
+
+const Bytes kRead = frame({0x01, 0x03, 0x90, 0x00, 0x00, 0x01});       // ID 1 read D9000 x1
+const Bytes kReadReply = frame({0x01, 0x03, 0x02, 0x00, 0x64});        // = 100
+const Bytes kSvon = frame({0x01, 0x05, 0x00, 0x19, 0xFF, 0x00});       // ID 1 write Y19 ON (echoed)
+const Bytes kException = frame({0x01, 0x83, 0x02});
+const TimePoint t0{};
+
+struct Line {
+  SnifferOptions options;
+  Sniffer sniffer{options};
+  explicit Line(uint32_t baud = 115200) : options(make(baud)), sniffer(options) {}
+  static SnifferOptions make(uint32_t baud) {
+    SnifferOptions o;
+    o.timing.baud = baud;
+    return o;
+  }
+  void at(TimePoint t, const Bytes& b) { sniffer.feed(b, t); }
+  std::vector<SniffEvent> done(TimePoint t) {
+    sniffer.finish(t);
+    return sniffer.take();
+  }
+};
+
+TEST(Sniffer, PairsAReadWithItsReplyAndTimesIt) {
+  Line l;
+  l.at(t0 + 1ms, kRead);
+  l.at(t0 + 9ms, kReadReply);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_EQ(e[0].kind, SniffKind::Query);
+  EXPECT_EQ(e[0].bytes, kRead);
+  EXPECT_EQ(e[1].kind, SniffKind::Reply);
+  EXPECT_EQ(e[1].query, kRead);
+  EXPECT_EQ(e[1].query_number, e[0].query_number);
+  ASSERT_TRUE(e[1].response);
+  EXPECT_EQ(*e[1].response, 8ms);
+  EXPECT_FALSE(e[1].has(kSniffLate));
+  const auto& s = l.sniffer.stats().ids.at(1);
+  EXPECT_EQ(s.exchanges, 1u);
+  EXPECT_EQ(s.timeouts, 0u);
+  EXPECT_EQ(response_percentile(s, 0.5), 8ms);
+}
+
+TEST(Sniffer, SplitsALumpByLengthAndCrcNotByGaps) {
+  Line l;
+  // Two exchanges in one chunk, the echo's query and reply identical.
+  l.at(t0 + 16ms, cat({kRead, kReadReply, kSvon, kSvon}));
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[0].kind, SniffKind::Query);
+  EXPECT_EQ(e[1].kind, SniffKind::Reply);
+  EXPECT_EQ(e[2].kind, SniffKind::Query);
+  EXPECT_EQ(e[3].kind, SniffKind::Reply);
+  EXPECT_EQ(e[3].query, kSvon);
+  EXPECT_FALSE(e[3].has(kSniffUnsolicited));
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).exchanges, 2u);
+}
+
+TEST(Sniffer, AFrameSplitOverChunksIsWhole) {
+  Line l;
+  for (std::size_t i = 0; i < kRead.size(); ++i) l.at(t0 + 1ms + i * 87us, Bytes{kRead[i]});
+  l.at(t0 + 12ms, Bytes(kReadReply.begin(), kReadReply.begin() + 3));
+  l.at(t0 + 13ms, Bytes(kReadReply.begin() + 3, kReadReply.end()));
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_EQ(e[0].bytes, kRead);
+  EXPECT_EQ(e[1].bytes, kReadReply);
+}
+
+TEST(Sniffer, NoiseIsShownWithItsBytesAndFramesResynchronise) {
+  Line l;
+  l.at(t0 + 1ms, cat({Bytes{0xFF, 0x00, 0x13}, kRead, Bytes{0xAA}, kReadReply, Bytes{0x55, 0x66}}));
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 5u);
+  EXPECT_EQ(e[0].kind, SniffKind::Noise);
+  EXPECT_EQ(e[0].bytes, (Bytes{0xFF, 0x00, 0x13}));
+  EXPECT_EQ(e[1].bytes, kRead);
+  EXPECT_EQ(e[2].kind, SniffKind::Noise);
+  EXPECT_EQ(e[2].bytes, Bytes{0xAA});
+  EXPECT_EQ(e[3].kind, SniffKind::Reply);
+  EXPECT_EQ(e[3].query, kRead);
+  EXPECT_EQ(e[4].bytes, (Bytes{0x55, 0x66}));
+  EXPECT_EQ(l.sniffer.stats().noise_bytes, 6u);
+  EXPECT_EQ(l.sniffer.stats().noise_bursts, 3u);
+}
+
+TEST(Sniffer, ACorruptReplyIsNoiseACrcErrorAndATimeout) {
+  Line l;
+  Bytes bad = kReadReply;
+  bad[4] ^= 0x01;
+  l.at(t0 + 1ms, kRead);
+  l.at(t0 + 9ms, bad);
+  l.at(t0 + 500ms, kRead);  // the master retries
+  l.at(t0 + 509ms, kReadReply);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 5u);
+  EXPECT_EQ(e[1].kind, SniffKind::Noise);
+  EXPECT_TRUE(e[1].has(kSniffBadCrc));
+  EXPECT_EQ(e[1].bytes, bad);
+  EXPECT_EQ(e[2].kind, SniffKind::NoReply);
+  EXPECT_EQ(e[2].query_number, e[0].query_number);
+  EXPECT_FALSE(e[3].has(kSniffSecondMaster));  // long after Tx: a retry, not a second master
+  EXPECT_EQ(e[4].kind, SniffKind::Reply);
+  const auto& s = l.sniffer.stats().ids.at(1);
+  EXPECT_EQ(s.crc_errors, 1u);
+  EXPECT_EQ(s.timeouts, 1u);
+  EXPECT_EQ(s.exchanges, 1u);
+}
+
+TEST(Sniffer, FlagsALateReply) {
+  Line l;
+  l.at(t0 + 1ms, kRead);
+  l.at(t0 + 61ms, kReadReply);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_TRUE(e[1].has(kSniffLate));
+  EXPECT_EQ(e[1].limit, l.options.timing.response_time(kReadReply.size()));
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).late, 1u);
+}
+
+TEST(Sniffer, FlagsAMasterThatDoesNotKeepTs) {
+  Line l(9600);  // Ts = 3.65 ms
+  l.at(t0 + 10ms, kRead);
+  l.at(t0 + 30ms, kReadReply);
+  // The next query starts 0.5 ms after the reply ended.
+  l.at(t0 + 30ms + 500us + l.options.timing.wire_time(kRead.size()), kRead);
+  l.at(t0 + 60ms, kReadReply);
+  // And one that keeps Ts.
+  l.at(t0 + 60ms + 4ms + l.options.timing.wire_time(kRead.size()), kRead);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 6u);  // the last query gets no reply
+  ASSERT_TRUE(e[2].silence);
+  EXPECT_EQ(*e[2].silence, 500us);
+  EXPECT_TRUE(e[2].has(kSniffShortSilence));
+  EXPECT_FALSE(e[4].has(kSniffShortSilence));
+  EXPECT_EQ(l.sniffer.stats().short_silences, 1u);
+}
+
+TEST(Sniffer, FlagsAReplyNobodyAskedFor) {
+  Line l;
+  l.at(t0 + 1ms, kReadReply);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0].kind, SniffKind::Reply);
+  EXPECT_TRUE(e[0].has(kSniffUnsolicited));
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).unsolicited, 1u);
+}
+
+TEST(Sniffer, FlagsTwoMastersOnOneLine) {
+  Line l;
+  const Bytes other = frame({0x02, 0x03, 0x90, 0x00, 0x00, 0x02});
+  l.at(t0 + 1ms, kRead);
+  l.at(t0 + 2ms, other);  // within ID 1's response time
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[1].kind, SniffKind::NoReply);
+  EXPECT_TRUE(e[2].has(kSniffSecondMaster));
+  EXPECT_EQ(l.sniffer.stats().second_master, 1u);
+}
+
+TEST(Sniffer, CountsExceptionsAndBroadcasts) {
+  Line l;
+  const Bytes broadcast = frame({0x00, 0x05, 0x00, 0x1B, 0xFF, 0x00});
+  l.at(t0 + 1ms, kRead);
+  l.at(t0 + 9ms, kException);
+  l.at(t0 + 20ms, broadcast);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 3u);
+  EXPECT_EQ(e[1].query, kRead);
+  EXPECT_TRUE(e[2].has(kSniffBroadcast));
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).exceptions, 1u);
+  EXPECT_EQ(l.sniffer.stats().ids.at(0).timeouts, 0u);
+}
+
+TEST(Sniffer, ASilenceSettlesBytesThatWaitForMore) {
+  Line l;
+  const Bytes start_of_write{0x01, 0x10, 0x91, 0x02, 0x00, 0x02, 0x04};  // claims 13 bytes
+  l.at(t0 + 1ms, start_of_write);
+  EXPECT_TRUE(l.sniffer.take().empty());
+  ASSERT_TRUE(l.sniffer.deadline());
+  l.sniffer.advance(*l.sniffer.deadline());
+  auto e = l.sniffer.take();
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0].kind, SniffKind::Noise);
+  EXPECT_EQ(e[0].bytes, start_of_write);
+  l.at(t0 + 300ms, kRead);
+  e = l.done(t0 + 2s);
+  ASSERT_GE(e.size(), 1u);
+  EXPECT_EQ(e[0].bytes, kRead);
+}
+
+TEST(Sniffer, AQueryWithoutReplyTimesOutOnTheClock) {
+  Line l;
+  l.at(t0 + 1ms, kRead);
+  EXPECT_EQ(l.sniffer.deadline(), t0 + 1ms + l.options.reply_wait);
+  l.sniffer.advance(t0 + 1ms + l.options.reply_wait);
+  const auto e = l.sniffer.take();
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_EQ(e[1].kind, SniffKind::NoReply);
+  EXPECT_FALSE(l.sniffer.deadline());
+}
+
+TEST(Sniffer, LumpsStopTimingJudgement) {
+  Line l;
+  for (int i = 0; i < 20; ++i) {
+    // Each exchange in one 16 ms lump: the reply's real time is unknown.
+    l.at(t0 + std::chrono::milliseconds(16 * (i + 1)), cat({kRead, kReadReply}));
+  }
+  const auto e = l.done(t0 + 2s);
+  EXPECT_EQ(e.size(), 40u);
+  EXPECT_TRUE(l.sniffer.stats().lumpy);
+  for (const auto& ev : e) EXPECT_FALSE(ev.has(kSniffLate) || ev.has(kSniffShortSilence));
+}
+
+TEST(Sniffer, FramesFunctionsTheLecDoesNotHave) {
+  // libmodbus's FC04 and a FC06: the LEC answers exception 01; both are frames.
+  Line l;
+  const Bytes fc04 = frame({0x01, 0x04, 0x90, 0x00, 0x00, 0x02});
+  const Bytes fc06 = frame({0x01, 0x06, 0x04, 0x22, 0x00, 0x07});
+  l.at(t0 + 1ms, cat({fc04, frame({0x01, 0x84, 0x01}), fc06, frame({0x01, 0x86, 0x01})}));
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[0].bytes, fc04);
+  EXPECT_EQ(e[1].query, fc04);
+  EXPECT_EQ(e[2].bytes, fc06);
+  EXPECT_EQ(e[3].query, fc06);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).exceptions, 2u);
+  EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
+}
+
+}  // namespace
+}  // namespace lec6::modbus

@@ -1,0 +1,145 @@
+// The history as the daemon uses it: records numbered across restarts, the
+// odometer persistent, service notices, drift warnings in the health and to
+// the listeners (SSE, MQTT).
+
+#include "serve/history/history.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+namespace lec6::serve::history {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    char tmpl[] = "/tmp/lec6-history-XXXXXX";
+    path = mkdtemp(tmpl);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+// The wall clock the history sees; records start near it (retention keeps them).
+constexpr int64_t kT0 = 1'790'000'000'000;
+int64_t now() {
+  return kT0 + 1'000'000;
+}
+
+MotionRecord move(double duration_s, double thrust, int64_t start_ms) {
+  MotionRecord r;
+  r.start_ms = kT0 + start_ms;
+  r.axis = "x";
+  r.source = "mqtt";
+  r.kind = "move";
+  r.start_mm = 10;
+  r.target_mm = 150;
+  r.speed_mm_s = 100;
+  r.outcome = "reached";
+  r.duration_s = duration_s;
+  r.settle_s = 0.04;
+  r.peak_thrust_pct = thrust;
+  r.distance_mm = 140;
+  return r;
+}
+
+void quiet(LogLevel, std::string_view) {}
+
+
+TEST(History, TheOdometerAndTheRecordIdsCarryOnAfterARestart) {
+  TempDir dir;
+  HistoryConfig c;
+  c.state_dir = dir.path;
+  {
+    History h(c, {"x"}, quiet, now);
+    for (int i = 0; i < 10; ++i) h.record(move(1.4, 40, 1000 + i));
+    h.flush();
+  }
+  History h(c, {"x"}, quiet, now);
+  const auto health = h.health("x");
+  EXPECT_EQ(health["odometer"]["moves"], 10);
+  EXPECT_DOUBLE_EQ(health["odometer"]["distance_m"].get<double>(), 1.4);
+  h.record(move(1.4, 40, 2000));
+  h.flush();
+  HistoryQuery q;
+  q.axis = "x";
+  const auto records = h.query(q);
+  ASSERT_EQ(records.size(), 11u);
+  EXPECT_EQ(records.front().id, 11);
+}
+
+TEST(History, AServiceThresholdRaisesANoticeUntilTheServiceIsDone) {
+  TempDir dir;
+  HistoryConfig c;
+  c.state_dir = dir.path;
+  c.services.push_back({"lubricate", std::nullopt, 20.0, std::nullopt});
+  History h(c, {"x"}, quiet, now);
+  for (int i = 0; i < 19; ++i) h.record(move(1.4, 40, i));
+  EXPECT_TRUE(h.health("x")["service"].empty());
+  h.record(move(1.4, 40, 20));
+  const auto due = h.health("x");
+  ASSERT_EQ(due["service"].size(), 1u);
+  EXPECT_EQ(due["service"][0]["what"], "lubricate");
+  EXPECT_FALSE(due["ok"].get<bool>());
+  EXPECT_FALSE(h.serviced("x", "paint"));
+  EXPECT_TRUE(h.serviced("x", "lubricate"));
+  EXPECT_TRUE(h.health("x")["service"].empty());
+  h.flush();
+  History again(c, {"x"}, quiet, now);  // the service mark persists
+  EXPECT_TRUE(again.health("x")["service"].empty());
+}
+
+TEST(History, ListenersGetEachRecordTheDriftWarningAndTheHealth) {
+  TempDir dir;
+  HistoryConfig c;
+  c.state_dir = dir.path;
+  History h(c, {"x"}, quiet, now);
+  std::vector<std::string> kinds;
+  nlohmann::json last_drift;
+  h.add_listener([&](const std::string& axis, std::string_view kind, const nlohmann::json& j) {
+    EXPECT_EQ(axis, "x");
+    kinds.emplace_back(kind);
+    if (kind == "drift") last_drift = j;
+  });
+  std::mt19937 rng(1);
+  std::normal_distribution<double> n(0, 0.01);
+  for (int i = 0; i < 40; ++i) h.record(move(1.4 * (1 + n(rng)), 40 * (1 + n(rng)), i * 1000));
+  for (int i = 40; i < 60; ++i) h.record(move(1.4 * 1.2, 40 * (1 + n(rng)), i * 1000));
+  EXPECT_EQ(std::count(kinds.begin(), kinds.end(), "history"), 60);
+  EXPECT_EQ(std::count(kinds.begin(), kinds.end(), "health"), 60);
+  ASSERT_EQ(std::count(kinds.begin(), kinds.end(), "drift"), 1);
+  EXPECT_TRUE(last_drift["raised"].get<bool>());
+  EXPECT_EQ(last_drift["metric"], "duration_s");
+  const auto health = h.health("x");
+  ASSERT_EQ(health["warnings"].size(), 1u);
+  EXPECT_NE(health["warnings"][0]["message"].get<std::string>().find("rose"), std::string::npos);
+  EXPECT_EQ(health["groups"].size(), 1u);
+}
+
+TEST(History, AStepWriteThroughLecServeStartsANewBaseline) {
+  TempDir dir;
+  HistoryConfig c;
+  c.state_dir = dir.path;
+  History h(c, {"x"}, quiet, now);
+  auto step_move = [](double d, int64_t t) {
+    auto r = move(d, 40, t);
+    r.kind = "run-step";
+    r.step = 4;
+    r.speed_mm_s.reset();
+    return r;
+  };
+  for (int i = 0; i < 40; ++i) h.record(step_move(1.4, i));
+  h.on_op_event("x", {{"event", "finished"}, {"op", "step-write"}, {"ok", true}, {"step", 4}},
+                TimePoint{});
+  for (int i = 40; i < 100; ++i) h.record(step_move(2.0, i));
+  EXPECT_TRUE(h.health("x")["warnings"].empty());
+}
+
+}  // namespace
+}  // namespace lec6::serve::history

@@ -1,0 +1,302 @@
+// The history's SQLite store: records and odometers survive a reopen and a
+// kill -9, retention by size and age, a corrupt file is moved aside.
+
+#include "serve/history/store.hpp"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+namespace lec6::serve::history {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    char tmpl[] = "/tmp/lec6-history-XXXXXX";
+    path = mkdtemp(tmpl);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+struct Logged {
+  std::mutex m;
+  std::vector<std::string> lines;
+  Log log() {
+    return [this](LogLevel, std::string_view t) {
+      std::lock_guard lock(m);
+      lines.emplace_back(t);
+    };
+  }
+  std::string all() {
+    std::lock_guard lock(m);
+    std::string out;
+    for (const auto& l : lines) out += l + "\n";
+    return out;
+  }
+};
+
+MotionRecord rec(int64_t id, int64_t start_ms, const std::string& axis = "x") {
+  MotionRecord r;
+  r.id = id;
+  r.start_ms = start_ms;
+  r.axis = axis;
+  r.source = "http 127.0.0.1";
+  r.kind = id % 5 == 0 ? "home" : "move";
+  r.step = id % 3 == 0 ? std::optional<int>(2) : std::nullopt;
+  r.start_mm = 10;
+  r.target_mm = 150;
+  r.speed_mm_s = 100;
+  r.outcome = id % 7 == 0 ? "stopped" : "reached";
+  r.busy_up_s = 0.01;
+  r.busy_down_s = 1.4;
+  r.inp_s = 1.45;
+  r.duration_s = 1.4;
+  r.settle_s = 0.05;
+  r.peak_thrust_pct = 42;
+  r.mean_thrust_pct = 30;
+  r.peak_speed_mm_s = 101;
+  r.overshoot_mm = 0.02;
+  r.final_error_mm = 0.01;
+  r.distance_mm = 140;
+  return r;
+}
+
+constexpr int64_t kDay = 86'400'000;
+constexpr int64_t kT0 = 1'790'000'000'000;
+
+TEST(HistoryStore, RecordsAndTheOdometerSurviveAReopen) {
+  TempDir dir;
+  Logged log;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  {
+    Store s(c, log.log());
+    ASSERT_TRUE(s.ok()) << log.all();
+    EXPECT_EQ(s.first_free_id(), 1);
+    Odometer o;
+    for (int i = 1; i <= 50; ++i) {
+      auto r = rec(i, kT0 + i * 1000, i % 2 ? "x" : "y");
+      if (r.axis == "x") o.add(r);
+      EXPECT_TRUE(s.append(r, r.axis == "x" ? o : Odometer{}));
+    }
+    s.flush();
+    EXPECT_EQ(s.stats().written, 50u);
+  }
+  Store s(c, log.log());
+  ASSERT_TRUE(s.ok());
+  EXPECT_EQ(s.first_free_id(), 51);
+  ASSERT_TRUE(s.odometers().count("x"));
+  EXPECT_EQ(s.odometers().at("x").moves, 25);
+  EXPECT_DOUBLE_EQ(s.odometers().at("x").distance_mm, 25 * 140.0);
+
+  HistoryQuery q;
+  q.axis = "x";
+  auto all = s.query(q);
+  ASSERT_EQ(all.size(), 25u);
+  EXPECT_EQ(all.front().id, 49);  // newest first
+  EXPECT_EQ(all.front().target_mm, 150);
+  EXPECT_EQ(all.front().inp_s, 1.45);
+  EXPECT_EQ(all.front().settle_s, 0.05);
+  q.kind = "home";
+  for (const auto& r : s.query(q)) EXPECT_EQ(r.kind, "home");
+  q.kind.reset();
+  q.outcome = "stopped";
+  for (const auto& r : s.query(q)) EXPECT_EQ(r.outcome, "stopped");
+  q.outcome.reset();
+  q.limit = 10;
+  const auto page1 = s.query(q);
+  ASSERT_EQ(page1.size(), 10u);
+  q.before_id = page1.back().id;
+  const auto page2 = s.query(q);
+  ASSERT_EQ(page2.size(), 10u);
+  EXPECT_LT(page2.front().id, page1.back().id);
+  q = {};
+  q.axis = "x";
+  q.since_ms = kT0 + 10'000;
+  q.until_ms = kT0 + 20'000;
+  for (const auto& r : s.query(q)) {
+    EXPECT_GE(r.start_ms, *q.since_ms);
+    EXPECT_LT(r.start_ms, *q.until_ms);
+  }
+  EXPECT_EQ(s.query(q).size(), 5u);
+}
+
+TEST(HistoryStore, ACorruptFileIsMovedAsideWithALogLineAndANewOneStarted) {
+  TempDir dir;
+  Logged log;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  {
+    std::ofstream f(c.file);
+    f << "this is not an SQLite database, it is a shopping list\n";
+    for (int i = 0; i < 1000; ++i) f << "eggs\n";
+  }
+  Store s(c, log.log());
+  ASSERT_TRUE(s.ok()) << log.all();
+  EXPECT_NE(log.all().find("moved aside to"), std::string::npos) << log.all();
+  EXPECT_NE(log.all().find("history.db.corrupt-"), std::string::npos) << log.all();
+  int aside = 0;
+  for (const auto& e : fs::directory_iterator(dir.path)) {
+    aside += e.path().filename().string().starts_with("history.db.corrupt-");
+  }
+  EXPECT_EQ(aside, 1);
+  EXPECT_TRUE(s.append(rec(1, kT0), {}));
+  s.flush();
+  HistoryQuery q;
+  q.axis = "x";
+  EXPECT_EQ(s.query(q).size(), 1u);
+}
+
+TEST(HistoryStore, AnUnusableDirectoryTurnsTheHistoryOffButNeverThrows) {
+  Logged log;
+  StoreConfig c;
+  c.file = "/proc/lec6-no-such-dir/history.db";
+  Store s(c, log.log());
+  EXPECT_FALSE(s.ok());
+  EXPECT_FALSE(s.append(rec(1, kT0), {}));
+  EXPECT_NE(s.stats().disabled_reason.find("move history off"), std::string::npos);
+  EXPECT_NE(log.all().find("the lines run without it"), std::string::npos) << log.all();
+}
+
+TEST(HistoryStore, RetentionBySizeKeepsTheNewestOfAHundredThousandRecordsUnderTheLimit) {
+  TempDir dir;
+  Logged log;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  c.max_bytes = 2u << 20;  // 2 MiB
+  c.queue_capacity = 2000;
+  const int64_t now = kT0 + 100 * kDay;
+  c.now_ms = [now] { return now; };
+  Store s(c, log.log());
+  ASSERT_TRUE(s.ok());
+  Odometer o;
+  uint64_t largest = 0;
+  for (int i = 1; i <= 100'000; ++i) {
+    auto r = rec(i, now - 100'000 + i);
+    o.add(r);
+    ASSERT_TRUE(s.append(r, o)) << "record " << i;
+    if (i % 1000 == 0) {
+      s.flush();
+      largest = std::max<uint64_t>(largest, s.stats().file_bytes);
+    }
+  }
+  s.flush();
+  const auto st = s.stats();
+  EXPECT_EQ(st.written, 100'000u);
+  EXPECT_GT(st.pruned, 90'000u);
+  EXPECT_LE(largest, c.max_bytes) << "the file and its WAL passed the limit";
+  HistoryQuery q;
+  q.axis = "x";
+  q.limit = 10000;
+  const auto kept = s.query(q);
+  ASSERT_FALSE(kept.empty());
+  EXPECT_EQ(kept.front().id, 100'000);  // the newest are there
+  EXPECT_GT(kept.back().id, 90'000);    // the oldest are gone
+  // The odometer keeps counting what retention deleted.
+  EXPECT_EQ(s.odometers().size(), 0u);  // (as opened: empty)
+  s.flush();
+}
+
+TEST(HistoryStore, TheOdometerCountsWhatRetentionDeleted) {
+  TempDir dir;
+  Logged log;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  c.max_bytes = 256u << 10;
+  {
+    Store s(c, log.log());
+    Odometer o;
+    for (int i = 1; i <= 5000; ++i) {
+      auto r = rec(i, kT0 + i);
+      o.add(r);
+      s.append(r, o);
+      if (i % 500 == 0) s.flush();
+    }
+  }
+  Store again(c, log.log());
+  EXPECT_EQ(again.odometers().at("x").moves, 5000);
+  EXPECT_GT(again.stats().file_bytes, 0u);
+}
+
+TEST(HistoryStore, RetentionByAgeDropsWhatIsOlderThanMaxAge) {
+  TempDir dir;
+  Logged log;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  c.max_age_days = 30;
+  std::atomic<int64_t> now{kT0};
+  c.now_ms = [&now] { return now.load(); };
+  {
+    Store s(c, log.log());
+    for (int i = 1; i <= 40; ++i) s.append(rec(i, kT0 - (40 - i) * kDay), {});
+    s.flush();
+  }
+  Store s(c, log.log());  // opening prunes by age
+  HistoryQuery q;
+  q.axis = "x";
+  const auto kept = s.query(q);
+  ASSERT_FALSE(kept.empty());
+  for (const auto& r : kept) EXPECT_GE(r.start_ms, kT0 - 30 * kDay);
+  EXPECT_EQ(kept.size(), 31u);  // 0 to 30 days old
+}
+
+// A child process appends records as fast as it can and reports each commit
+// on a pipe; the parent kills it (SIGKILL) mid-burst. The file opens, and
+// every record reported committed is there, with the odometer that went with it.
+TEST(HistoryStore, KillMinus9DuringABurstLosesNothingCommittedAndTheOdometerMatches) {
+  TempDir dir;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  int fds[2];
+  ASSERT_EQ(pipe(fds), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    close(fds[0]);
+    Store s(c, [](LogLevel, std::string_view) {});
+    Odometer o;
+    for (int64_t i = 1;; ++i) {
+      auto r = rec(i, kT0 + i);
+      o.add(r);
+      s.append(r, o);
+      if (i % 10 == 0) {
+        s.flush();
+        if (write(fds[1], &i, sizeof i) != sizeof i) _exit(1);
+      }
+    }
+  }
+  close(fds[1]);
+  int64_t committed = 0, n = 0;
+  while (committed < 3000 && read(fds[0], &n, sizeof n) == sizeof n) committed = n;
+  kill(child, SIGKILL);
+  while (read(fds[0], &n, sizeof n) == sizeof n) committed = n;
+  close(fds[0]);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  Logged log;
+  Store s(c, log.log());
+  ASSERT_TRUE(s.ok()) << log.all();
+  EXPECT_EQ(log.all().find("moved aside"), std::string::npos) << log.all();
+  const int64_t in_file = s.first_free_id() - 1;
+  EXPECT_GE(in_file, committed);
+  ASSERT_TRUE(s.odometers().count("x"));
+  EXPECT_EQ(s.odometers().at("x").moves, in_file) << "the odometer row goes with its record";
+}
+
+}  // namespace
+}  // namespace lec6::serve::history

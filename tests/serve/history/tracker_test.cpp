@@ -1,0 +1,144 @@
+// From operations events and telemetry reads to motion records (sans-I/O,
+// on a virtual clock's time points).
+
+#include "serve/history/tracker.hpp"
+
+#include <gtest/gtest.h>
+
+#include "serve/history/history_http.hpp"
+
+namespace lec6::serve::history {
+namespace {
+
+using namespace std::chrono_literals;
+
+lec::StateData state(double mm, uint16_t speed, uint16_t thrust, double target_mm) {
+  lec::StateData s;
+  s.position_001mm = static_cast<int32_t>(mm * 100);
+  s.speed_mm_s = speed;
+  s.thrust_pct = thrust;
+  s.target_001mm = static_cast<int32_t>(target_mm * 100);
+  return s;
+}
+
+lec::StatusFlags flags(bool busy, bool inp) {
+  lec::StatusFlags f;
+  f.set(lec::StatusFlags::Busy, busy);
+  f.set(lec::StatusFlags::Inp, inp);
+  return f;
+}
+
+TEST(Tracker, AnOperationsMoveTakesItsSettingsOutcomeAndTimelineAndTheSamplesBetween) {
+  MotionTracker t("x");
+  TimePoint now{};
+  EXPECT_FALSE(t.telemetry(state(10, 0, 5, 10), flags(false, true), now, 1000));
+  nlohmann::json started{{"event", "started"}, {"op", "move"}, {"source", "http 127.0.0.1"},
+                         {"target_mm", 150.0}, {"speed_mm_s", 100}, {"moving_force_pct", 100}};
+  EXPECT_FALSE(t.op_event(started, now, 1000));
+  double pos[] = {20, 60, 110, 150.3, 150.0};
+  uint16_t thrust[] = {60, 40, 35, 50, 10};
+  for (int i = 0; i < 5; ++i) {
+    now += 300ms;
+    EXPECT_FALSE(t.telemetry(state(pos[i], i < 3 ? 100 : 0, thrust[i], 150), flags(i < 3, i >= 3),
+                             now, 1000 + 300 * (i + 1)));
+  }
+  nlohmann::json finished{{"event", "finished"}, {"op", "move"}, {"outcome", "reached"},
+                          {"ok", true}, {"position_mm", 150.0}, {"target_mm", 150.0},
+                          {"speed_mm_s", 0}, {"thrust_pct", 10}, {"elapsed_s", 1.5},
+                          {"timeline", {{"busy_up_s", 0.02}, {"busy_down_s", 1.2}, {"inp_s", 1.26}}}};
+  const auto r = t.op_event(finished, now, 2500);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->axis, "x");
+  EXPECT_EQ(r->kind, "move");
+  EXPECT_EQ(r->source, "http 127.0.0.1");
+  EXPECT_EQ(r->start_ms, 1000);
+  EXPECT_EQ(r->start_mm, 10);
+  EXPECT_EQ(r->target_mm, 150);
+  EXPECT_EQ(r->speed_mm_s, 100);
+  EXPECT_EQ(r->force_pct, 100);
+  EXPECT_EQ(r->outcome, "reached");
+  EXPECT_DOUBLE_EQ(r->duration_s, 1.2);
+  EXPECT_NEAR(*r->settle_s, 0.06, 1e-9);
+  EXPECT_EQ(r->peak_thrust_pct, 60);
+  EXPECT_EQ(r->peak_speed_mm_s, 100);
+  EXPECT_NEAR(*r->overshoot_mm, 0.3, 1e-9);
+  EXPECT_NEAR(*r->final_error_mm, 0, 1e-9);
+  EXPECT_NEAR(r->distance_mm, 140.6, 1e-9);
+}
+
+TEST(Tracker, AMoveAnotherMasterStartedIsRecordedFromTheTelemetry) {
+  MotionTracker t("x");
+  TimePoint now{};
+  EXPECT_FALSE(t.telemetry(state(100, 0, 3, 100), flags(false, true), now, 0));
+  now += 100ms;
+  EXPECT_FALSE(t.telemetry(state(90, 50, 30, 20), flags(true, false), now, 100));
+  now += 1s;
+  EXPECT_FALSE(t.telemetry(state(30, 50, 30, 20), flags(true, false), now, 1100));
+  now += 300ms;
+  EXPECT_FALSE(t.telemetry(state(20, 0, 8, 20), flags(false, false), now, 1400));
+  now += 100ms;
+  const auto r = t.telemetry(state(20, 0, 8, 20), flags(false, true), now, 1500);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->source, "telemetry");
+  EXPECT_EQ(r->start_ms, 100);
+  EXPECT_EQ(r->start_mm, 100);
+  EXPECT_EQ(r->target_mm, 20);
+  EXPECT_EQ(r->outcome, "reached");
+  EXPECT_NEAR(r->duration_s, 1.3, 1e-9);
+  EXPECT_NEAR(*r->settle_s, 0.1, 1e-9);
+  EXPECT_EQ(r->peak_thrust_pct, 30);
+  EXPECT_NEAR(r->distance_mm, 80, 1e-9);
+}
+
+TEST(Tracker, AfterAnOperationEndsTheTailOfItsBusyIsNotAnotherMotion) {
+  MotionTracker t("x");
+  TimePoint now{};
+  t.telemetry(state(10, 0, 5, 10), flags(false, true), now, 0);
+  t.op_event({{"event", "started"}, {"op", "move"}, {"source", "mqtt"}}, now, 0);
+  now += 200ms;
+  t.telemetry(state(30, 100, 40, 150), flags(true, false), now, 200);
+  const auto r = t.op_event({{"event", "finished"}, {"op", "move"}, {"outcome", "stopped"},
+                             {"position_mm", 31.0}},
+                            now, 200);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->outcome, "stopped");
+  now += 100ms;
+  EXPECT_FALSE(t.telemetry(state(33, 20, 10, 150), flags(true, false), now, 300));
+  now += 100ms;
+  EXPECT_FALSE(t.telemetry(state(33, 0, 5, 150), flags(false, false), now, 400));
+  now += 2s;
+  EXPECT_FALSE(t.telemetry(state(33, 0, 5, 150), flags(false, false), now, 2400));
+}
+
+TEST(HistoryQueryParse, BadFiltersNameTheParameter) {
+  auto err = [](std::map<std::string, std::string> q) {
+    auto r = parse_query("x", q);
+    return std::holds_alternative<QueryError>(r) ? std::get<QueryError>(r).parameter
+                                                 : std::string("(accepted)");
+  };
+  EXPECT_EQ(err({{"since", "yesterday"}}), "since");
+  EXPECT_EQ(err({{"until", "2026-13-01"}}), "until");
+  EXPECT_EQ(err({{"kind", "fly"}}), "kind");
+  EXPECT_EQ(err({{"outcome", "meh"}}), "outcome");
+  EXPECT_EQ(err({{"step", "64"}}), "step");
+  EXPECT_EQ(err({{"limit", "0"}}), "limit");
+  EXPECT_EQ(err({{"limit", "10001"}}), "limit");
+  EXPECT_EQ(err({{"before", "-3"}}), "before");
+  EXPECT_EQ(err({{"format", "xml"}}), "format");
+  EXPECT_EQ(err({{"colour", "red"}}), "colour");
+  EXPECT_EQ(err({{"since", "2026-11-24"}, {"until", "2026-11-23"}}), "until");
+  EXPECT_EQ(err({{"since", "2026-11-24T10:00:00Z"}, {"kind", "run-step"}, {"step", "3"},
+                 {"limit", "50"}, {"format", "csv"}}),
+            "(accepted)");
+}
+
+TEST(HistoryQueryParse, TimesAreUtc) {
+  EXPECT_EQ(parse_time("1970-01-01"), 0);
+  EXPECT_EQ(parse_time("1970-01-02T00:00:01Z"), 86'401'000);
+  EXPECT_EQ(parse_time("1970-01-01T00:00:00.25Z"), 250);
+  EXPECT_FALSE(parse_time("1970-01-01T00:00"));
+  EXPECT_FALSE(parse_time("soon"));
+}
+
+}  // namespace
+}  // namespace lec6::serve::history

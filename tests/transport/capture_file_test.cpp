@@ -1,0 +1,121 @@
+// Capture files on disk: what the writer wrote reads back; the reader's
+// errors name the file.
+
+#include "lec6/transport/capture_file.hpp"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace lec6::transport {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+class CaptureFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fs::temp_directory_path() /
+          ("lec6-capture-" + std::to_string(::getpid()) + "-" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  std::string contents(const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+  fs::path dir;
+};
+
+modbus::CaptureHeader header() {
+  modbus::CaptureHeader h;
+  h.source = "tap";
+  h.started_utc = "2026-11-24T19:00:00.000000Z";
+  h.port = "/tmp/tap";
+  h.tool = "lec test";
+  return h;
+}
+
+TEST_F(CaptureFileTest, WrittenRecordsReadBack) {
+  const auto path = (dir / "c.jsonl").string();
+  {
+    CaptureWriter w(path, header(), std::chrono::milliseconds(5));
+    for (int i = 0; i < 1000; ++i)
+      w.write({i * 10, i * 10 + 5, i % 2 ? modbus::CaptureDir::Reply : modbus::CaptureDir::Query,
+               {static_cast<uint8_t>(i), 0x03}, ""});
+    EXPECT_EQ(w.records_written(), 1000u);
+  }  // the destructor writes out the rest
+  const modbus::Capture c = read_capture_file(path);
+  EXPECT_EQ(c.header.source, "tap");
+  ASSERT_EQ(c.records.size(), 1000u);
+  EXPECT_EQ(c.records[999].t_us, 9990);
+  EXPECT_EQ(c.records[999].bytes, (modbus::Bytes{0xE7, 0x03}));
+}
+
+TEST_F(CaptureFileTest, FlushPutsEverythingOnDisk) {
+  const auto path = dir / "c.jsonl";
+  CaptureWriter w(path.string(), header(), std::chrono::hours(1));  // never on its own
+  w.write({1, 2, modbus::CaptureDir::Noise, {0xFF}, "burst"});
+  w.flush();
+  const std::string text = contents(path);
+  EXPECT_THAT(text, HasSubstr("\"format\":\"lec6-capture\""));
+  EXPECT_THAT(text, HasSubstr(R"({"t_us":1,"end_us":2,"dir":"noise","hex":"ff","note":"burst"})"));
+  w.close();
+  w.close();  // idempotent
+  EXPECT_THROW(w.write({3, 4, modbus::CaptureDir::Noise, {0xFF}, ""}), Error);
+}
+
+TEST_F(CaptureFileTest, AMissingFileIsAClearError) {
+  const auto path = (dir / "nope.jsonl").string();
+  try {
+    read_capture_file(path);
+    FAIL();
+  } catch (const InvalidArgument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cannot read " + path));
+    EXPECT_THAT(e.what(), HasSubstr("No such file or directory"));
+  }
+}
+
+TEST_F(CaptureFileTest, ACorruptFileNamesPathLineAndOffset) {
+  const auto path = (dir / "cut.jsonl").string();
+  {
+    CaptureWriter w(path, header());
+    w.write({1, 2, modbus::CaptureDir::Query, {0x01, 0x03}, ""});
+    w.write({3, 4, modbus::CaptureDir::Reply, {0x01, 0x83}, ""});
+  }
+  const std::string text = contents(path);
+  fs::resize_file(path, text.size() - 10);  // cut in the middle of the last line
+  const std::size_t last = text.rfind('\n', text.size() - 2) + 1;
+  try {
+    read_capture_file(path);
+    FAIL();
+  } catch (const modbus::CaptureError& e) {
+    EXPECT_EQ(e.line(), 3u);
+    EXPECT_EQ(e.offset(), last);
+    EXPECT_THAT(e.what(), HasSubstr(path + ", line 3 (byte " + std::to_string(last) + ")"));
+  }
+}
+
+TEST_F(CaptureFileTest, AnUncreatableFileIsAClearError) {
+  const auto path = (dir / "no-such-dir" / "c.jsonl").string();
+  try {
+    CaptureWriter w(path, header());
+    FAIL();
+  } catch (const InvalidArgument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cannot create " + path));
+  }
+}
+
+}  // namespace
+}  // namespace lec6::transport
