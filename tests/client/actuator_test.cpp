@@ -170,13 +170,13 @@ TEST(Actuator, PlainMoveAfterPushReportsTheDefaultBand) {
   plain.relative = true;
   const auto r = f.axis->move(plain, f.axis->deadline_in(std::chrono::seconds(30)));
   EXPECT_EQ(r.outcome, MoveOutcome::Reached) << r.describe();
-  EXPECT_EQ(r.goal.band_001mm, 50) << r.describe();
+  EXPECT_EQ(r.goal.in_position_001mm, 50) << r.describe();
   EXPECT_NE(r.describe().find("within ±0.50 mm"), std::string::npos) << r.describe();
   // keep: the band of the push stays, and the line says where it came from.
   DirectMove kept = plain;
   kept.keep = true;
   const auto k = f.axis->move(kept, f.axis->deadline_in(std::chrono::seconds(30)));
-  EXPECT_EQ(k.goal.band_001mm, 50) << k.describe();  // the plain move wrote 0.50 mm
+  EXPECT_EQ(k.goal.in_position_001mm, 50) << k.describe();  // the plain move wrote 0.50 mm
   EXPECT_NE(k.describe().find("kept from the controller: speed 100 mm/s"), std::string::npos)
       << k.describe();
 }

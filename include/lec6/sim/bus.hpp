@@ -73,7 +73,7 @@ struct FaultConfig {
   // on the line: the master gets a reply whose header (ID, function, byte
   // count: the same in both) is intact but whose data and CRC are garbled.
   // Otherwise they happened to agree.
-  std::vector<uint8_t> duplicate_ids;
+  std::vector<uint8_t> duplicate_ids{};
   double collision = 0.5;
   uint64_t seed = 1;
   bool any() const noexcept {
