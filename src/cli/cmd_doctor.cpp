@@ -163,6 +163,7 @@ void burst(const transport::PortSpec& spec, const GlobalOptions& g, const std::v
   // No reply can be complete sooner: one that is was late for the query before.
   const Duration fastest = p.timing().wire_time(b.query_bytes) +
                            p.timing().wire_time(b.reply_bytes) + modbus::LineTiming::kProcessing;
+  int too_fast = 0;
   for (int i = 0; i < kBurstExchanges && SteadyClock{}.now() < until && !g_interrupted; ++i) {
     const uint8_t id = ids[static_cast<std::size_t>(i) % ids.size()];
     // 0-16 ms more between exchanges, spread evenly: a USB adapter's latency
@@ -183,7 +184,9 @@ void burst(const transport::PortSpec& spec, const GlobalOptions& g, const std::v
       case dx::ReplyKind::Good:
       case dx::ReplyKind::Exception:
         if (h.round_trip < fastest) {
-          ++b.timeouts;  // the previous query's late reply; ours came after the window
+          // The previous query's late reply (ours came after the window), or
+          // a line that no wire paces: told apart below, over the burst.
+          ++too_fast;
           break;
         }
         ++b.good;
@@ -202,6 +205,7 @@ void burst(const transport::PortSpec& spec, const GlobalOptions& g, const std::v
         break;
     }
   }
+  dx::account_too_fast(b, too_fast);
 }
 
 // 4. Silent INT: does a query in two parts, a gap longer than lec's Ts
@@ -358,7 +362,8 @@ nlohmann::json to_json(const dx::Observations& obs, const dx::Report& r) {
   const auto& b = obs.burst;
   j["burst"] = {
       {"exchanges", b.exchanges}, {"good", b.good},         {"crc", b.crc},
-      {"framing", b.framing},     {"timeouts", b.timeouts}, {"noise_bytes", b.noise_bytes}};
+      {"framing", b.framing},     {"timeouts", b.timeouts}, {"noise_bytes", b.noise_bytes},
+      {"unpaced", b.unpaced}};
   return j;
 }
 

@@ -42,16 +42,24 @@ struct SniffArgs {
 
 std::atomic<bool> g_stats_wanted{false};
 
-void on_usr1(int) { g_stats_wanted = true; }
+void on_usr1(int) {
+  g_stats_wanted = true;
+}
 
 speed_t speed_for(uint32_t baud) {
   switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    default: return B230400;
+    case 9600:
+      return B9600;
+    case 19200:
+      return B19200;
+    case 38400:
+      return B38400;
+    case 57600:
+      return B57600;
+    case 115200:
+      return B115200;
+    default:
+      return B230400;
   }
 }
 
@@ -74,9 +82,12 @@ transport::UniqueFd open_listen_only(const std::string& path, uint32_t baud) {
   ::cfsetispeed(&tio, speed_for(baud));
   ::cfsetospeed(&tio, speed_for(baud));
   if (::tcsetattr(fd.get(), TCSANOW, &tio) != 0) {
-    throw CommandFailed(kTransport, fmt::format("cannot configure {}: {}", path,
-                                                std::strerror(errno)));
+    throw CommandFailed(kTransport,
+                        fmt::format("cannot configure {}: {}", path, std::strerror(errno)));
   }
+  // What the driver (or a pty: the twin's tap) held before we listened is no
+  // part of this session: its times are lost, and it would be shown as now.
+  ::tcflush(fd.get(), TCIFLUSH);
   return fd;
 }
 
@@ -97,9 +108,9 @@ class Sink {
     for (const SniffEvent& e : sniffer.take()) {
       if (capture_ && e.kind != SniffKind::NoReply) capture_->write(record(e));
       if (pcap_ && (e.kind == SniffKind::Query || e.kind == SniffKind::Reply)) {
-        pcap_->write(e.bytes, wall_origin_ + std::chrono::duration_cast<
-                                                 std::chrono::system_clock::duration>(
-                                                 e.last_byte - origin_));
+        pcap_->write(e.bytes,
+                     wall_origin_ + std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                                        e.last_byte - origin_));
       }
       if (filter_.passes(e)) printer_.event(e);
     }
@@ -304,21 +315,26 @@ void add_sniff_command(CLI::App& app, const GlobalOptions& globals) {
       "query, the controller's response time against Tx) is judged when frames arrive in chunks "
       "of their own (set the adapter's latency timer to 1 ms). Statistics print at the end, on "
       "SIGUSR1 and on the key s. See docs/sniff.md.");
-  sniff->add_option("--read", a->read,
-                    "Replay a capture file (docs/capture-format.md) instead of a port")
+  sniff
+      ->add_option("--read", a->read,
+                   "Replay a capture file (docs/capture-format.md) instead of a port")
       ->type_name("FILE");
-  sniff->add_option("--capture", a->capture,
-                    "Also write every frame and noise burst to FILE in the capture format")
+  sniff
+      ->add_option("--capture", a->capture,
+                   "Also write every frame and noise burst to FILE in the capture format")
       ->type_name("FILE");
-  sniff->add_option("--pcap", a->pcap,
-                    "Also write the frames (not the noise) to FILE as pcap, link type 147 "
-                    "(DLT_USER0): tshark -o 'uat:user_dlts:\"User 0 (DLT=147)\",\"mbrtu\",\"0\",\"\",\"0\",\"\"' "
-                    "-r FILE (docs/sniff.md)")
+  sniff
+      ->add_option("--pcap", a->pcap,
+                   "Also write the frames (not the noise) to FILE as pcap, link type 147 "
+                   "(DLT_USER0): tshark -o 'uat:user_dlts:\"User 0 "
+                   "(DLT=147)\",\"mbrtu\",\"0\",\"\",\"0\",\"\"' "
+                   "-r FILE (docs/sniff.md)")
       ->type_name("FILE");
-  sniff->add_option("--filter", a->filter,
-                    "Show only frames matching all terms: id=LIST (1,2 or 1-4), fn=LIST "
-                    "(function codes, e.g. 3,16), addr=FROM-TO (register/bit addresses in hex, "
-                    "as the manual writes them, e.g. 9000-9010); noise is always shown")
+  sniff
+      ->add_option("--filter", a->filter,
+                   "Show only frames matching all terms: id=LIST (1,2 or 1-4), fn=LIST "
+                   "(function codes, e.g. 3,16), addr=FROM-TO (register/bit addresses in hex, "
+                   "as the manual writes them, e.g. 9000-9010); noise is always shown")
       ->type_name("TERMS");
   sniff->add_flag("--no-timing", a->no_timing, "Do not judge timing (no Ts/Tx verdicts)");
   sniff->callback([a, &globals] {
@@ -329,8 +345,7 @@ void add_sniff_command(CLI::App& app, const GlobalOptions& globals) {
     options.check_timing = !a->no_timing;
     SniffFilter::parse(a->filter);  // refuse a bad filter before opening anything
     if (!a->read.empty()) {
-      if (!globals.port.empty())
-        throw UsageError("sniff: give --port or --read, not both");
+      if (!globals.port.empty()) throw UsageError("sniff: give --port or --read, not both");
       try {
         run_read(*a, options, globals.json);
       } catch (const InvalidArgument& e) {

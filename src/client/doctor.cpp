@@ -202,6 +202,7 @@ void Builder::other_master() {
 
 void Builder::usb_latency() {
   const auto& b = o_.burst;
+  if (b.unpaced) return;  // said under timing
   const Duration limit = o_.assumed.transaction_limit(b.query_bytes, b.reply_bytes);
   const Duration med = median(b.round_trips);
   std::string measured;
@@ -265,6 +266,15 @@ void Builder::usb_latency() {
 
 void Builder::timing() {
   const auto& b = o_.burst;
+  if (b.unpaced) {
+    add("timing", Severity::Info,
+        fmt::format("replies came sooner than {} bytes take at {} baud",
+                    b.query_bytes + b.reply_bytes, o_.assumed.baud),
+        "no RS485 line paces this port (a virtual port, or a twin with --timing fast): timing "
+        "and the USB latency timer cannot be judged here",
+        "");
+    return;
+  }
   if (b.round_trips.size() < 3) return;
   const Duration lo = *std::min_element(b.round_trips.begin(), b.round_trips.end());
   const modbus::LineTiming& t = o_.assumed;
@@ -467,6 +477,15 @@ std::string_view to_string(Health h) noexcept {
       return "broken";
   }
   return "?";
+}
+
+void account_too_fast(BurstStats& b, int too_fast) {
+  if (too_fast > 0 && too_fast * 10 >= (too_fast + b.good) * 9) {
+    b.unpaced = true;
+    b.good += too_fast;
+  } else {
+    b.timeouts += too_fast;
+  }
 }
 
 Report diagnose(const Observations& obs) {

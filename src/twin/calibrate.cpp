@@ -91,8 +91,8 @@ Session read_session(std::span<const Exchange> exchanges, int64_t ts_us) {
             for (std::size_t i = 0; i < rr->values.size(); ++i) {
               const unsigned a = req.start + static_cast<unsigned>(i);
               if (a == 0x9000 && i + 1 < rr->values.size()) {
-                s.positions.push_back(
-                    {at, static_cast<int32_t>((uint32_t{rr->values[i]} << 16) | rr->values[i + 1])});
+                s.positions.push_back({at, static_cast<int32_t>((uint32_t{rr->values[i]} << 16) |
+                                                                rr->values[i + 1])});
               }
               if (a == 0x9002) s.speeds.push_back({at, rr->values[i]});
               if (a == 0x9003) s.thrusts.push_back({at, rr->values[i]});
@@ -196,9 +196,11 @@ MoveFit fit_move(const std::vector<std::pair<double, double>>& samples, int64_t 
   m.accel_mm_s2 = std::exp(best[2]);
   m.decel_mm_s2 = std::exp(best[3]);
   m.samples = samples.size();
-  m.residual_rms_mm = std::sqrt(best_value / static_cast<double>(std::max<std::size_t>(1, samples.size())));
+  m.residual_rms_mm =
+      std::sqrt(best_value / static_cast<double>(std::max<std::size_t>(1, samples.size())));
   // A move too short to reach its speed says nothing about the speed.
-  const double ramps = m.speed_mm_s * m.speed_mm_s / 2.0 * (1.0 / m.accel_mm_s2 + 1.0 / m.decel_mm_s2);
+  const double ramps =
+      m.speed_mm_s * m.speed_mm_s / 2.0 * (1.0 / m.accel_mm_s2 + 1.0 / m.decel_mm_s2);
   if (ramps > distance) m.speed_mm_s = 0;
   return m;
 }
@@ -234,7 +236,8 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
       ++silent;
       continue;
     }
-    td.push_back(static_cast<double>(*rt - ts - t0_us - us(line.wire_time(e.reply->size()))) / 1000.0);
+    td.push_back(static_cast<double>(*rt - ts - t0_us - us(line.wire_time(e.reply->size()))) /
+                 1000.0);
   }
   if (td.empty()) {
     c.undetermined.push_back("Td (line.delay_ms): no replies in the capture");
@@ -248,8 +251,8 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
     if (!late.empty()) {
       for (double& x : late) x -= td_ms;
       c.fitted.push_back({"faults.delay_rate",
-                          static_cast<double>(late.size()) / static_cast<double>(td.size()),
-                          0, td.size(), "", "share of replies later than Td by over 1 ms"});
+                          static_cast<double>(late.size()) / static_cast<double>(td.size()), 0,
+                          td.size(), "", "share of replies later than Td by over 1 ms"});
       c.fitted.push_back({"faults.extra_delay_ms", fit::median(late), fit::stddev(late),
                           late.size(), "ms", "median lateness of the late replies"});
     }
@@ -274,8 +277,8 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
   std::vector<std::pair<double, double>> thrust_points;
   for (std::size_t i = 0; i < s.starts.size(); ++i) {
     const Start& st = s.starts[i];
-    const int64_t end = i + 1 < s.starts.size() ? s.starts[i + 1].act_us
-                                                : std::numeric_limits<int64_t>::max();
+    const int64_t end =
+        i + 1 < s.starts.size() ? s.starts[i + 1].act_us : std::numeric_limits<int64_t>::max();
     if (st.kind == StartKind::Home) {
       // Homing time: to the first BUSY 0 after BUSY 1 (bounded by the polls).
       bool seen_busy = false;
@@ -316,7 +319,8 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
           sim::MoveLimits{m.speed_mm_s > 0 ? m.speed_mm_s : 1e9, m.accel_mm_s2, m.decel_mm_s2});
       for (const auto& th : between(s.thrusts, st.act_us, end)) {
         const auto k = profile.at(at_us(static_cast<double>(th.t_us)));
-        if (std::abs(k.velocity) > 1.0) thrust_points.emplace_back(std::abs(k.acceleration), th.value);
+        if (std::abs(k.velocity) > 1.0)
+          thrust_points.emplace_back(std::abs(k.acceleration), th.value);
       }
       delays.push_back(m.start_delay_ms);
       if (st.speed) {
@@ -334,9 +338,8 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
   double busy_delay_ms = 0;
   if (!delays.empty()) {
     busy_delay_ms = std::max(0.0, fit::median(delays));
-    c.fitted.push_back({"actuator.busy_delay_ms", busy_delay_ms, fit::stddev(delays),
-                        delays.size(), "ms",
-                        "carriage start (motion fit) − the controller acting on the start"});
+    c.fitted.push_back({"actuator.busy_delay_ms", busy_delay_ms, fit::stddev(delays), delays.size(),
+                        "ms", "carriage start (motion fit) − the controller acting on the start"});
   } else {
     c.undetermined.push_back(
         "BUSY delay (actuator.busy_delay_ms): no move with enough position reads (D9000) to fit");
@@ -353,8 +356,8 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
             : "max speed (actuator.max_speed_mm_s): no direct move with a known speed");
   }
   if (!max_accel.empty()) {
-    c.fitted.push_back({"actuator.max_accel_mm_s2", fit::median(max_accel),
-                        fit::stddev(max_accel), max_accel.size(), "mm/s²",
+    c.fitted.push_back({"actuator.max_accel_mm_s2", fit::median(max_accel), fit::stddev(max_accel),
+                        max_accel.size(), "mm/s²",
                         "fitted acceleration/deceleration of moves commanded harder"});
   } else {
     c.undetermined.push_back(
@@ -480,7 +483,7 @@ std::string Calibration::summary() const {
   if (!moves.empty()) out += "moves (motion fit to the position reads):\n";
   for (const auto& m : moves) {
     out += fmt::format(
-        "  line {}: {} {:.2f} → {:.2f} mm: start +{:.1f} ms, speed {}, accel {:.0f}, decel {:.0f} "
+        "  line {}: {} {:.2f} → {:.2f} mm: start {:+.1f} ms, speed {}, accel {:.0f}, decel {:.0f} "
         "mm/s²{}; residual {:.3f} mm rms over {} reads\n",
         m.line, m.operation, m.from_mm, m.to_mm, m.start_delay_ms,
         m.speed_mm_s > 0 ? fmt::format("{:.1f} mm/s", m.speed_mm_s) : std::string("not reached"),

@@ -184,6 +184,32 @@ TEST(DoctorDiagnose, AFewMillisecondsOfHostJitterAreNoLatencyTimer) {
   EXPECT_EQ(find(diagnose(o), "usb-latency"), nullptr);
 }
 
+TEST(DoctorDiagnose, RepliesFasterThanTheWireNowAndThenAreLateOnesAndCountAsTimeouts) {
+  Observations o = clean();
+  o.burst.good = 95;
+  account_too_fast(o.burst, 5);
+  EXPECT_FALSE(o.burst.unpaced);
+  EXPECT_EQ(o.burst.timeouts, 5);
+  EXPECT_EQ(o.burst.good, 95);
+}
+
+// `lec sim --timing fast` on a pty answers sooner than any wire: that is no
+// broken line (the README's twin showed "BROKEN line-quality, 1000 timeouts").
+TEST(DoctorDiagnose, APortNoWirePacesIsHealthyAndItsTimingIsNotJudged) {
+  Observations o = clean();
+  o.burst.good = 2;
+  o.burst.round_trips.assign(2, microseconds(300));
+  account_too_fast(o.burst, 48);
+  EXPECT_TRUE(o.burst.unpaced);
+  EXPECT_EQ(o.burst.good, 50);
+  EXPECT_EQ(o.burst.timeouts, 0);
+  const Report r = diagnose(o);
+  EXPECT_EQ(r.health, Health::Healthy);
+  ASSERT_NE(find(r, "timing"), nullptr);
+  EXPECT_THAT(find(r, "timing")->means, HasSubstr("--timing fast"));
+  EXPECT_EQ(find(r, "usb-latency"), nullptr);
+}
+
 TEST(DoctorDiagnose, ALongerTdIsInferredAndNamed) {
   Observations o = clean();
   for (auto& t : o.burst.round_trips) t += milliseconds(15);  // Td 20 ms, not 5

@@ -6,13 +6,15 @@ the ```python block with the module built here.
 
 What a user's machine has and a test's does not is substituted, nothing
 else: /dev/ttyUSB0 is a twin on a pseudo-terminal (`lec sim --pty`, fast
-timing, a workpiece at 350 mm, IDs 1-4), /tmp/lec0 is in the scratch
-directory, and the daemon's ports 1502 and 8080 are free ports. Lines that
+timing, a workpiece at 350 mm, IDs 1-4), /dev/ttyUSB1 (a second adapter
+on the pair) is that twin's tap, /tmp/lec0 is in the scratch directory, and the daemon's ports 1502 and 8080 are free ports. Lines that
 install or open a browser (make, pip, venv, xdg-open) are skipped and
-listed. A daemon line (`lec sim`, `lec serve`) runs in the background and
-the next line waits for it to listen; each block ends by stopping them.
-Every other line must exit 0: the first that does not fails the test,
-named with its README line number.
+listed. What a line puts in the background (`&`) runs there, and after a
+`lec sim` or `lec serve` the next line waits for it to listen; a `lec sniff`
+line ends with SIGINT after 3 s, as the user's Ctrl-C ends it; each block ends by stopping them.
+Every other line must exit 0 (`lec replay`: 0 or 1, its report of a
+difference): the first that does not fails the test, named with its README
+line number.
 
 Usage: readme.py README.md LEC_BUILD_DIR"""
 
@@ -66,25 +68,45 @@ def shell_script(readme_blocks, env):
             if SKIP.match(line):
                 skipped.append(f"README:{n}: {line}")
                 continue
-            line = line.replace("/dev/ttyUSB0", "$TWIN").replace("/tmp/lec0", "$WORK/lec0")
+            line = line.replace("/dev/ttyUSB0", "$TWIN").replace("/dev/ttyUSB1", "$TAP")
+            line = line.replace("/tmp/lec0", "$WORK/lec0")
             line = line.replace("127.0.0.1:8080", f"127.0.0.1:{p2}")
             line = re.sub(r"\b1502\b", str(p1), line)
-            daemon = re.match(r"^lec (sim|serve)\b", line)
-            if daemon and daemon.group(1) == "serve":
-                line = line.rstrip(" &") + f" --modbus-tcp 127.0.0.1:{p1} --http 127.0.0.1:{p2}"
             text = shlex.quote(raw.strip())
             out.append(f"echo \"+ README:{n}: \"{text}")
-            if daemon:
-                out.append(line.rstrip(" &") + " >\"$WORK/daemon.log\" 2>&1 &")
-                if daemon.group(1) == "sim":
-                    pty = re.search(r"--pty (\S+)", line).group(1)
+            # `a & b`: a runs in the background, b in the foreground; a line
+            # ending in `&` is all background. A background `lec sim` or `lec
+            # serve` is a daemon: the next line waits for it to listen.
+            parts = [p.strip() for p in line.split(" & ")]
+            background = parts[:-1]
+            last = parts[-1]
+            # A daemon pasted without `&` runs until Ctrl-C: in the background
+            # here, stopped at the block's end.
+            if last.endswith("&") or re.match(r"^lec (serve\b|sim\b.*--pty )", last):
+                background.append(last.rstrip(" &"))
+                last = ""
+            for part in background:
+                daemon = re.match(r"^lec (sim|serve)\b", part)
+                if daemon and daemon.group(1) == "serve":
+                    part += f" --modbus-tcp 127.0.0.1:{p1} --http 127.0.0.1:{p2}"
+                out.append(part + " >>\"$WORK/daemon.log\" 2>&1 &")
+                if daemon and daemon.group(1) == "sim":
+                    pty = re.search(r"--pty (\S+)", part).group(1)
                     out.append(f"wait_file {pty} || exit 1")
-                else:
+                elif daemon:
                     out.append(f"wait_port {p2} || {{ cat \"$WORK/daemon.log\"; exit 1; }}")
-            else:
-                out.append(line)
-                out.append(f"rc=$?; if [[ $rc -ne 0 ]]; then echo \"FAIL: README:{n} exited "
-                           f"$rc: \"{text}; exit 1; fi")
+            if not last:
+                continue
+            if re.match(r"^lec( --\S+( [^-]\S*)?)* sniff\b", last):
+                # A listener runs until Ctrl-C: the user's Ctrl-C after 3 s
+                # (SIGINT; lec sniff then prints its statistics and exits 0).
+                last = f"timeout --preserve-status -s INT 3 {last}"
+            # `lec replay` exits 1 when the replay differs from the capture (its
+            # documented answer, a report); 2 and above are errors.
+            ok = "1" if re.match(r"^lec( --\S+( [^-]\S*)?)* replay\b", last) else "0"
+            out.append(last)
+            out.append(f"rc=$?; if [[ $rc -gt {ok} ]]; then echo \"FAIL: README:{n} exited "
+                       f"$rc: \"{text}; exit 1; fi")
         out.append("stop_jobs")
     out.append("echo \"all README shell lines passed\"")
     return "\n".join(out) + "\n", skipped
@@ -96,10 +118,11 @@ def main():
     with tempfile.TemporaryDirectory() as work:
         os.symlink(build, os.path.join(work, "build"))
         env = {"PATH": "/usr/local/bin:/usr/bin:/bin", "HOME": work, "WORK": work,
-               "TWIN": os.path.join(work, "tty"), "P1": str(free_port()),
+               "TWIN": os.path.join(work, "tty"), "TAP": os.path.join(work, "tap"), "P1": str(free_port()),
                "P2": str(free_port()), "LANG": "C.UTF-8"}
         twin = subprocess.Popen([os.path.join(build, "lec"), "sim", "--pty", env["TWIN"],
-                                 "--ids", "1-4", "--workpiece", "350", "--timing", "fast"],
+                                 "--ids", "1-4", "--workpiece", "350", "--timing", "fast",
+                                 "--tap", env["TAP"]],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
             for _ in range(300):

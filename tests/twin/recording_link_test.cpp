@@ -74,6 +74,28 @@ class Chunks final : public client::Link {
   std::size_t next_ = 0;
 };
 
+// A pty answered by a twin with fast timing hands the reply over before the
+// query's wire time has passed: the reply's record still follows the query,
+// so the capture reads back (lec replay refused `lec --record` files so).
+TEST(RecordingLink, AReplySoonerThanTheWireStillFollowsItsQuery) {
+  VirtualClock clock{TimePoint{} + std::chrono::seconds(1)};
+  const modbus::LineTiming line;
+  Chunks link(clock, {{microseconds(30), {0x01, 0x05, 0x00, 0x19, 0xFF, 0x00, 0x5D, 0xFD}}});
+  std::vector<LineChunk> seen;
+  RecordingLink rec(link, [&](LineChunk&& c) { seen.push_back(std::move(c)); });
+  const std::array<uint8_t, 8> query{0x01, 0x05, 0x00, 0x19, 0xFF, 0x00, 0x5D, 0xFD};
+  rec.write(query);
+  std::array<uint8_t, 64> buf{};
+  EXPECT_EQ(rec.read_some(buf, clock.now() + std::chrono::milliseconds(50)), 8u);
+  rec.write(query);  // the next query, at once
+  rec.flush();
+  ASSERT_EQ(seen.size(), 3u);
+  EXPECT_EQ(us(seen[0].end - seen[0].start), us(line.wire_time(8)));
+  EXPECT_GE(seen[1].start, seen[0].end);
+  EXPECT_EQ(us(seen[1].end - seen[1].start), us(line.wire_time(8)));
+  EXPECT_GE(seen[2].start, seen[1].end);
+}
+
 TEST(RecordingLink, GroupsReceivedBytesAsRtuDelimitsFrames) {
   VirtualClock clock{TimePoint{} + std::chrono::seconds(1)};
   const modbus::LineTiming line;

@@ -8,7 +8,9 @@
 // within the silent interval (3.5 characters) are one group, handed to the
 // tap when the next write starts, when a silence longer than that follows, or
 // at flush()/destruction. A received chunk's first byte is dated back by its
-// wire time from when read_some returned it.
+// wire time from when read_some returned it. No frame starts before the one
+// before it ended (a port no wire paces gets a line time stretched to the
+// wire times: see recording_link.cpp).
 //
 // The tap runs in the transaction's path: it must only copy (e.g. append to
 // a buffer that another thread writes out), never block on a file.
@@ -55,7 +57,8 @@ class RecordingLink final : public client::Link {
   client::Link& inner_;
   LineTap tap_;
   modbus::LineTiming timing_;
-  LineChunk pending_;  // received, not yet handed over
+  TimePoint line_free_{};  // where the last frame's wire time ended
+  LineChunk pending_;      // received, not yet handed over
 };
 
 }  // namespace lec6::transport
