@@ -480,7 +480,11 @@ std::string_view to_string(Health h) noexcept {
 }
 
 void account_too_fast(BurstStats& b, int too_fast) {
-  if (too_fast > 0 && too_fast * 10 >= (too_fast + b.good) * 9) {
+  // A late reply needs a query that went unanswered in its own window: a
+  // line whose replies are late has as many timeouts as too-fast replies.
+  // A port no wire paces has too-fast replies and (nearly) no timeouts; a
+  // busy host delays some of its replies past the wire time (good ones).
+  if (too_fast > 0 && too_fast * 2 >= too_fast + b.good && b.timeouts * 10 <= b.exchanges) {
     b.unpaced = true;
     b.good += too_fast;
   } else {

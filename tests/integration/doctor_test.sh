@@ -116,6 +116,25 @@ check "usb latency --fix: set to 1 ms" test "$(cat "$TMP/sys/bus/usb-serial/devi
 check "usb latency --fix: healthy" test "$RC" -eq 0
 stop_twin "$TWIN_PID"
 
+# The latency timer again, as the twin plays it (replies in 16 ms lumps) and
+# without a sysfs file to read: the doctor sees it in the round trips.
+start_twin lumps --pty "$TMP/lumps" --ids 1 --strict-baud --usb-latency 16ms || exit 1
+warm "$TMP/lumps"
+LEC6_SYSFS_ROOT=$TMP/nosys doctor lumps --port "$TMP/lumps" doctor --ids 1-4
+check "usb lumps: seen in the round trips" has lumps "a USB adapter's latency timer"
+check "usb lumps: the fix" has lumps "set the adapter's latency timer to 1 ms"
+stop_twin "$TWIN_PID"
+
+# A port no wire paces (the twin with --timing fast answers sooner than 38400
+# baud carries the bytes): healthy, timing not judged, not "1000 timeouts".
+start_twin fast --pty "$TMP/fast" --ids 1 --timing fast || exit 1
+warm "$TMP/fast"
+doctor fast --port "$TMP/fast" doctor --ids 1-4
+check "fast twin: exit 0" test "$RC" -eq 0
+check "fast twin: timing not judged, said why" has fast "no RS485 line paces this port"
+check "fast twin: line clean" has fast "the line is clean"
+stop_twin "$TWIN_PID"
+
 # Silent INT 20 (Ts = 70 chars, 18 ms at 38400), lec assumes 1: a query in two parts is still one frame.
 start_twin ts --pty "$TMP/ts" --ids 1 --silent-interval 20 --strict-baud || exit 1
 warm "$TMP/ts"

@@ -75,7 +75,7 @@ struct BurstStats {
   std::vector<Duration> round_trips;
   std::size_t query_bytes = 8;
   std::size_t reply_bytes = 19;
-  // Nearly every reply came sooner than its bytes take on the wire at this
+  // Most replies came sooner than their bytes take on the wire at this
   // baud: no real line carries them (a virtual port, a twin with fast
   // timing). Those replies count as good; timing is not judged.
   bool unpaced = false;
@@ -155,8 +155,9 @@ Report diagnose(const Observations& obs);
 
 // The burst's replies that came sooner than the wire allows (`too_fast`, not
 // counted in `b` yet). On a real line such a reply is the previous query's
-// late one, now and then: a timeout. When nearly all are (9 in 10), no wire
-// paces the port: they are answers, and b.unpaced is set.
+// late one: a timeout. When most are (half or more of the replies, with
+// hardly any query unanswered), no wire paces the port: they are answers,
+// and b.unpaced is set. Call it after the burst (b.timeouts counted).
 void account_too_fast(BurstStats& b, int too_fast);
 
 std::string_view to_string(Severity s) noexcept;
