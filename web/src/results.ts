@@ -21,7 +21,14 @@ export class ResultList {
   readonly el = h("ol", { class: "results", "aria-label": "results" });
 
   running(op: string, source: string): void {
-    this.add(h("li", { class: "running" }, h("b", {}, op), ` running… (${source})`));
+    this.add(h("li", { class: "running", "data-op": op }, h("b", {}, op), ` running… (${source})`));
+  }
+
+  // Nothing runs on the axis (the daemon says so): a "running…" line whose
+  // result came by another way (a refused move answers without its `op`)
+  // must not stay (issue 27).
+  settle(): void {
+    this.el.querySelectorAll("li.running").forEach((li) => li.remove());
   }
 
   show(r: OpResult, status: number): void {
@@ -41,9 +48,10 @@ export class ResultList {
       details.length ? h("div", { class: "muted" }, details.join(" · ")) : null,
       r.timeline ? timeline(r.timeline) : null,
     );
-    // A result replaces the "running…" line of its op.
-    const first = this.el.firstElementChild;
-    if (first?.classList.contains("running")) first.remove();
+    // A result replaces the "running…" line of its op (the newest one; a
+    // result without an op: the newest running line).
+    const running = [...this.el.querySelectorAll<HTMLElement>("li.running")];
+    running.find((li) => !r.op || li.dataset.op === r.op)?.remove();
     this.add(li);
   }
 

@@ -108,6 +108,7 @@ export function axisPage(ctx: Ctx, param?: string): Page {
       if (r) said.add(r);
     }
     toggle(hold, "active", a.inputs?.hold === true);
+    if (!a.operation) results.settle();
   };
   const stopWatch = watchAxes(ctx.live, (names) => names.has(name) && render());
   const offTelemetry = ctx.live.telemetry.on((a) => a.name === name && plot.push(a));
