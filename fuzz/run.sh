@@ -14,7 +14,7 @@ build=${1:?usage: fuzz/run.sh BUILD_DIR SECONDS [HARNESS...]}
 seconds=${2:?usage: fuzz/run.sh BUILD_DIR SECONDS [HARNESS...]}
 shift 2
 harnesses=("$@")
-((${#harnesses[@]})) || harnesses=(reply request twin steps http mbap)
+((${#harnesses[@]})) || harnesses=(reply request twin steps sniff http mbap)
 src=$(cd "$(dirname "$0")/.." && pwd)
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}

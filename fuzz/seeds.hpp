@@ -12,6 +12,7 @@
 
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/lec/step_table.hpp"
+#include "lec6/modbus/capture.hpp"
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/sim/bus.hpp"
 
@@ -268,11 +269,41 @@ inline std::vector<Seed> make_seeds(const std::string& harness, const std::strin
     add("written.csv", modbus::Bytes(csv.begin(), csv.end()));
     add("written.json", modbus::Bytes(json.begin(), json.end()));
   }
+  if (harness == "sniff") {
+    // What a second adapter hears: queries and the twin's replies, back to
+    // back, alone, behind noise, and the whole session as one stream; and a
+    // capture file's text (the same bytes are read as one).
+    const auto rs = detail::twin_replies(qs);
+    modbus::Bytes session{0x06};
+    for (std::size_t i = 0; i < qs.size(); ++i) {
+      add("exchange-" + std::to_string(i), detail::cat({{static_cast<uint8_t>(i)}, qs[i], rs[i]}));
+      add("noisy-" + std::to_string(i),
+          detail::cat({{static_cast<uint8_t>(i + 1)}, {0x00, 0xFF, qs[i][0]}, qs[i], rs[i]}));
+      session.insert(session.end(), qs[i].begin(), qs[i].end());
+      session.insert(session.end(), rs[i].begin(), rs[i].end());
+    }
+    add("session", session);
+    modbus::CaptureHeader h;
+    h.source = "sniff";
+    h.started_utc = "2026-11-24T19:00:00.000000Z";
+    std::string text = modbus::encode_capture_header(h);
+    int64_t t = 0;
+    for (std::size_t i = 0; i < qs.size() && i < 8; ++i) {
+      modbus::CaptureRecord r;
+      r.t_us = t;
+      r.end_us = t + 2000;
+      r.dir = modbus::CaptureDir::Query;
+      r.bytes = qs[i];
+      text += modbus::encode_capture_record(r);
+      t += 20000;
+    }
+    add("capture.jsonl", detail::cat({{0}, modbus::Bytes(text.begin(), text.end())}));
+  }
   return seeds;
 }
 
 inline const std::vector<std::string>& harness_names() {
-  static const std::vector<std::string> names = {"reply", "request", "twin", "steps"};
+  static const std::vector<std::string> names = {"reply", "request", "twin", "steps", "sniff"};
   return names;
 }
 

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "../../fuzz/harness.hpp"
+#include "../../fuzz/harness_sniff.hpp"
 #include "../../fuzz/seeds.hpp"
 #include "lec6/client/transaction.hpp"
 #include "lec6/sim/bus.hpp"
@@ -27,6 +28,7 @@ void (*harness(const std::string& name))(const uint8_t*, std::size_t) {
   if (name == "reply") return reply_one;
   if (name == "request") return request_one;
   if (name == "twin") return twin_one;
+  if (name == "sniff") return sniff_one;
   return steps_one;
 }
 
@@ -107,7 +109,7 @@ TEST_P(FuzzHarness, EveryByteFlipAndTruncationOfTheSeedsPasses) {
   EXPECT_GT(runs, 0u);
 }
 
-INSTANTIATE_TEST_SUITE_P(All, FuzzHarness, ::testing::Values("reply", "request", "twin", "steps"),
+INSTANTIATE_TEST_SUITE_P(All, FuzzHarness, ::testing::Values("reply", "request", "twin", "steps", "sniff"),
                          [](const auto& info) { return info.param; });
 
 // ---- frame-level bad inputs (docs/robustness.md) --------------------------------
