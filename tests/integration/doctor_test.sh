@@ -21,6 +21,17 @@ doctor() {
   sed 's/^/    /' "$TMP/$name.doc"
 }
 has() { grep -qF -- "$2" "$TMP/$1.doc"; }
+# doctor_healthy NAME ARGS...: as doctor, for a line that must be healthy. A
+# run degraded by nothing but a few timeouts in the burst (replies a loaded
+# host made late: the twin under ASan, other work) runs once more.
+doctor_healthy() {
+  doctor "$@"
+  if [[ $RC -eq 7 ]] && ! grep -E '^  (WARN|BROKEN) ' "$TMP/$1.doc" |
+    grep -qvE 'line-quality +[0-9]+ exchanges: 0 CRC errors, 0 framing errors, [0-9]+ timeouts, 0 noise bytes'; then
+    echo "    (degraded by timeouts alone: a loaded host; once more)"
+    doctor "$@"
+  fi
+}
 # warm PTY [BAUD]: one read before the doctor runs. A twin that has just
 # started can stall for tens of ms on a loaded host; reading late, it takes
 # the queries that queued up as one frame (no real line does that).
@@ -31,7 +42,7 @@ only_info() { ! grep -qE '^  (WARN|BROKEN) ' "$TMP/$1.doc"; }
 # A clean line: healthy, information only.
 start_twin clean --pty "$TMP/clean" --ids 1 --strict-baud || exit 1
 warm "$TMP/clean"
-doctor clean --port "$TMP/clean" doctor --ids 1-4
+doctor_healthy clean --port "$TMP/clean" doctor --ids 1-4
 check "clean: exit 0" test "$RC" -eq 0
 check "clean: healthy" has clean "healthy"
 check "clean: information only" only_info clean
@@ -66,7 +77,7 @@ warm "$TMP/echo"
 doctor echo --port "$TMP/echo" doctor --ids 1-4
 check "echo: exit 8" test "$RC" -eq 8
 check "echo: named, with --echo verified" has echo "add --echo to every lec command (verified"
-doctor echo-fixed --port "$TMP/echo" --echo doctor --ids 1-4
+doctor_healthy echo-fixed --port "$TMP/echo" --echo doctor --ids 1-4
 check "echo with --echo: healthy" test "$RC" -eq 0
 stop_twin "$TWIN_PID"
 
@@ -111,7 +122,7 @@ echo 16 >"$TMP/sys/bus/usb-serial/devices/$PTS/latency_timer"
 LEC6_SYSFS_ROOT=$TMP/sys doctor usb --port "$TMP/usb" doctor --ids 1-4
 check "usb latency: exit 7" test "$RC" -eq 7
 check "usb latency: the command" has usb "echo 1 | sudo tee $TMP/sys/bus/usb-serial/devices/$PTS/latency_timer"
-LEC6_SYSFS_ROOT=$TMP/sys doctor usb-fix --port "$TMP/usb" doctor --ids 1-4 --fix
+LEC6_SYSFS_ROOT=$TMP/sys doctor_healthy usb-fix --port "$TMP/usb" doctor --ids 1-4 --fix
 check "usb latency --fix: set to 1 ms" test "$(cat "$TMP/sys/bus/usb-serial/devices/$PTS/latency_timer")" = 1
 check "usb latency --fix: healthy" test "$RC" -eq 0
 stop_twin "$TWIN_PID"
@@ -129,7 +140,7 @@ stop_twin "$TWIN_PID"
 # baud carries the bytes): healthy, timing not judged, not "1000 timeouts".
 start_twin fast --pty "$TMP/fast" --ids 1 --timing fast || exit 1
 warm "$TMP/fast"
-doctor fast --port "$TMP/fast" doctor --ids 1-4
+doctor_healthy fast --port "$TMP/fast" doctor --ids 1-4
 check "fast twin: exit 0" test "$RC" -eq 0
 check "fast twin: timing not judged, said why" has fast "no RS485 line paces this port"
 check "fast twin: line clean" has fast "the line is clean"

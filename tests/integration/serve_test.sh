@@ -142,9 +142,10 @@ check "a move under them reached 380 mm while they still polled ($still): $moved
   test "$(jget "$moved" 'd["outcome"] + " " + str(d["position_mm"])') $still" = "reached 380.0 polling"
 t2=$(per_s "$c0" "$c1" "$s0" "$s1")
 # The line carries ~60 exchanges/s; the clients keep a third to half of it, the
-# move's polls and the telemetry of four axes share the rest (strict priority: ~0/s).
+# move's polls and the telemetry of four axes share the rest (strict priority: ~0/s;
+# shared: 4-8/s, 3.8 seen under ASan on a loaded host).
 check "ID 2's telemetry went on meanwhile: $t2 reads/s (asked: 5 Hz x flags, state, ~12/s)" \
-  $PY -c 'import sys; sys.exit(float(sys.argv[1]) < 4)' "$t2"
+  $PY -c 'import sys; sys.exit(float(sys.argv[1]) < 2)' "$t2"
 
 # ---- the cache: fifty clients polling cost the line (almost) nothing --------------
 # The line's load is its telemetry plus the client reads that reach it: count
