@@ -20,8 +20,8 @@
 
 #include "http/http.hpp"
 #include "http/http_server.hpp"
-#include "lec6/serve/daemon.hpp"
 #include "line/line.hpp"
+#include "ops/axis_directory.hpp"
 #include "store.hpp"
 
 namespace lec6::serve::history {

@@ -53,16 +53,18 @@ std::string mqtt_bridge_name(const MqttConfig& config) {
   return config.bridge.empty() ? mqtt_client_id(config) : config.bridge;
 }
 
-MqttBridge::Core::Core(Daemon& daemon, Operations& o, const MqttConfig& c, Log l)
-    : io(daemon.io()),
+MqttBridge::Core::Core(asio::io_context& io_context, const AxisDirectory& directory, Operations& o,
+                       const MqttConfig& c, Log l, MqttSessionFactory session)
+    : io(io_context),
       ops(o),
       config(c),
       log(std::move(l)),
       topics(c.prefix, mqtt_bridge_name(c)),
-      axes(daemon.axes()),
+      axes(directory.axes()),
       commands(axes.size()),
+      make_session(std::move(session)),
       timer(io),
-      history(daemon.history()) {
+      history(directory.history()) {
   for (std::size_t i = 0; i < axes.size(); ++i) {
     const std::string& line = axes[i].line_config->name;
     const std::string& name = axes[i].name;
@@ -94,7 +96,11 @@ void MqttBridge::Core::start() {
   h.message = [weak](const MqttMessage& m) {
     if (auto c = weak.lock()) c->command(m);
   };
-  client = std::make_unique<MqttClient>(client_options(config, topics), std::move(h));
+  if (make_session) {
+    client = make_session(client_options(config, topics), std::move(h));
+  } else {
+    client = std::make_unique<MqttClient>(client_options(config, topics), std::move(h));
+  }
 
   // One observer per line, waking the axes whose flags, health or alarms changed.
   std::map<Line*, std::map<uint8_t, std::size_t>> lines;
@@ -241,8 +247,10 @@ void MqttBridge::Core::alarm_events(std::size_t i, const json& alarms, double at
 
 // ---- the bridge -------------------------------------------------------------------
 
-MqttBridge::MqttBridge(Daemon& daemon, Operations& ops, const MqttConfig& config, Log log)
-    : core_(std::make_shared<Core>(daemon, ops, config, std::move(log))) {}
+MqttBridge::MqttBridge(asio::io_context& io, const AxisDirectory& directory, Operations& ops,
+                       const MqttConfig& config, Log log, MqttSessionFactory session)
+    : core_(
+          std::make_shared<Core>(io, directory, ops, config, std::move(log), std::move(session))) {}
 
 MqttBridge::~MqttBridge() {
   core_->stop();

@@ -26,15 +26,24 @@
 
 #include "lec6/serve/config.hpp"
 #include "lec6/serve/log.hpp"
+#include "mqtt/mqtt_client.hpp"
+
+namespace asio {
+class io_context;
+}
 
 namespace lec6::serve {
 
-class Daemon;
+class AxisDirectory;
 class Operations;
 
 class MqttBridge {
  public:
-  MqttBridge(Daemon& daemon, Operations& ops, const MqttConfig& config, Log log);
+  // Publishes `directory`'s axes and runs their commands through `ops`; its
+  // timers and wake-ups run on `io`. `session` makes the connection to the
+  // broker (empty: an MqttClient).
+  MqttBridge(asio::io_context& io, const AxisDirectory& directory, Operations& ops,
+             const MqttConfig& config, Log log, MqttSessionFactory session = {});
   ~MqttBridge();
   MqttBridge(const MqttBridge&) = delete;
   MqttBridge& operator=(const MqttBridge&) = delete;

@@ -16,13 +16,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "lec6/serve/daemon.hpp"
 #include "lec6/serve/mqtt_topics.hpp"
 #include "line/line.hpp"
 #include "mqtt/mqtt_bridge.hpp"
 #include "mqtt/mqtt_client.hpp"
 #include "mqtt/mqtt_command.hpp"
 #include "mqtt/mqtt_dedup.hpp"
+#include "ops/axis_directory.hpp"
 #include "ops/operations.hpp"
 
 namespace lec6::serve {
@@ -31,7 +31,8 @@ class History;
 }
 
 struct MqttBridge::Core : std::enable_shared_from_this<MqttBridge::Core> {
-  Core(Daemon& daemon, Operations& ops, const MqttConfig& config, Log log);
+  Core(asio::io_context& io, const AxisDirectory& directory, Operations& ops,
+       const MqttConfig& config, Log log, MqttSessionFactory session);
 
   // What the bridge keeps per axis.
   struct AxisOut {
@@ -70,7 +71,8 @@ struct MqttBridge::Core : std::enable_shared_from_this<MqttBridge::Core> {
   std::map<std::string, std::size_t, std::less<>> by_cmd_topic;
   std::mutex commands_mutex;
   std::vector<CommandLog> commands;  // per axis
-  std::unique_ptr<MqttClient> client;
+  MqttSessionFactory make_session;
+  std::unique_ptr<MqttSession> client;
   asio::steady_timer timer;
   std::chrono::steady_clock::time_point next_tick{};
   std::atomic<bool> stopped{false};

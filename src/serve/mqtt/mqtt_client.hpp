@@ -66,25 +66,45 @@ struct MqttClientStats {
   std::size_t pending = 0;
 };
 
-class MqttClient {
+// What the bridge needs of a connection to the broker: an MqttClient, or a
+// test's fake (tests/serve/mqtt/mqtt_bridge_test.cpp) that records what is
+// published and hands the bridge messages as the broker would.
+class MqttSession {
  public:
-  // Throws std::runtime_error when libmosquitto refuses the settings (TLS files).
-  MqttClient(MqttClientOptions options, MqttClientHandlers handlers);
-  ~MqttClient();
-  MqttClient(const MqttClient&) = delete;
-  MqttClient& operator=(const MqttClient&) = delete;
+  virtual ~MqttSession() = default;
 
-  void start();
+  virtual void start() = 0;
   // False when dropped (see above). `reply` adds the MQTT 5 correlation data.
-  bool publish(const std::string& topic, std::string_view payload, int qos, bool retain,
-               const ReplyTo* reply = nullptr);
-  void subscribe(const std::vector<std::string>& filters);
+  virtual bool publish(const std::string& topic, std::string_view payload, int qos, bool retain,
+                       const ReplyTo* reply = nullptr) = 0;
+  virtual void subscribe(const std::vector<std::string>& filters) = 0;
   // Publishes `last` (QoS 1, retained) when connected and waits, at most
   // `grace`, for the broker to acknowledge them; then disconnects cleanly
   // and joins the thread. Idempotent.
-  void stop(const std::vector<std::pair<std::string, std::string>>& last, Duration grace);
+  virtual void stop(const std::vector<std::pair<std::string, std::string>>& last,
+                    Duration grace) = 0;
+  virtual bool connected() const = 0;
+};
 
-  bool connected() const;
+// Makes the bridge's session; the handlers are the bridge's.
+using MqttSessionFactory =
+    std::function<std::unique_ptr<MqttSession>(MqttClientOptions, MqttClientHandlers)>;
+
+class MqttClient final : public MqttSession {
+ public:
+  // Throws std::runtime_error when libmosquitto refuses the settings (TLS files).
+  MqttClient(MqttClientOptions options, MqttClientHandlers handlers);
+  ~MqttClient() override;
+  MqttClient(const MqttClient&) = delete;
+  MqttClient& operator=(const MqttClient&) = delete;
+
+  void start() override;
+  bool publish(const std::string& topic, std::string_view payload, int qos, bool retain,
+               const ReplyTo* reply = nullptr) override;
+  void subscribe(const std::vector<std::string>& filters) override;
+  void stop(const std::vector<std::pair<std::string, std::string>>& last, Duration grace) override;
+
+  bool connected() const override;
   MqttClientStats stats() const;
 
  private:

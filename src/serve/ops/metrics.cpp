@@ -19,15 +19,15 @@ void sample(std::string& out, std::string_view name, const std::string& labels, 
 
 }  // namespace
 
-std::string prometheus_metrics(const Daemon& daemon) {
+std::string prometheus_metrics(const AxisDirectory& directory) {
   struct Line_ {
     const LineConfig* config;
     LineStatsSnapshot stats;
     bool up;
   };
   std::vector<Line_> lines;
-  for (const auto& c : daemon.config().lines) {
-    const Line* l = daemon.line(c.name);
+  for (const auto& c : directory.lines()) {
+    const Line* l = directory.line(c.name);
     lines.push_back({&c, l->stats(), !l->is_down()});
   }
   std::string out;
@@ -101,7 +101,7 @@ std::string prometheus_metrics(const Daemon& daemon) {
   per_device("lec6_device_exceptions_total", "Exception replies",
              [](auto& d) { return d.exceptions; });
   family(out, "lec6_device_online", "gauge", "0 while the controller is backed off");
-  for (const auto& a : daemon.axes()) {
+  for (const auto& a : directory.axes()) {
     sample(out, "lec6_device_online",
            fmt::format("line=\"{}\",id=\"{}\",axis=\"{}\"", a.line_config->name, a.id, a.name),
            a.line->health(a.id).offline ? 0 : 1);

@@ -42,9 +42,9 @@
 #include <nlohmann/json.hpp>
 
 #include "lec6/client/client.hpp"
-#include "lec6/serve/daemon.hpp"
 #include "lec6/serve/log.hpp"
 #include "line/line.hpp"
+#include "ops/axis_directory.hpp"
 #include "ops/commands.hpp"
 
 namespace lec6::serve {

@@ -10,8 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "lec6/serve/daemon.hpp"
 #include "line/line.hpp"
+#include "ops/axis_directory.hpp"
 #include "ops/operations.hpp"
 
 namespace lec6::serve {
@@ -32,6 +32,6 @@ nlohmann::json stats_json(const LineStatsSnapshot& s, const LineConfig& config);
 nlohmann::json step_fields_json();
 
 // Prometheus text exposition of every line's stats (GET /metrics).
-std::string prometheus_metrics(const Daemon& daemon);
+std::string prometheus_metrics(const AxisDirectory& directory);
 
 }  // namespace lec6::serve

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "line/wire.hpp"
+#include "serve/ops/twin_directory.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -151,6 +152,40 @@ TEST(Operations, HoldOffIsACommandAndHoldOnAStop) {
   EXPECT_EQ(emergencies(), before + 1) << "HOLD on is a stop";
   EXPECT_EQ(rig.run("hold", {{"on", false}}).status, 200);
   EXPECT_EQ(emergencies(), before + 1) << "HOLD off resumes motion: a command";
+}
+
+// One motion per axis: while a move runs on axis1, every other motion on it
+// (move, home, jog, run-step) is refused naming what runs and who started it,
+// and nothing is started; axis2 on the same line moves meanwhile.
+TEST(Operations, OneMotionPerAxisAndAnotherAxisMovesMeanwhile) {
+  testing::TwinDirectory axes;
+  axes.prepare(axes.axis1());
+  axes.prepare(axes.axis2());
+  auto first = axes.start(axes.axis1(), "move", {{"position_mm", 390}, {"speed_mm_s", 20}}, "plc");
+  ASSERT_TRUE(testing::eventually([&] { return axes.moving(axes.axis1()); }));
+
+  const std::vector<std::pair<std::string, nlohmann::json>> others = {
+      {"move", {{"position_mm", 10}}},
+      {"home", nlohmann::json::object()},
+      {"jog", {{"direction", "-"}, {"duration_ms", 100}}},
+      {"run-step", {{"step", 0}}}};
+  for (const auto& [op, args] : others) {
+    const OpResult r = axes.run(axes.axis1(), op, args);
+    EXPECT_EQ(r.status, 409) << op << ": " << r.body.dump();
+    EXPECT_THAT(r.body.value("error", ""), HasSubstr("axis axis1 is busy: move"));
+    EXPECT_THAT(r.body.value("error", ""), HasSubstr("by plc"));
+  }
+  EXPECT_EQ(axes.started("axis1", "move"), 1u);
+  EXPECT_EQ(axes.started("axis1", "home"), 0u);
+  EXPECT_EQ(axes.started("axis1", "jog"), 0u);
+
+  const OpResult other = axes.run(axes.axis2(), "move", {{"position_mm", 50}, {"speed_mm_s", 200}});
+  EXPECT_EQ(other.status, 200) << other.body.dump();
+  EXPECT_EQ(first.wait_for(0s), std::future_status::timeout) << "axis1's move still runs";
+
+  EXPECT_EQ(axes.run(axes.axis1(), "stop").status, 200);
+  ASSERT_EQ(first.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(first.get().status, 422);
 }
 
 }  // namespace

@@ -86,11 +86,11 @@ std::filesystem::path default_web_root() {
   return {};
 }
 
-HttpApi::HttpApi(Daemon& daemon, Operations& ops, const HttpConfig& config, Log log)
-    : daemon_(daemon), ops_(ops), config_(config), log_(std::move(log)) {
+HttpApi::HttpApi(const AxisDirectory& directory, Operations& ops, const HttpConfig& config, Log log)
+    : directory_(directory), ops_(ops), config_(config), log_(std::move(log)) {
   const auto root = config_.web_root.empty() ? default_web_root() : config_.web_root;
   if (!root.empty()) files_ = std::make_unique<StaticFiles>(root);
-  for (const AxisRef& axis : daemon_.axes()) {
+  for (const AxisRef& axis : directory_.axes()) {
     axis.line->add_observer([this, axis](const TelemetryEvent& e, const AxisSnapshot& s) {
       if (e.id != axis.id || (e.block != Block::State && !e.flags_changed && !e.online_changed)) {
         return;
@@ -104,7 +104,7 @@ HttpApi::HttpApi(Daemon& daemon, Operations& ops, const HttpConfig& config, Log 
     events_.broadcast("op", e.dump(), EventStream::Delivery::Reliable);
   });
   // issue 26: history, drift and health events (history/history.hpp).
-  if (auto* h = daemon_.history()) {
+  if (auto* h = directory_.history()) {
     h->add_listener([this](const std::string& axis, std::string_view kind, const json& j) {
       json e = j;
       e["axis"] = axis;
@@ -121,8 +121,8 @@ std::string HttpApi::source(const HttpRequest& request) const {
 void HttpApi::publish_stats() {
   if (events_.size() == 0) return;
   json lines = json::array();
-  for (const auto& c : daemon_.config().lines) {
-    lines.push_back({{"name", c.name}, {"stats", stats_json(daemon_.line(c.name)->stats(), c)}});
+  for (const auto& c : directory_.lines()) {
+    lines.push_back({{"name", c.name}, {"stats", stats_json(directory_.line(c.name)->stats(), c)}});
   }
   events_.broadcast("stats", json{{"lines", lines}}.dump());
 }
@@ -132,7 +132,7 @@ void HttpApi::open_events(Responder& responder) {
   const uint64_t id = next_stream_++;
   // The stream's id ties a hold-to-run jog to this browser (see jog).
   stream.send("hello", json{{"stream", id}}.dump(), EventStream::Delivery::Reliable);
-  for (const AxisRef& axis : daemon_.axes()) {
+  for (const AxisRef& axis : directory_.axes()) {
     stream.send("telemetry", telemetry_json(axis, axis.line->snapshot(axis.id)).dump());
   }
   events_.add(stream);
@@ -150,7 +150,7 @@ void HttpApi::handle(HttpRequest request, Responder responder) {
   const bool get = request.method == "GET" || request.method == "HEAD";
   if (request.path == "/metrics") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));
-    return void(responder.respond(text_response(200, prometheus_metrics(daemon_),
+    return void(responder.respond(text_response(200, prometheus_metrics(directory_),
                                                 "text/plain; version=0.0.4; charset=utf-8")));
   }
   if (parts.empty() || parts[0] != "api") {
@@ -163,13 +163,13 @@ void HttpApi::handle(HttpRequest request, Responder responder) {
     // What a page needs to know before it offers any control.
     const bool loopback = config_.listener.listen.loopback();
     json lines = json::array();
-    for (const auto& c : daemon_.config().lines) lines.push_back(c.name);
+    for (const auto& c : directory_.lines()) lines.push_back(c.name);
     return void(responder.respond(json_response(
         200, {{"read_only", config_.listener.read_only},
               {"token_required", !config_.listener.read_only && !config_.token.empty()},
               {"listener_loopback", loopback},
               {"lines", lines},
-              {"axes", daemon_.axes().size()}})));
+              {"axes", directory_.axes().size()}})));
   }
   if (parts.size() == 2 && parts[1] == "fields") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));
@@ -182,7 +182,7 @@ void HttpApi::handle(HttpRequest request, Responder responder) {
   if (parts.size() == 2 && parts[1] == "lines") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));
     json out = json::array();
-    for (const auto& c : daemon_.config().lines) out.push_back(line_json(c, *daemon_.line(c.name)));
+    for (const auto& c : directory_.lines()) out.push_back(line_json(c, *directory_.line(c.name)));
     return void(responder.respond(json_response(200, out)));
   }
   if (parts.size() == 4 && parts[1] == "lines" && parts[3] == "twin") {
@@ -191,11 +191,11 @@ void HttpApi::handle(HttpRequest request, Responder responder) {
   if (parts.size() == 2 && parts[1] == "axes") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));
     json out = json::array();
-    for (const auto& a : daemon_.axes()) out.push_back(axis_json(a, &ops_));
+    for (const auto& a : directory_.axes()) out.push_back(axis_json(a, &ops_));
     return void(responder.respond(json_response(200, out)));
   }
   if (parts.size() >= 3 && parts[1] == "axes") {
-    const AxisRef* axis = daemon_.axis(parts[2]);
+    const AxisRef* axis = directory_.axis(parts[2]);
     if (!axis) {
       return void(responder.respond(error_response(
           404, fmt::format("no axis called '{}' (GET /api/axes lists them)", parts[2]))));
@@ -214,7 +214,7 @@ void HttpApi::route_axis(const AxisRef& axis, std::vector<std::string_view> rest
   }
   if (rest[0] == "steps") return steps(axis, {rest.begin() + 1, rest.end()}, request, responder);
   // issue 26: history, health (history/history_http.hpp)
-  if (history::handle_http(daemon_.history(), axis, rest, request, responder)) return;
+  if (history::handle_http(directory_.history(), axis, rest, request, responder)) return;
   if (rest.size() == 1 && rest[0] == "alarms") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));
     const json a = axis_json(axis);

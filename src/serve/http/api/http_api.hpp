@@ -38,8 +38,8 @@
 
 #include "http/http_server.hpp"
 #include "http/static_files.hpp"
-#include "lec6/serve/daemon.hpp"
 #include "line/line.hpp"
+#include "ops/axis_directory.hpp"
 #include "ops/operations.hpp"
 
 namespace lec6::serve {
@@ -60,7 +60,8 @@ class EventHub {
 
 class HttpApi {
  public:
-  HttpApi(Daemon& daemon, Operations& ops, const HttpConfig& config, Log log);
+  // `directory`: the axes and lines it serves (the daemon's, or a test's).
+  HttpApi(const AxisDirectory& directory, Operations& ops, const HttpConfig& config, Log log);
 
   void handle(HttpRequest request, Responder responder);
   EventHub& events() noexcept { return events_; }
@@ -78,7 +79,7 @@ class HttpApi {
   void open_events(Responder& responder);
   std::string source(const HttpRequest& request) const;
 
-  Daemon& daemon_;
+  const AxisDirectory& directory_;
   Operations& ops_;
   HttpConfig config_;
   Log log_;

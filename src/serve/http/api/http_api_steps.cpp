@@ -126,7 +126,7 @@ void HttpApi::steps(const AxisRef& axis, std::vector<std::string_view> rest, Htt
           const auto report = client::apply_restore(c, client::plan_restore(c, t), options);
           return OpResult{report.ok() ? 200 : 502, report_json(report)};
         },
-        [res, h = daemon_.history(), name = axis.name, dry = options.dry_run](OpResult r) {
+        [res, h = directory_.history(), name = axis.name, dry = options.dry_run](OpResult r) {
           // issue 26: a restored table starts new drift baselines for its steps.
           if (h && !dry) h->on_step_table_edit(name, std::nullopt);
           res.respond(json_response(r.status, r.body));
@@ -201,7 +201,7 @@ std::optional<std::string> place_workpiece(sim::Bus& bus, std::optional<double> 
 }  // namespace
 
 void HttpApi::twin(std::string_view line_name, HttpRequest& request, Responder& responder) {
-  Line* line = daemon_.line(line_name);
+  Line* line = directory_.line(line_name);
   if (!line) {
     return void(
         responder.respond(error_response(404, fmt::format("no line called '{}'", line_name))));
