@@ -4,14 +4,16 @@
 
 #include <algorithm>
 
-#include "lec6/serve/http_api.hpp"
-#include "lec6/serve/http_server.hpp"
-#include "lec6/serve/modbus_tcp_server.hpp"
-#include "lec6/serve/mqtt_bridge.hpp"
-#include "lec6/serve/operations.hpp"
-#include "lec6/serve/wire.hpp"
-#include "lec6/twin/line_recorder.hpp"
 #include "history/history.hpp"
+#include "http/api/http_api.hpp"
+#include "http/http_server.hpp"
+#include "lec6/twin/line_recorder.hpp"
+#include "line/line.hpp"
+#include "line/wire.hpp"
+#include "modbus_tcp/modbus_tcp_server.hpp"
+#include "mqtt/mqtt_bridge.hpp"
+#include "ops/axis_directory.hpp"
+#include "ops/operations.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -29,9 +31,23 @@ GatewayPolicy policy_of(const LineConfig& line) {
 
 }  // namespace
 
+// The daemon as its front-ends see it.
+class Daemon::Directory final : public AxisDirectory {
+ public:
+  explicit Directory(const Daemon& daemon) : daemon_(daemon) {}
+  const std::vector<AxisRef>& axes() const override { return daemon_.axes_; }
+  const std::vector<LineConfig>& lines() const override { return daemon_.config_.lines; }
+  Line* line(std::string_view name) const override { return daemon_.line(name); }
+  history::History* history() const override { return daemon_.history_.get(); }
+
+ private:
+  const Daemon& daemon_;
+};
+
 Daemon::Daemon(ServeConfig config, Log log)
     : config_(std::move(config)),
       log_(std::move(log)),
+      directory_(std::make_unique<Directory>(*this)),
       stats_timer_(io_),
       signals_(io_),
       work_(asio::make_work_guard(io_)) {
@@ -40,7 +56,7 @@ Daemon::Daemon(ServeConfig config, Log log)
   start_history();  // issue 26
   start_listeners();
   if (config_.mqtt) {
-    mqtt_ = std::make_unique<MqttBridge>(*this, *ops_, *config_.mqtt, log_);
+    mqtt_ = std::make_unique<MqttBridge>(io_, *directory_, *ops_, *config_.mqtt, log_);
     mqtt_->start();
   }
 }
@@ -135,7 +151,7 @@ void Daemon::start_listeners() {
     }
   }
   if (config_.http) {
-    api_ = std::make_unique<HttpApi>(*this, *ops_, *config_.http, log_);
+    api_ = std::make_unique<HttpApi>(*directory_, *ops_, *config_.http, log_);
     HttpServerOptions o;
     o.log = [this](std::string text) { log_(LogLevel::Warning, text); };
     http_ = std::make_unique<HttpServer>(
@@ -164,10 +180,11 @@ std::vector<std::string> Daemon::endpoints() const {
 }
 
 const AxisRef* Daemon::axis(std::string_view name) const {
-  for (const auto& a : axes_) {
-    if (a.name == name) return &a;
-  }
-  return nullptr;
+  return directory_->axis(name);
+}
+
+const AxisDirectory& Daemon::directory() const noexcept {
+  return *directory_;
 }
 
 Line* Daemon::line(std::string_view name) const {

@@ -23,11 +23,14 @@
 #include <vector>
 
 #include "lec6/serve/config.hpp"
-#include "lec6/serve/line.hpp"
 #include "lec6/serve/log.hpp"
 
 namespace lec6::serve {
 
+class Line;
+struct SchedulerConfig;
+struct AxisRef;       // src/serve/ops/axis_directory.hpp
+class AxisDirectory;  // what the front-ends see of the daemon
 class ModbusTcpServer;
 class HttpServer;
 class HttpApi;
@@ -36,15 +39,6 @@ class Operations;
 namespace history {
 class History;
 }
-
-// An axis of the daemon, by name.
-struct AxisRef {
-  std::string name;
-  uint8_t id = 1;
-  Line* line = nullptr;
-  const LineConfig* line_config = nullptr;
-  const AxisConfig* config = nullptr;
-};
 
 class Daemon {
  public:
@@ -72,6 +66,8 @@ class Daemon {
   HttpApi* http_api() noexcept { return api_.get(); }
   // The move history (issue 26), when configured (history: / --state-dir).
   history::History* history() noexcept { return history_.get(); }
+  // What the front-ends are given instead of the daemon: its axes, lines and history.
+  const AxisDirectory& directory() const noexcept;
 
  private:
   void start_lines();
@@ -81,8 +77,11 @@ class Daemon {
   void begin_stop();
   void tick_stats();
 
+  class Directory;
+
   ServeConfig config_;
   Log log_;
+  std::unique_ptr<Directory> directory_;
   // Before everything that feeds it, so that it goes last.
   std::unique_ptr<history::History> history_;
   asio::io_context io_;
