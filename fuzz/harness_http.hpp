@@ -3,7 +3,7 @@
 // through HttpRequestReader, the static-file path rule and the access rule;
 // and SSE framing of arbitrary data. Header-only like harness.hpp, so the
 // libFuzzer program (fuzz/fuzz_http.cpp) and the ordinary regression test
-// (tests/serve/http_fuzz_test.cpp) run the same checks.
+// (tests/serve/http/http_fuzz_test.cpp) run the same checks.
 //
 // Input: [ctl][bytes a client sent]
 //   ctl bit 0: small limits (header 256 bytes, body 64) instead of the defaults;
@@ -28,9 +28,9 @@
 #include <vector>
 
 #include "harness.hpp"
-#include "lec6/serve/http_auth.hpp"
-#include "lec6/serve/http_codec.hpp"
-#include "lec6/serve/static_files.hpp"
+#include "http/http_auth.hpp"
+#include "http/http_codec.hpp"
+#include "http/static_files.hpp"
 
 namespace lec6::fuzz {
 

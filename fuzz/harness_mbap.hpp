@@ -3,7 +3,7 @@
 // port, through the MBAP framer and the gateway's rules (gateway.hpp), and
 // the replies the daemon would build. Header-only like harness.hpp, so the
 // libFuzzer program (fuzz/fuzz_mbap.cpp) and the ordinary regression test
-// (tests/serve/mbap_fuzz_test.cpp) run the same checks.
+// (tests/serve/modbus_tcp/mbap_fuzz_test.cpp) run the same checks.
 //
 // Input: [ctl][bytes a client sent]
 //   ctl bit 0: the line allows broadcasts; bit 1: a read-only listener;
@@ -26,7 +26,7 @@
 
 #include "harness.hpp"
 #include "lec6/modbus/mbap.hpp"
-#include "lec6/serve/gateway.hpp"
+#include "modbus_tcp/gateway.hpp"
 #include "seeds.hpp"
 
 namespace lec6::fuzz {

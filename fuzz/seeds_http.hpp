@@ -3,7 +3,7 @@
 // browser, curl and the dashboard send them, plus the awkward legal ones
 // (pipelined, chunked, HTTP/1.0, absolute-form, 100-continue). Input format:
 // [ctl][request bytes]. fuzz/make_seeds writes them; the regression test
-// (tests/serve/http_fuzz_test.cpp) runs each through the harness.
+// (tests/serve/http/http_fuzz_test.cpp) runs each through the harness.
 
 #include <string>
 #include <utility>

@@ -4,14 +4,15 @@
 
 #include <algorithm>
 
-#include "lec6/serve/http_api.hpp"
-#include "lec6/serve/http_server.hpp"
-#include "lec6/serve/modbus_tcp_server.hpp"
-#include "lec6/serve/mqtt_bridge.hpp"
-#include "lec6/serve/operations.hpp"
-#include "lec6/serve/wire.hpp"
-#include "lec6/twin/line_recorder.hpp"
 #include "history/history.hpp"
+#include "http/api/http_api.hpp"
+#include "http/http_server.hpp"
+#include "lec6/twin/line_recorder.hpp"
+#include "line/line.hpp"
+#include "line/wire.hpp"
+#include "modbus_tcp/modbus_tcp_server.hpp"
+#include "mqtt/mqtt_bridge.hpp"
+#include "ops/operations.hpp"
 
 namespace lec6::serve {
 namespace {

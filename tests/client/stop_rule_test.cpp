@@ -1,7 +1,7 @@
 // The one rule for what is a stop (client::stops_or_releases): every coil at
 // both levels, single and multiple coil writes, and what is never a stop.
 // lec serve's priorities (serve::priority_of) and Ctrl-C on the client's own
-// line both use it; tests/serve/scheduler_test.cpp checks the former.
+// line both use it; tests/serve/line/scheduler_test.cpp checks the former.
 
 #include <gtest/gtest.h>
 

@@ -23,11 +23,12 @@
 #include <vector>
 
 #include "lec6/serve/config.hpp"
-#include "lec6/serve/line.hpp"
 #include "lec6/serve/log.hpp"
 
 namespace lec6::serve {
 
+class Line;
+struct SchedulerConfig;
 class ModbusTcpServer;
 class HttpServer;
 class HttpApi;

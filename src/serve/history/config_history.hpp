@@ -3,7 +3,7 @@
 
 #include <optional>
 
-#include "serve/config_reader.hpp"
+#include "config/config_reader.hpp"
 
 namespace lec6::serve::history {
 

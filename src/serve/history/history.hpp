@@ -24,10 +24,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "drift.hpp"
 #include "lec6/serve/config.hpp"
 #include "lec6/serve/log.hpp"
-#include "lec6/serve/telemetry_cache.hpp"
-#include "drift.hpp"
+#include "line/telemetry_cache.hpp"
 #include "odometer.hpp"
 #include "store.hpp"
 #include "tracker.hpp"

@@ -18,9 +18,10 @@
 #include <variant>
 #include <vector>
 
+#include "http/http.hpp"
+#include "http/http_server.hpp"
 #include "lec6/serve/daemon.hpp"
-#include "lec6/serve/http.hpp"
-#include "lec6/serve/http_server.hpp"
+#include "line/line.hpp"
 #include "store.hpp"
 
 namespace lec6::serve::history {

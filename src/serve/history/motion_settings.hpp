@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "lec6/serve/commands.hpp"
+#include "ops/commands.hpp"
 
 namespace lec6::serve::history {
 

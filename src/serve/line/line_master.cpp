@@ -1,0 +1,46 @@
+#include "line/line_master.hpp"
+
+#include <fmt/format.h>
+
+#include <future>
+
+#include "lec6/client/interrupt.hpp"
+
+namespace lec6::serve {
+
+Priority priority_of(const modbus::RequestFrame& frame, Priority reads, Priority writes) {
+  if (client::stops_or_releases(frame.pdu)) return Priority::Emergency;  // the one rule
+  return modbus::is_write(frame.pdu) ? writes : reads;
+}
+
+client::TransportError transport_error(const JobResult& r) {
+  return client::TransportError(r.error_kind,
+                                r.error.empty() ? std::string(failure_name(r.failure)) : r.error);
+}
+
+LineMaster::LineMaster(Line& line, Priority reads, Priority writes)
+    : line_(line), reads_(reads), writes_(writes) {}
+
+std::string LineMaster::describe() const {
+  return fmt::format("{} (lec serve line {})", line_.describe(), line_.options().name);
+}
+
+modbus::ResponseFrame LineMaster::exchange(const modbus::RequestFrame& frame) {
+  auto promise = std::make_shared<std::promise<JobResult>>();
+  auto result = promise->get_future();
+  Job job;
+  job.priority = priority_of(frame, reads_, writes_);
+  job.frame = frame;
+  job.done = [promise](const JobResult& r) { promise->set_value(r); };
+  line_.submit(std::move(job));
+  const JobResult r = result.get();  // the line always answers: on the wire, or failed
+  ++stats_.transactions;
+  if (r.failure != Failure::None) {
+    if (r.error_kind == client::TransportErrorKind::Timeout) ++stats_.timeouts;
+    throw transport_error(r);
+  }
+  last_round_trip_ = r.finished - r.started;
+  return *r.reply;
+}
+
+}  // namespace lec6::serve

@@ -1,0 +1,50 @@
+#pragma once
+// A client::Master whose exchanges queue on a lec serve Line: the library's
+// Client and Actuator (every operation sequence of the manual, with its
+// completion logic) run unchanged inside the daemon, while the line's
+// scheduler decides when each of their transactions goes out.
+//
+// Priorities: stops (client::stops_or_releases, the one rule) go first
+// (Priority::Emergency); other writes at `writes`; reads at `reads` (an
+// operation polling for completion reads at Priority::Completion).
+//
+// Thread safety: exchange() blocks its caller until the line answered; one
+// thread at a time per LineMaster (give each operation its own).
+
+#include <atomic>
+#include <functional>
+
+#include "lec6/client/master.hpp"
+#include "line/line.hpp"
+
+namespace lec6::serve {
+
+// The priority a client's request gets: a stop (client::stops_or_releases)
+// is always Emergency; other writes `writes`, reads `reads`. Every front-end
+// (operations, Modbus TCP, RTU over TCP) classifies with this.
+Priority priority_of(const modbus::RequestFrame& frame, Priority reads, Priority writes);
+
+// What a failed job means to a Client: the TransportError it would have met
+// on a wire of its own.
+client::TransportError transport_error(const JobResult& result);
+
+class LineMaster final : public client::Master {
+ public:
+  LineMaster(Line& line, Priority reads, Priority writes);
+
+  modbus::ResponseFrame exchange(const modbus::RequestFrame& frame) override;
+  const Clock& clock() const override { return line_.clock(); }
+  std::string describe() const override;
+  client::LinkStats stats() const override { return stats_; }
+  Duration last_round_trip() const override { return last_round_trip_; }
+  const modbus::LineTiming& line_timing() const override { return line_.timing(); }
+
+ private:
+  Line& line_;
+  Priority reads_;
+  Priority writes_;
+  client::LinkStats stats_;
+  Duration last_round_trip_{};
+};
+
+}  // namespace lec6::serve

@@ -1,0 +1,366 @@
+#include "mqtt/mqtt_client.hpp"
+
+#include <fmt/format.h>
+#include <mosquitto.h>
+#include <mqtt_protocol.h>
+
+#include <cerrno>
+#include <condition_variable>
+#include <cstdlib>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+#include <unordered_set>
+
+namespace lec6::serve {
+namespace {
+
+void init_library() {
+  static std::once_flag once;
+  std::call_once(once, [] { mosquitto_lib_init(); });
+}
+
+std::string error_text(int rc, int saved_errno) {
+  if (rc == MOSQ_ERR_ERRNO) return std::strerror(saved_errno);
+  return mosquitto_strerror(rc);
+}
+
+// Messages handed to libmosquitto and not yet written (QoS 0) or
+// acknowledged (QoS 1), by message id. libmosquitto may report a message
+// done before publish() has returned its id: that early report is kept until
+// the id is recorded.
+class PendingWindow {
+ public:
+  // Returns true when `mid` is still pending (not reported done already).
+  bool sent(int mid) {
+    if (early_.erase(mid) > 0) return false;
+    pending_.insert(mid);
+    return true;
+  }
+  void done(int mid) {
+    if (pending_.erase(mid) == 0) early_.insert(mid);
+    if (early_.size() > 65536) early_.clear();  // reports of messages from before a reset
+  }
+  // On connect: QoS 0 messages of the last connection are gone, QoS 1 ones
+  // are sent again; both are forgotten rather than guessed at.
+  void reset() {
+    pending_.clear();
+    early_.clear();
+  }
+  std::size_t size() const { return pending_.size(); }
+
+ private:
+  std::unordered_set<int> pending_, early_;
+};
+
+}  // namespace
+
+struct MqttClient::Impl {
+  MqttClientOptions o;
+  MqttClientHandlers h;
+  mosquitto* mosq = nullptr;
+  std::thread thread;
+
+  mutable std::mutex mutex;
+  std::condition_variable cv;
+  bool closing = false;   // stop() under way: no more reconnects
+  bool stop_now = false;  // leave the loop
+  bool stopped = false;
+  bool connected = false;
+  bool failing = false;      // the last attempt failed (report failures once)
+  std::size_t reserved = 0;  // publishes between the bound check and their id
+  PendingWindow window;
+  std::unordered_set<int> awaited;  // stop()'s last messages
+  MqttClientStats stats;
+
+  void setup();
+  void run();
+  void report_failure(const std::string& why);
+  void wait_backoff(Duration d);
+
+  static void on_connect(mosquitto*, void* obj, int rc, int, const mosquitto_property*);
+  static void on_disconnect(mosquitto*, void* obj, int rc, const mosquitto_property*);
+  static void on_publish(mosquitto*, void* obj, int mid, int, const mosquitto_property*);
+  static void on_message(mosquitto*, void* obj, const mosquitto_message* m,
+                         const mosquitto_property* props);
+};
+
+void MqttClient::Impl::setup() {
+  init_library();
+  mosq = mosquitto_new(o.client_id.c_str(), true, this);
+  if (!mosq) throw std::runtime_error("mqtt: cannot create the client (out of memory)");
+  mosquitto_int_option(mosq, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5);
+  mosquitto_int_option(mosq, MOSQ_OPT_TCP_NODELAY, 1);  // command results go out at once
+  // Our own thread runs the loop; publishers on other threads only queue.
+  mosquitto_threaded_set(mosq, true);
+  mosquitto_connect_v5_callback_set(mosq, on_connect);
+  mosquitto_disconnect_v5_callback_set(mosq, on_disconnect);
+  mosquitto_publish_v5_callback_set(mosq, on_publish);
+  mosquitto_message_v5_callback_set(mosq, on_message);
+  auto check = [](int rc, const std::string& what) {
+    if (rc != MOSQ_ERR_SUCCESS) {
+      throw std::runtime_error(fmt::format("mqtt: {}: {}", what, error_text(rc, errno)));
+    }
+  };
+  if (!o.will_topic.empty()) {
+    check(mosquitto_will_set_v5(mosq, o.will_topic.c_str(), static_cast<int>(o.will_payload.size()),
+                                o.will_payload.data(), 1, true, nullptr),
+          "the last will");
+  }
+  if (!o.username.empty()) {
+    check(mosquitto_username_pw_set(mosq, o.username.c_str(),
+                                    o.password.empty() ? nullptr : o.password.c_str()),
+          "username and password");
+  }
+  if (o.url.tls) {
+    auto c_str = [](const std::string& s) { return s.empty() ? nullptr : s.c_str(); };
+    if (!o.ca_file.empty() || !o.cert_file.empty()) {
+      check(
+          mosquitto_tls_set(mosq, c_str(o.ca_file), o.ca_file.empty() ? "/etc/ssl/certs" : nullptr,
+                            c_str(o.cert_file), c_str(o.key_file), nullptr),
+          "TLS files");
+    }
+    if (o.ca_file.empty()) mosquitto_int_option(mosq, MOSQ_OPT_TLS_USE_OS_CERTS, 1);
+  }
+}
+
+void MqttClient::Impl::report_failure(const std::string& why) {
+  {
+    std::lock_guard lock(mutex);
+    if (failing) return;
+    failing = true;
+  }
+  if (h.disconnected) h.disconnected(why);
+}
+
+void MqttClient::Impl::wait_backoff(Duration d) {
+  std::unique_lock lock(mutex);
+  cv.wait_for(lock, d, [this] { return closing || stop_now; });
+}
+
+// Connects, runs the network loop, and reconnects after any failure.
+void MqttClient::Impl::run() {
+  Duration backoff = std::chrono::seconds(1);
+  const Duration max_backoff = std::chrono::seconds(o.reconnect_max_s);
+  bool first = true;
+  for (;;) {
+    uint64_t connects_before;
+    {
+      std::lock_guard lock(mutex);
+      if (closing || stop_now) return;
+      connects_before = stats.connects;
+    }
+    int rc = first ? mosquitto_connect_bind_async(mosq, o.url.host.c_str(), o.url.port,
+                                                  static_cast<int>(o.keepalive_s), nullptr)
+                   : mosquitto_reconnect_async(mosq);
+    int saved_errno = errno;
+    first = false;
+    while (rc == MOSQ_ERR_SUCCESS) {
+      {
+        std::lock_guard lock(mutex);
+        if (stop_now) return;
+      }
+      rc = mosquitto_loop(mosq, 200, 1);
+      saved_errno = errno;
+    }
+    {
+      std::lock_guard lock(mutex);
+      if (closing || stop_now) return;
+      if (stats.connects != connects_before) backoff = std::chrono::seconds(1);
+    }
+    report_failure(fmt::format("cannot reach the broker {}:{}: {}", o.url.host, o.url.port,
+                               error_text(rc, saved_errno)));
+    wait_backoff(backoff);
+    backoff = std::min(backoff * 2, max_backoff);
+  }
+}
+
+void MqttClient::Impl::on_connect(mosquitto*, void* obj, int rc, int, const mosquitto_property*) {
+  auto* self = static_cast<Impl*>(obj);
+  if (rc != 0) {
+    self->report_failure(
+        fmt::format("the broker refused the connection: {}", mosquitto_reason_string(rc)));
+    return;
+  }
+  {
+    std::lock_guard lock(self->mutex);
+    self->connected = true;
+    self->failing = false;
+    ++self->stats.connects;
+    self->window.reset();
+  }
+  if (self->h.connected) self->h.connected();
+}
+
+void MqttClient::Impl::on_disconnect(mosquitto*, void* obj, int rc, const mosquitto_property*) {
+  auto* self = static_cast<Impl*>(obj);
+  bool was;
+  {
+    std::lock_guard lock(self->mutex);
+    was = self->connected;
+    self->connected = false;
+    if (was && rc != 0) self->failing = true;  // one report per outage
+  }
+  self->cv.notify_all();
+  if (was && rc != 0 && self->h.disconnected) {
+    self->h.disconnected(fmt::format("lost the broker: {}", error_text(rc, errno)));
+  }
+}
+
+void MqttClient::Impl::on_publish(mosquitto*, void* obj, int mid, int, const mosquitto_property*) {
+  auto* self = static_cast<Impl*>(obj);
+  {
+    std::lock_guard lock(self->mutex);
+    self->window.done(mid);
+    self->awaited.erase(mid);
+  }
+  self->cv.notify_all();
+}
+
+void MqttClient::Impl::on_message(mosquitto*, void* obj, const mosquitto_message* m,
+                                  const mosquitto_property* props) {
+  auto* self = static_cast<Impl*>(obj);
+  MqttMessage msg;
+  msg.topic = m->topic;
+  msg.payload.assign(static_cast<const char*>(m->payload), static_cast<std::size_t>(m->payloadlen));
+  msg.retain = m->retain;
+  char* text = nullptr;
+  if (mosquitto_property_read_string(props, MQTT_PROP_RESPONSE_TOPIC, &text, false)) {
+    msg.response_topic = text;
+    std::free(text);
+  }
+  void* data = nullptr;
+  uint16_t len = 0;
+  if (mosquitto_property_read_binary(props, MQTT_PROP_CORRELATION_DATA, &data, &len, false)) {
+    msg.correlation = std::string(static_cast<const char*>(data), len);
+    std::free(data);
+  }
+  uint32_t expiry = 0;
+  if (mosquitto_property_read_int32(props, MQTT_PROP_MESSAGE_EXPIRY_INTERVAL, &expiry, false)) {
+    msg.expiry_s = expiry;
+  }
+  {
+    std::lock_guard lock(self->mutex);
+    ++self->stats.received;
+  }
+  if (self->h.message) self->h.message(msg);
+}
+
+// ---- the client -------------------------------------------------------------------
+
+MqttClient::MqttClient(MqttClientOptions options, MqttClientHandlers handlers)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->o = std::move(options);
+  impl_->h = std::move(handlers);
+  try {
+    impl_->setup();
+  } catch (...) {
+    if (impl_->mosq) mosquitto_destroy(impl_->mosq);
+    throw;
+  }
+}
+
+MqttClient::~MqttClient() {
+  stop({}, Duration{});
+  mosquitto_destroy(impl_->mosq);
+}
+
+void MqttClient::start() {
+  std::lock_guard lock(impl_->mutex);
+  if (impl_->thread.joinable() || impl_->stopped) return;
+  impl_->thread = std::thread([this] { impl_->run(); });
+}
+
+bool MqttClient::publish(const std::string& topic, std::string_view payload, int qos, bool retain,
+                         const ReplyTo* reply) {
+  Impl& s = *impl_;
+  {
+    std::lock_guard lock(s.mutex);
+    if ((qos == 0 && !s.connected) || s.window.size() + s.reserved >= s.o.max_pending) {
+      ++s.stats.dropped;
+      return false;
+    }
+    ++s.reserved;
+  }
+  mosquitto_property* props = nullptr;
+  if (reply && !reply->correlation.empty()) {
+    mosquitto_property_add_binary(&props, MQTT_PROP_CORRELATION_DATA, reply->correlation.data(),
+                                  static_cast<uint16_t>(reply->correlation.size()));
+  }
+  int mid = 0;
+  const int rc = mosquitto_publish_v5(s.mosq, &mid, topic.c_str(), static_cast<int>(payload.size()),
+                                      payload.data(), qos, retain, props);
+  mosquitto_property_free_all(&props);
+  std::lock_guard lock(s.mutex);
+  --s.reserved;
+  if (rc != MOSQ_ERR_SUCCESS) {
+    ++s.stats.dropped;
+    return false;
+  }
+  s.window.sent(mid);
+  ++s.stats.published;
+  return true;
+}
+
+void MqttClient::subscribe(const std::vector<std::string>& filters) {
+  std::vector<char*> subs;
+  for (const auto& f : filters) subs.push_back(const_cast<char*>(f.c_str()));
+  // Retain-as-published: a retained command is seen as one. Never the
+  // retained messages already stored: a stale command must not arrive.
+  mosquitto_subscribe_multiple(impl_->mosq, nullptr, static_cast<int>(subs.size()), subs.data(), 1,
+                               MQTT_SUB_OPT_RETAIN_AS_PUBLISHED | MQTT_SUB_OPT_SEND_RETAIN_NEVER,
+                               nullptr);
+}
+
+void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& last,
+                      Duration grace) {
+  Impl& s = *impl_;
+  bool was_connected;
+  {
+    std::lock_guard lock(s.mutex);
+    if (s.stopped) return;
+    s.stopped = true;
+    was_connected = s.connected;
+  }
+  if (was_connected) {
+    for (const auto& [topic, payload] : last) {
+      int mid = 0;
+      if (mosquitto_publish_v5(s.mosq, &mid, topic.c_str(), static_cast<int>(payload.size()),
+                               payload.data(), 1, true, nullptr) == MOSQ_ERR_SUCCESS) {
+        std::lock_guard lock(s.mutex);
+        if (s.window.sent(mid)) s.awaited.insert(mid);
+      }
+    }
+    const auto deadline = std::chrono::steady_clock::now() + grace;
+    std::unique_lock lock(s.mutex);
+    s.cv.wait_until(lock, deadline, [&s] { return s.awaited.empty() || !s.connected; });
+    s.closing = true;
+    lock.unlock();
+    mosquitto_disconnect_v5(s.mosq, MQTT_RC_NORMAL_DISCONNECTION, nullptr);
+    lock.lock();
+    s.cv.wait_until(lock, deadline + std::chrono::milliseconds(500), [&s] { return !s.connected; });
+  }
+  {
+    std::lock_guard lock(s.mutex);
+    s.closing = true;
+    s.stop_now = true;
+  }
+  s.cv.notify_all();
+  if (s.thread.joinable()) s.thread.join();
+}
+
+bool MqttClient::connected() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->connected;
+}
+
+MqttClientStats MqttClient::stats() const {
+  std::lock_guard lock(impl_->mutex);
+  MqttClientStats s = impl_->stats;
+  s.connected = impl_->connected;
+  s.pending = impl_->window.size();
+  return s;
+}
+
+}  // namespace lec6::serve

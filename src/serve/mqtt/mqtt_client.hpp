@@ -1,0 +1,95 @@
+#pragma once
+// A thin MQTT 5 client over libmosquitto for the bridge: one thread of its
+// own runs the network loop, connects, and reconnects with exponential
+// back-off (1 s doubling to reconnect_max_s) whatever the failure (refused,
+// DNS, TLS, bad credentials), so a broker outage never ends the bridge.
+//
+// publish() never blocks: it hands the message to libmosquitto's queue, which
+// this client's thread writes. That queue is bounded here: at most
+// `max_pending` messages written to no socket yet (QoS 0) or unacknowledged
+// (QoS 1); past that, and for QoS 0 while disconnected, a publish is dropped
+// and counted. The bridge's telemetry is superseded by the next sample anyway.
+//
+// The session is clean (nothing kept at the broker while we are away), and
+// subscriptions ask for retain-as-published and no retained messages on
+// subscribe, so a retained command is seen as retained (and refused).
+//
+// Thread safety: publish(), subscribe(), connected() and stats() from any
+// thread; handlers run on the client's thread and must be quick.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "lec6/clock.hpp"
+#include "lec6/serve/config.hpp"
+#include "mqtt/mqtt_dedup.hpp"
+
+namespace lec6::serve {
+
+struct MqttMessage {
+  std::string topic;
+  std::string payload;
+  bool retain = false;
+  std::optional<std::string> response_topic;  // MQTT 5 request/response
+  std::optional<std::string> correlation;     // binary, echoed with the response
+  std::optional<uint32_t> expiry_s;           // message expiry left
+};
+
+struct MqttClientOptions {
+  BrokerUrl url;
+  std::string client_id;
+  std::string username, password;
+  std::string ca_file, cert_file, key_file;
+  unsigned keepalive_s = 30;
+  unsigned reconnect_max_s = 30;
+  std::string will_topic, will_payload;  // retained, QoS 1
+  std::size_t max_pending = 8192;
+};
+
+struct MqttClientHandlers {
+  std::function<void()> connected;
+  std::function<void(const std::string& why)> disconnected;  // also a refused connection
+  std::function<void(const MqttMessage&)> message;
+};
+
+struct MqttClientStats {
+  bool connected = false;
+  uint64_t connects = 0;
+  uint64_t published = 0;
+  uint64_t dropped = 0;  // the pending bound, or QoS 0 while disconnected
+  uint64_t received = 0;
+  std::size_t pending = 0;
+};
+
+class MqttClient {
+ public:
+  // Throws std::runtime_error when libmosquitto refuses the settings (TLS files).
+  MqttClient(MqttClientOptions options, MqttClientHandlers handlers);
+  ~MqttClient();
+  MqttClient(const MqttClient&) = delete;
+  MqttClient& operator=(const MqttClient&) = delete;
+
+  void start();
+  // False when dropped (see above). `reply` adds the MQTT 5 correlation data.
+  bool publish(const std::string& topic, std::string_view payload, int qos, bool retain,
+               const ReplyTo* reply = nullptr);
+  void subscribe(const std::vector<std::string>& filters);
+  // Publishes `last` (QoS 1, retained) when connected and waits, at most
+  // `grace`, for the broker to acknowledge them; then disconnects cleanly
+  // and joins the thread. Idempotent.
+  void stop(const std::vector<std::pair<std::string, std::string>>& last, Duration grace);
+
+  bool connected() const;
+  MqttClientStats stats() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace lec6::serve

@@ -1,0 +1,353 @@
+#include "ops/operations.hpp"
+
+#include <fmt/format.h>
+
+#include "history/motion_settings.hpp"  // issue 26: what the history groups moves by
+#include "lec6/client/step_sync.hpp"
+#include "lec6/lec/step_table.hpp"
+#include "line/line_master.hpp"
+#include "ops/op_results.hpp"
+
+namespace lec6::serve {
+
+struct Operations::Running {
+  Op op = Op::Move;
+  std::string source;
+  TimePoint since{};
+  bool jog_plus = true;
+  std::atomic<bool> cancel{false};
+  std::atomic<bool> stopped_by_other{false};
+  // A stop or reset for this axis (not a hold: a held motion resumes).
+  std::atomic<bool> stop_requested{false};
+  std::atomic<int64_t> lease_until{0};  // steady ns; 0: no lease
+  std::mutex tie_mutex;
+  std::function<bool()> tie;  // the stream a jog is tied to has closed
+
+  bool lease_expired(TimePoint now) const {
+    const int64_t until = lease_until.load();
+    return until != 0 && now.time_since_epoch().count() > until;
+  }
+  bool tie_closed() {
+    std::lock_guard lock(tie_mutex);
+    return tie && tie();
+  }
+};
+
+// A motion that ended without the daemon knowing the axis stopped (a deadline,
+// no answer, the line down): the axis may still be moving, so the slot stays
+// taken until a read of the flags taken after that end shows BUSY = 0
+// (docs/protocol-decisions.md, "One motion per axis").
+struct Operations::Unsettled {
+  Op op = Op::Move;
+  std::string source;
+  std::string why;
+  TimePoint ended{};  // on the line's clock
+};
+
+struct Operations::Slot {
+  std::shared_ptr<Running> motion;
+  std::optional<Unsettled> unsettled;
+  std::optional<nlohmann::json> last;
+};
+
+namespace {
+
+const SteadyClock kClock;
+
+void renew(std::atomic<int64_t>& lease_until, Duration lease) {
+  lease_until = (kClock.now() + lease).time_since_epoch().count();
+}
+
+}  // namespace
+
+Operations::Operations(Log log) : log_(std::move(log)) {}
+
+Operations::~Operations() {
+  shutdown();
+}
+
+void Operations::add_observer(OpObserver observer) {
+  std::lock_guard lock(mutex_);
+  observers_.push_back(std::move(observer));
+}
+
+void Operations::notify(const std::string& axis, const nlohmann::json& event) {
+  std::vector<OpObserver> observers;
+  {
+    std::lock_guard lock(mutex_);
+    observers = observers_;
+  }
+  for (const auto& o : observers) o(axis, event);
+}
+
+void Operations::run(const AxisRef& axis, Command cmd, std::string source,
+                     std::function<void(OpResult)> done) {
+  std::optional<OpResult> at_once;
+  std::shared_ptr<Running> run;
+  {
+    std::lock_guard lock(mutex_);
+    Slot& slot = slots_[axis.name];
+    if (shutting_down_) {
+      at_once = refusal(503, "lec serve is shutting down");
+    } else if (cmd.op == Op::JogStop) {
+      if (slot.motion && slot.motion->op == Op::Jog) slot.motion->cancel = true;
+      at_once =
+          OpResult{200,
+                   {{"ok", true},
+                    {"op", "jog-stop"},
+                    {"message", slot.motion && slot.motion->op == Op::Jog ? "jog released"
+                                                                          : "no jog was running"}}};
+    } else if (is_motion(cmd.op) && !slot.motion && slot.unsettled &&
+               !settled(axis, *slot.unsettled)) {
+      at_once = unsettled_refusal(axis, *slot.unsettled);
+    } else if (is_motion(cmd.op) && slot.motion) {
+      Running& r = *slot.motion;
+      if (cmd.op == Op::Jog && r.op == Op::Jog && r.jog_plus == cmd.jog_plus &&
+          cmd.jog_lease > Duration{} && !r.cancel) {
+        renew(r.lease_until, cmd.jog_lease);
+        at_once = OpResult{200, {{"ok", true}, {"op", "jog"}, {"message", "jog lease renewed"}}};
+      } else {
+        at_once =
+            refusal(409, fmt::format("axis {} is busy: {} started {:.1f} s ago by {}; stop it "
+                                     "first (stop, or jog-stop for a jog)",
+                                     axis.name, op_name(r.op), to_seconds(kClock.now() - r.since),
+                                     r.source));
+      }
+    } else {
+      run = std::make_shared<Running>();
+      run->op = cmd.op;
+      run->source = source;
+      run->since = kClock.now();
+      run->jog_plus = cmd.jog_plus;
+      if (cmd.op == Op::Jog && cmd.jog_lease > Duration{}) renew(run->lease_until, cmd.jog_lease);
+      if (is_motion(cmd.op)) slot.motion = run, slot.unsettled.reset();
+      const bool stop_like =
+          cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
+      if (stop_like && slot.motion && slot.motion != run) slot.motion->stopped_by_other = true;
+      if ((cmd.op == Op::Stop || cmd.op == Op::Reset) && slot.motion && slot.motion != run)
+        slot.motion->stop_requested = true;
+    }
+  }
+  if (at_once) return done(std::move(*at_once));
+  nlohmann::json started{{"event", "started"}, {"op", op_name(cmd.op)}, {"source", source}};
+  started.update(history::motion_settings(cmd));  // issue 26: the move's settings
+  notify(axis.name, started);
+  start_thread(axis, std::move(cmd), std::move(run), std::move(done));
+}
+
+void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
+                              std::function<void(OpResult)> done) {
+  {
+    std::lock_guard lock(active_mutex_);
+    ++active_;
+  }
+  std::thread([this, axis, cmd = std::move(cmd), run, done = std::move(done)] {
+    OpResult result;
+    try {
+      result = execute(axis, cmd, *run);
+    } catch (...) {
+      result = result_of(std::current_exception(), run->stopped_by_other);
+    }
+    finished(axis, run, result);
+    done(result);
+    std::lock_guard lock(active_mutex_);
+    if (--active_ == 0) idle_.notify_all();
+  }).detach();
+}
+
+void Operations::run_task(const AxisRef& axis, std::string name, std::string source,
+                          std::function<OpResult(client::Client&)> task,
+                          std::function<void(OpResult)> done) {
+  {
+    std::lock_guard lock(mutex_);
+    if (shutting_down_) return done(refusal(503, "lec serve is shutting down"));
+  }
+  {
+    std::lock_guard lock(active_mutex_);
+    ++active_;
+  }
+  if (name != "step-read" && name != "step-plan") {
+    log_(LogLevel::Info, fmt::format("{} on {} by {}", name, axis.name, source));
+  }
+  std::thread([this, axis, task = std::move(task), done = std::move(done)] {
+    OpResult result;
+    try {
+      LineMaster master(*axis.line, Priority::Command, Priority::Command);
+      client::ClientOptions co;
+      co.id = axis.id;
+      co.retries = axis.line_config->retries;
+      client::Client c(master, co);
+      result = task(c);
+    } catch (...) {
+      result = result_of(std::current_exception(), false);
+    }
+    done(result);
+    std::lock_guard lock(active_mutex_);
+    if (--active_ == 0) idle_.notify_all();
+  }).detach();
+}
+
+void Operations::finished(const AxisRef& axis, const std::shared_ptr<Running>& run,
+                          const OpResult& result) {
+  {
+    std::lock_guard lock(mutex_);
+    Slot& slot = slots_[axis.name];
+    if (slot.motion == run) {
+      slot.motion.reset();
+      // 5xx: no answer, a deadline, the line down: nothing says the axis stopped.
+      if (result.status >= 500) {
+        slot.unsettled = Unsettled{run->op, run->source, result.body.value("error", "no answer"),
+                                   axis.line->clock().now()};
+      }
+    }
+    if (is_motion(run->op)) slot.last = result.body;
+  }
+  nlohmann::json event = result.body;
+  event["event"] = "finished";
+  event["status"] = result.status;
+  notify(axis.name, event);
+}
+
+bool Operations::settled(const AxisRef& axis, const Unsettled& u) const {
+  const AxisSnapshot s = axis.line->snapshot(axis.id);
+  return s.flags && s.flags_at > u.ended && !s.flags->busy();
+}
+
+OpResult Operations::unsettled_refusal(const AxisRef& axis, const Unsettled& u) const {
+  const AxisSnapshot s = axis.line->snapshot(axis.id);
+  const bool fresh = s.flags && s.flags_at > u.ended;
+  if (!fresh) {
+    // Ask the controller (no client waits): the next request finds the answer
+    // in the cache, also on an axis without telemetry.
+    Job read;
+    read.priority = Priority::Command;
+    read.frame = {axis.id, block_request(Block::Flags)};
+    axis.line->submit(std::move(read));
+  }
+  return refusal(
+      409, fmt::format("axis {} may still be moving: its {} (started by {}) ended {:.1f} s ago "
+                       "without the axis seen stopped ({}); a new motion is accepted once a read "
+                       "of its flags shows BUSY = 0 ({}); stop it to be sure",
+                       axis.name, op_name(u.op), u.source,
+                       to_seconds(axis.line->clock().now() - u.ended), u.why,
+                       fresh ? "the last read shows BUSY = 1" : "no read since"));
+}
+
+void Operations::tie_jog(const std::string& axis, std::function<bool()> closed) {
+  std::lock_guard lock(mutex_);
+  const auto it = slots_.find(axis);
+  if (it == slots_.end() || !it->second.motion || it->second.motion->op != Op::Jog) return;
+  std::lock_guard tie(it->second.motion->tie_mutex);
+  it->second.motion->tie = std::move(closed);
+}
+
+std::optional<OpStatus> Operations::running(const AxisRef& axis) const {
+  std::lock_guard lock(mutex_);
+  const auto it = slots_.find(axis.name);
+  if (it == slots_.end()) return std::nullopt;
+  if (!it->second.motion) {
+    const auto& u = it->second.unsettled;
+    if (!u || settled(axis, *u)) return std::nullopt;
+    return OpStatus{std::string(op_name(u->op)), u->source,
+                    to_seconds(axis.line->clock().now() - u->ended), true};
+  }
+  const Running& r = *it->second.motion;
+  return OpStatus{std::string(op_name(r.op)), r.source, to_seconds(kClock.now() - r.since)};
+}
+
+std::optional<nlohmann::json> Operations::last_result(const std::string& axis) const {
+  std::lock_guard lock(mutex_);
+  const auto it = slots_.find(axis);
+  return it == slots_.end() ? std::nullopt : it->second.last;
+}
+
+void Operations::shutdown() {
+  {
+    std::lock_guard lock(mutex_);
+    shutting_down_ = true;
+    for (auto& [name, slot] : slots_) {
+      if (slot.motion && slot.motion->op == Op::Jog) slot.motion->cancel = true;
+    }
+  }
+  // Jogs release JOG and wait for the axis to stop; moves end when their
+  // line answers "shutting down". Bounded: a dead line cannot hold us.
+  std::unique_lock lock(active_mutex_);
+  idle_.wait_for(lock, std::chrono::seconds(5), [this] { return active_ == 0; });
+}
+
+// ---- execution -----------------------------------------------------------------
+
+OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& run) {
+  // Stop, reset and hold (not HOLD off: it resumes motion) go at Emergency,
+  // their reads too; their writes would anyway (priority_of).
+  const bool urgent = cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
+  LineMaster master(*axis.line, urgent ? Priority::Emergency : Priority::Completion,
+                    urgent ? Priority::Emergency : Priority::Command);
+  client::ClientOptions co;
+  co.id = axis.id;
+  co.retries = axis.line_config->retries;
+  client::Client c(master, co);
+  client::Actuator act(c);
+  if (const auto& l = axis.config->soft_limits_001mm)
+    act.set_soft_limits(client::SoftLimits{l->first, l->second});
+  const TimePoint deadline = kClock.now() + cmd.timeout;
+  client::WaitOptions wait;
+  if (cmd.op == Op::Home || cmd.op == Op::Move || cmd.op == Op::RunStep) {
+    // A stop or reset for this axis wins over its motion, even one whose start
+    // has not reached the line yet (the stop goes first, at emergency
+    // priority): not started at all, or stopped at the first poll after the
+    // start. (A hold suspends it; HOLD off resumes it.)
+    if (run.stop_requested) {
+      auto r = refusal(422, fmt::format("{} not started: a stop or reset for this axis came first "
+                                        "(through lec serve)",
+                                        op_name(cmd.op)));
+      r.body["outcome"] = "stopped";
+      return r;
+    }
+    wait.cancel = [&run] { return run.stop_requested.load(); };
+  }
+  switch (cmd.op) {
+    case Op::Serial:
+      act.set_serial_mode(cmd.on);
+      return done_result(cmd.op,
+                         cmd.on ? "serial input mode (Y30 = 1)" : "parallel input mode (Y30 = 0)");
+    case Op::Servo:
+      cmd.on ? act.servo_on(kClock.now() + std::chrono::seconds(5))
+             : act.servo_off(kClock.now() + std::chrono::seconds(5));
+      return done_result(cmd.op, cmd.on ? "servo on (SVRE = 1)" : "servo off (SVRE = 0)");
+    case Op::Home:
+      return move_result(cmd.op, act.home(deadline, wait), run.stopped_by_other);
+    case Op::Move:
+      return move_result(cmd.op, act.move(cmd.move, deadline, wait), run.stopped_by_other);
+    case Op::RunStep:
+      return move_result(cmd.op, act.run_step(*cmd.step, deadline, wait), run.stopped_by_other);
+    case Op::Jog: {
+      const TimePoint until =
+          cmd.jog_duration > Duration{} ? kClock.now() + cmd.jog_duration : TimePoint::max();
+      wait.cancel = [&run] {
+        return run.cancel.load() || run.lease_expired(kClock.now()) || run.tie_closed();
+      };
+      const auto r = act.jog(cmd.jog_plus, until, kClock.now() + std::chrono::hours(24), wait);
+      return jog_result(r, run.lease_expired(kClock.now()), run.tie_closed());
+    }
+    case Op::Hold:
+      act.hold(cmd.on);
+      return done_result(cmd.op, cmd.on ? "HOLD = 1: the operation is suspended"
+                                        : "HOLD = 0: the operation resumes");
+    case Op::Stop:
+      act.stop();
+      return done_result(cmd.op, "stopped (RESET pulse: decelerating stop)");
+    case Op::Reset:
+      return reset_result(act.reset_alarms());
+    case Op::StepRead:
+      if (cmd.step) return step_read_result(*cmd.step, c.read_step(*cmd.step));
+      return table_result(client::backup_steps(c));
+    case Op::StepWrite:
+      return step_write(c, *cmd.step, cmd.fields);
+    case Op::JogStop:
+      break;
+  }
+  return refusal(400, "nothing to do");
+}
+
+}  // namespace lec6::serve

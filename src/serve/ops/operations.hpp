@@ -1,0 +1,122 @@
+#pragma once
+// Axis operations inside lec serve: the commands of commands.hpp run by the
+// library's Actuator (the manual's sequences and completion logic, unchanged)
+// over a LineMaster, one thread per running operation, so a move's polling
+// queues on the line at Priority::Completion while other clients go on.
+//
+// Rules:
+//   - one motion (home, move, run-step, jog) per axis at a time; another one
+//     is refused with 409 naming what runs and who started it (two clients
+//     fighting over one axis is how machines crash). A motion that ended
+//     without the axis seen stopped (5xx: deadline, no answer, line down)
+//     keeps the axis taken until a read of its flags, taken after that end,
+//     shows BUSY = 0;
+//   - stop, hold and reset always go, at Priority::Emergency, and the motion
+//     under way then ends as "stopped";
+//   - a hold-to-run jog lives while its lease is renewed (repeating the jog
+//     command), and ends on jog-stop, when its lease runs out, or when the
+//     stream it was tied to closes (the browser went away): the daemon then
+//     releases JOG itself;
+//   - stopping the daemon releases running jogs first; moves are left to the
+//     controller to finish.
+//
+// Results are JSON for the HTTP API and the MQTT bridge, with an HTTP-style
+// status: 200 done (a move reached its target or pushed), 400 bad arguments,
+// 409 refused by the axis' state (busy, servo off, parallel mode, blank step),
+// 422 the controller could not do it (exception reply, alarm, push missed,
+// stopped), 502 no answer, 503 line down or daemon stopping, 504 deadline.
+//
+// Thread safety: every public member may be called from any thread.
+
+#include <atomic>
+#include <condition_variable>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lec6/client/client.hpp"
+#include "lec6/serve/daemon.hpp"
+#include "lec6/serve/log.hpp"
+#include "line/line.hpp"
+#include "ops/commands.hpp"
+
+namespace lec6::serve {
+
+struct OpResult {
+  int status = 200;
+  nlohmann::json body;
+};
+
+// What an axis is doing, for GET /api/axes/{name} and the dashboard.
+struct OpStatus {
+  std::string op;
+  std::string source;  // "http 127.0.0.1", "mqtt", ...
+  double running_s = 0;
+  // The operation ended without the axis seen stopped (deadline, no answer):
+  // the axis may still be moving; a new motion waits for BUSY = 0.
+  bool unsettled = false;
+};
+
+using OpObserver = std::function<void(const std::string& axis, const nlohmann::json& event)>;
+
+class Operations {
+ public:
+  explicit Operations(Log log);
+  ~Operations();
+  Operations(const Operations&) = delete;
+  Operations& operator=(const Operations&) = delete;
+
+  // Runs `cmd` on `axis`; `done` is called once, from another thread (or
+  // at once for a refusal), with the result.
+  void run(const AxisRef& axis, Command cmd, std::string source,
+           std::function<void(OpResult)> done);
+  // Runs any other client work on `axis` (step plans and restores) on an
+  // operation thread, at client priority; not a motion, so never refused as busy.
+  void run_task(const AxisRef& axis, std::string name, std::string source,
+                std::function<OpResult(client::Client&)> task, std::function<void(OpResult)> done);
+  // Ties a running jog to a stream: when `closed()` turns true (checked as
+  // the jog polls), the jog is released.
+  void tie_jog(const std::string& axis, std::function<bool()> closed);
+
+  // The motion under way on `axis`, or the one that ended unsettled (until a
+  // read shows BUSY = 0: then nothing).
+  std::optional<OpStatus> running(const AxisRef& axis) const;
+  std::optional<nlohmann::json> last_result(const std::string& axis) const;
+  void add_observer(OpObserver observer);
+
+  // Releases running jogs and waits (bounded) for them to stop; later
+  // commands are refused with 503. Then joins every operation thread once
+  // the lines have stopped (call again after stopping the lines).
+  void shutdown();
+
+ private:
+  struct Running;
+  struct Unsettled;
+  struct Slot;
+  OpResult execute(const AxisRef& axis, const Command& cmd, Running& run);
+  void start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
+                    std::function<void(OpResult)> done);
+  void finished(const AxisRef& axis, const std::shared_ptr<Running>& run, const OpResult& result);
+  bool settled(const AxisRef& axis, const Unsettled& u) const;
+  OpResult unsettled_refusal(const AxisRef& axis, const Unsettled& u) const;
+  void notify(const std::string& axis, const nlohmann::json& event);
+
+  Log log_;
+  mutable std::mutex mutex_;
+  std::map<std::string, Slot> slots_;
+  std::vector<OpObserver> observers_;
+  bool shutting_down_ = false;
+  // Operation threads are detached; shutdown() waits for them to end.
+  std::mutex active_mutex_;
+  std::condition_variable idle_;
+  std::size_t active_ = 0;
+};
+
+}  // namespace lec6::serve

@@ -1,0 +1,157 @@
+// One motion per axis, also when things go wrong: a motion that ends without
+// the axis seen stopped (a deadline, no answer) keeps the axis taken until a
+// read shows BUSY = 0; a stop always goes. Operations over a real Line on the
+// built-in twin (fast timing) and the wall clock: the waits are on results
+// and polled state with deadlines, never sleeps.
+
+#include "ops/operations.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <future>
+#include <thread>
+
+#include "line/wire.hpp"
+
+namespace lec6::serve {
+namespace {
+
+using namespace std::chrono_literals;
+using ::testing::HasSubstr;
+
+bool eventually(const std::function<bool()>& done, std::chrono::milliseconds within = 20s) {
+  const auto end = std::chrono::steady_clock::now() + within;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(2ms);
+  }
+  return true;
+}
+
+struct Rig {
+  Rig() {
+    lc.name = "line1";
+    lc.port = "sim";
+    lc.sim.fast = true;
+    lc.probe_interval_ms = 200;
+    AxisConfig a;
+    a.id = 1;
+    a.name = "axis1";
+    a.telemetry_hz = 20;
+    lc.axes = {a};
+    LineOptions o;
+    o.name = lc.name;
+    o.port = lc.port;
+    o.scheduler = scheduler_config(lc);
+    line = std::make_unique<Line>(
+        o, [this] { return open_wire(lc); }, clock);
+    line->start();
+    axis = AxisRef{"axis1", 1, line.get(), &lc, &lc.axes[0]};
+  }
+  ~Rig() {
+    ops.shutdown();
+    line->stop();
+    ops.shutdown();
+  }
+
+  // Runs `op` and waits for its result.
+  OpResult run(std::string_view op, nlohmann::json args = nlohmann::json::object()) {
+    auto done = start(op, std::move(args));
+    EXPECT_EQ(done.wait_for(60s), std::future_status::ready) << op;
+    return done.get();
+  }
+  std::future<OpResult> start(std::string_view op, nlohmann::json args) {
+    auto cmd = parse_command(op, args);
+    EXPECT_TRUE(cmd) << op << ": " << (cmd ? "" : cmd.error().message);
+    auto promise = std::make_shared<std::promise<OpResult>>();
+    auto f = promise->get_future();
+    ops.run(axis, *cmd, "test", [promise](OpResult r) { promise->set_value(std::move(r)); });
+    return f;
+  }
+  void replies_lost(bool lost) {
+    line->post_twin([lost](sim::Bus* bus, TimePoint) {
+      auto f = bus->faults();
+      f.drop = lost ? 1.0 : 0.0;
+      bus->set_faults(f);
+    });
+  }
+  void prepare() {
+    ASSERT_EQ(run("serial", {{"on", true}}).status, 200);
+    ASSERT_EQ(run("servo", {{"on", true}}).status, 200);
+    ASSERT_EQ(run("home").status, 200);
+  }
+
+  SteadyClock clock;
+  LineConfig lc;
+  std::unique_ptr<Line> line;
+  AxisRef axis;
+  Operations ops{[](LogLevel, std::string_view) {}};
+};
+
+TEST(Operations, AMoveThatRanPastItsDeadlineKeepsTheAxisUntilItIsSeenStopped) {
+  Rig rig;
+  rig.prepare();
+  const OpResult late =
+      rig.run("move", {{"position_mm", 390}, {"speed_mm_s", 20}, {"timeout_s", 0.3}});
+  ASSERT_EQ(late.status, 504) << late.body.dump();
+  // The axis is still moving toward 390 mm: a second client's move is refused.
+  const OpResult second = rig.run("move", {{"position_mm", 100}, {"speed_mm_s", 500}});
+  EXPECT_EQ(second.status, 409) << second.body.dump();
+  EXPECT_THAT(second.body.value("error", ""), HasSubstr("may still be moving"));
+  const auto running = rig.ops.running(rig.axis);
+  ASSERT_TRUE(running);
+  EXPECT_TRUE(running->unsettled);
+  // A stop always goes; once telemetry shows BUSY = 0 the axis is free.
+  EXPECT_EQ(rig.run("stop").status, 200);
+  ASSERT_TRUE(eventually([&] { return !rig.ops.running(rig.axis); }));
+  const OpResult next = rig.run("move", {{"position_mm", 50}, {"speed_mm_s", 500}});
+  EXPECT_EQ(next.status, 200) << next.body.dump();
+}
+
+TEST(Operations, AMoveWhoseControllerStoppedAnsweringKeepsTheAxisAndAStopStillGoes) {
+  Rig rig;
+  rig.prepare();
+  auto move = rig.start("move", {{"position_mm", 390}, {"speed_mm_s", 20}});
+  ASSERT_TRUE(eventually([&] {
+    const auto s = rig.line->snapshot(1);
+    return s.state && s.state->speed_mm_s > 0;
+  }));
+  rig.replies_lost(true);
+  ASSERT_EQ(move.wait_for(30s), std::future_status::ready);
+  const OpResult failed = move.get();
+  ASSERT_EQ(failed.status, 502) << failed.body.dump();
+  ASSERT_TRUE(eventually([&] { return rig.line->health(1).offline; }));
+  const OpResult second = rig.run("move", {{"position_mm", 100}, {"speed_mm_s", 500}});
+  EXPECT_EQ(second.status, 409) << second.body.dump();
+  // The stop goes to the offline controller: it hears it (only its replies
+  // are lost), so the axis stops although the answer is "no answer".
+  const OpResult stop = rig.run("stop");
+  EXPECT_EQ(stop.status, 502) << stop.body.dump();
+  EXPECT_GE(rig.line->stats().latency[index(Priority::Emergency)].wait_count, 2u)
+      << "the RESET pulse never reached the wire";
+  rig.replies_lost(false);
+  ASSERT_TRUE(eventually([&] { return !rig.ops.running(rig.axis); }));
+  const auto s = rig.line->snapshot(1);
+  ASSERT_TRUE(s.flags && s.state);
+  EXPECT_FALSE(s.flags->busy());
+  EXPECT_LT(s.state->position_001mm, 38000) << "the axis went on to its target";
+  const OpResult next = rig.run("move", {{"position_mm", 50}, {"speed_mm_s", 500}});
+  EXPECT_EQ(next.status, 200) << next.body.dump();
+}
+
+TEST(Operations, HoldOffIsACommandAndHoldOnAStop) {
+  Rig rig;
+  rig.prepare();
+  const auto emergencies = [&] {
+    return rig.line->stats().latency[index(Priority::Emergency)].wait_count;
+  };
+  const auto before = emergencies();
+  EXPECT_EQ(rig.run("hold", {{"on", true}}).status, 200);
+  EXPECT_EQ(emergencies(), before + 1) << "HOLD on is a stop";
+  EXPECT_EQ(rig.run("hold", {{"on", false}}).status, 200);
+  EXPECT_EQ(emergencies(), before + 1) << "HOLD off resumes motion: a command";
+}
+
+}  // namespace
+}  // namespace lec6::serve
