@@ -76,6 +76,8 @@ class HttpRequestReader {
   enum class HeaderCut { Incomplete, Whole, OverLimit, LoneLf };
   HeaderCut header_cut() const;
   Status check_header();
+  Status refuse_body_limit();
+  std::size_t chunked_piece();
   Status fail(int status, std::string reason);
 
   HttpLimits limits_;

@@ -1,5 +1,37 @@
 // One HTTP connection: read a request, hand it to the router, write the
 // answer (or keep an event stream open), and again.
+//
+// Why not Beast's own stream and http::async_read/async_write (issue 28):
+// the bytes are parsed by Beast's request_parser already, and serialised by
+// Beast (http_codec.cpp, http_encode.cpp); only the feeding is ours, and it
+// has to be.
+//   - http::async_read reads into a buffer and puts whatever the socket gave
+//     into the parser, cut as the network cut it; the parser's put is not
+//     virtual and its hooks (body reader, on_chunk_*) run after a piece is
+//     parsed, so there is no place between read and put. Beast's answer then
+//     depends on the cuts, and each of these was a fuzz finding (kept in
+//     tests/fuzz_regressions/http/): the start line parsed on the first put
+//     and not again until the header is whole, the header limit counted from
+//     the last put (http-505-or-cut-short, header-over-small-limit,
+//     oversized-and-malformed-header); header and chunked body in one put,
+//     trailer fields merged into the header before it is checked
+//     (host-only-in-a-chunked-trailer, header-checked-before-a-failing-body);
+//     a chunk's size taken off the body limit again on every retry while an
+//     extension waits for bytes (http-crash-90d75756). HttpRequestReader
+//     gives the parser a whole header, then whole chunk lines, then chunk
+//     data, so the same bytes get the same answer however they arrive; the
+//     fuzz harness checks exactly that reader, which async_read would bypass.
+//   - beast::tcp_stream and http::async_write need Boost.Asio; the daemon's
+//     one io_context is standalone Asio, shared by Modbus TCP, MQTT, HTTP,
+//     the stats timer and signals, and is in the public header
+//     lec6/serve/daemon.hpp: 14 files, ~100 asio:: uses, the error_code type
+//     of every handler, `lec history`, the tests and the package list. For
+//     what it would buy: tcp_stream's timeout is per operation and closes
+//     the socket; ours are not (one idle deadline for a whole request read
+//     and for a response write, a heartbeat and write-stall check on
+//     streams, a 2 s lingering close), so the timer here would stay; an
+//     event stream is not a message (a head, then bytes until close), so its
+//     writes would stay raw writes too.
 
 #include "http/http_connection.hpp"
 
