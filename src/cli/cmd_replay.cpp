@@ -7,6 +7,7 @@
 #include <set>
 
 #include "cli/app.hpp"
+#include "cli/profile_option.hpp"
 #include "lec6/client/rtu_master.hpp"
 #include "lec6/sim/bus.hpp"
 #include "lec6/transport/capture_file.hpp"
@@ -41,14 +42,7 @@ std::set<uint8_t> ids_in(const std::vector<twin::Exchange>& exchanges) {
 std::vector<twin::Exchange> replay_on_twin(const ReplayArgs& a, const modbus::Capture& capture,
                                            const std::vector<twin::Exchange>& captured,
                                            twin::ReplayTiming timing) {
-  twin::FieldProfile p;
-  if (!a.profile.empty()) {
-    try {
-      p = twin::load_field_profile(a.profile);
-    } catch (const twin::ProfileError& e) {
-      throw UsageError(fmt::format("--profile: {}", e.what()));
-    }
-  }
+  twin::FieldProfile p = profile_option(a.profile);
   // The twin times its replies at the captured line's speed.
   p.line.line.baud = capture.header.line.baud;
   p.line.timing = sim::Timing::Real;
@@ -102,9 +96,9 @@ void run_replay_command(const ReplayArgs& a, const GlobalOptions& g) {
   tol.response_ratio = a.response_tolerance_pct / 100.0;
   auto report = twin::compare(captured, replayed, tol);
   report.timing = timing;
-  report.target = on_twin ? (a.profile.empty() ? std::string("twin")
-                                               : fmt::format("twin ({})", a.profile))
-                          : a.against;
+  report.target =
+      on_twin ? (a.profile.empty() ? std::string("twin") : fmt::format("twin ({})", a.profile))
+              : a.against;
   if (!a.report.empty()) {
     std::ofstream out(a.report, std::ios::binary | std::ios::trunc);
     out << report.json() << "\n";

@@ -13,6 +13,7 @@
 
 #include "cli/app.hpp"
 #include "cli/duration_option.hpp"
+#include "cli/profile_option.hpp"
 #include "cli/sim_args.hpp"
 #include "cli/sim_calibrate.hpp"
 #include "lec6/modbus/timing.hpp"
@@ -117,14 +118,7 @@ void inherit(const CLI::App& parent, const CLI::App& sim, const std::string& nam
 // The twin's settings: the profile's (or the defaults), then every option
 // given on the command line.
 twin::FieldProfile settings(const SimArgs& a) {
-  twin::FieldProfile p;
-  if (!a.profile.empty()) {
-    try {
-      p = twin::load_field_profile(a.profile);
-    } catch (const twin::ProfileError& e) {
-      throw UsageError(fmt::format("--profile: {}", e.what()));
-    }
-  }
+  twin::FieldProfile p = profile_option(a.profile);
   sim::ActuatorConfig& config = p.actuator;
   if (a.has("--stroke")) {
     const auto colon = a.stroke.find(':');
@@ -198,7 +192,8 @@ std::string unusual_settings(const twin::FieldProfile& p) {
   if (p.actuator.busy_min > Duration::zero())
     out += ", busy-min " + format_duration(p.actuator.busy_min);
   if (p.actuator.target_update_late) out += ", target-update-late";
-  if (p.actuator.wear_pct_per_m > 0) out += fmt::format(", wear {:g} %/m", p.actuator.wear_pct_per_m);
+  if (p.actuator.wear_pct_per_m > 0)
+    out += fmt::format(", wear {:g} %/m", p.actuator.wear_pct_per_m);
   if (p.faults.noise_rate > 0) out += fmt::format(", noise {}/s", p.faults.noise_rate);
   if (!p.faults.duplicate_ids.empty())
     out += ", duplicate ids " + format_ids(p.faults.duplicate_ids);
@@ -208,8 +203,7 @@ std::string unusual_settings(const twin::FieldProfile& p) {
 // --usb-latency / --tap-latency, for the ready line.
 std::string adapter_settings(const SimArgs& a) {
   std::string out;
-  if (a.usb_latency > Duration::zero())
-    out += ", usb-latency " + format_duration(a.usb_latency);
+  if (a.usb_latency > Duration::zero()) out += ", usb-latency " + format_duration(a.usb_latency);
   if (!a.tap.empty()) out += ", tap " + a.tap + " listen-only";
   if (!a.tap.empty() && a.tap_latency > Duration::zero())
     out += ", tap-latency " + format_duration(a.tap_latency);

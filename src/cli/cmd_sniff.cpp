@@ -23,6 +23,7 @@
 #include "lec6/modbus/sniffer.hpp"
 #include "lec6/transport/capture_file.hpp"
 #include "lec6/transport/fd.hpp"
+#include "lec6/transport/serial_link.hpp"
 #include "lec6/version.hpp"
 
 namespace lec6::cli {
@@ -46,23 +47,6 @@ void on_usr1(int) {
   g_stats_wanted = true;
 }
 
-speed_t speed_for(uint32_t baud) {
-  switch (baud) {
-    case 9600:
-      return B9600;
-    case 19200:
-      return B19200;
-    case 38400:
-      return B38400;
-    case 57600:
-      return B57600;
-    case 115200:
-      return B115200;
-    default:
-      return B230400;
-  }
-}
-
 // The port, opened read-only: this program never transmits on the line.
 transport::UniqueFd open_listen_only(const std::string& path, uint32_t baud) {
   transport::UniqueFd fd(::open(path.c_str(), O_RDONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC));
@@ -79,8 +63,8 @@ transport::UniqueFd open_listen_only(const std::string& path, uint32_t baud) {
   tio.c_cflag |= CS8 | CLOCAL | CREAD;
   tio.c_cc[VMIN] = 1;
   tio.c_cc[VTIME] = 0;
-  ::cfsetispeed(&tio, speed_for(baud));
-  ::cfsetospeed(&tio, speed_for(baud));
+  ::cfsetispeed(&tio, transport::termios_speed(baud));
+  ::cfsetospeed(&tio, transport::termios_speed(baud));
   if (::tcsetattr(fd.get(), TCSANOW, &tio) != 0) {
     throw CommandFailed(kTransport,
                         fmt::format("cannot configure {}: {}", path, std::strerror(errno)));

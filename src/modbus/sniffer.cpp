@@ -29,15 +29,22 @@ uint16_t word_at(std::span<const uint8_t> b, std::size_t i) {
 std::size_t reply_length_for(std::span<const uint8_t> q) {
   switch (q[1]) {
     case 0x01:
-    case 0x02: return 5 + (word_at(q, 4) + 7u) / 8u;
+    case 0x02:
+      return 5 + (word_at(q, 4) + 7u) / 8u;
     case 0x03:
-    case 0x04: return 5 + 2u * word_at(q, 4);
-    case 0x07: return 5;
-    case 0x16: return 10;
-    case 0x17: return 5 + 2u * word_at(q, 6);
+    case 0x04:
+      return 5 + 2u * word_at(q, 4);
+    case 0x07:
+      return 5;
+    case 0x16:
+      return 10;
+    case 0x17:
+      return 5 + 2u * word_at(q, 6);
     case 0x0C:
-    case 0x11: return 0;  // variable: any length the reply's byte count gives
-    default: return 8;
+    case 0x11:
+      return 0;  // variable: any length the reply's byte count gives
+    default:
+      return 8;
   }
 }
 
@@ -88,31 +95,39 @@ FrameLength other_response_length(std::span<const uint8_t> head) {
 Duration response_percentile(const SniffIdStats& s, double p) {
   if (s.response_us.empty()) return Duration::zero();
   std::vector<uint32_t> v = s.response_us;
-  const auto k = static_cast<std::size_t>(std::clamp(p, 0.0, 1.0) * static_cast<double>(v.size() - 1) + 0.5);
+  const auto k =
+      static_cast<std::size_t>(std::clamp(p, 0.0, 1.0) * static_cast<double>(v.size() - 1) + 0.5);
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
   return std::chrono::microseconds(v[k]);
 }
 
 Sniffer::Sniffer(const SnifferOptions& options) : options_(options) {}
 
-Sniffer::Reading Sniffer::try_query(std::span<const uint8_t> head, std::size_t& length) const {
-  FrameLength l = request_length(head);
-  if (l.status == FrameLength::Status::Unknown) l = other_request_length(head);
-  if (l.status == FrameLength::Status::NeedMore) return Reading::Incomplete;
-  if (l.status == FrameLength::Status::Unknown) return Reading::Failed;
+namespace {
+
+// One frame at the head of the bytes, its length from `own` (what LEC
+// controllers speak) or else `other` (any Modbus function): confirmed by its
+// CRC, or not yet complete, or no such frame.
+template <typename Own, typename Other>
+Sniffer::Reading read_frame(std::span<const uint8_t> head, std::size_t& length, Own own,
+                            Other other) {
+  FrameLength l = own(head);
+  if (l.status == FrameLength::Status::Unknown) l = other(head);
+  if (l.status == FrameLength::Status::NeedMore) return Sniffer::Reading::Incomplete;
+  if (l.status == FrameLength::Status::Unknown) return Sniffer::Reading::Failed;
   length = l.bytes;
-  if (head.size() < length) return Reading::Incomplete;
-  return crc_ok(head.first(length)) ? Reading::Confirmed : Reading::BadCrc;
+  if (head.size() < length) return Sniffer::Reading::Incomplete;
+  return crc_ok(head.first(length)) ? Sniffer::Reading::Confirmed : Sniffer::Reading::BadCrc;
+}
+
+}  // namespace
+
+Sniffer::Reading Sniffer::try_query(std::span<const uint8_t> head, std::size_t& length) const {
+  return read_frame(head, length, request_length, other_request_length);
 }
 
 Sniffer::Reading Sniffer::try_reply(std::span<const uint8_t> head, std::size_t& length) const {
-  FrameLength l = response_length(head);
-  if (l.status == FrameLength::Status::Unknown) l = other_response_length(head);
-  if (l.status == FrameLength::Status::NeedMore) return Reading::Incomplete;
-  if (l.status == FrameLength::Status::Unknown) return Reading::Failed;
-  length = l.bytes;
-  if (head.size() < length) return Reading::Incomplete;
-  return crc_ok(head.first(length)) ? Reading::Confirmed : Reading::BadCrc;
+  return read_frame(head, length, response_length, other_response_length);
 }
 
 // The reply the waiting query asks for: its ID, its function (or the
@@ -121,8 +136,7 @@ bool Sniffer::matches_pending(std::span<const uint8_t> frame) const {
   if (!pending_ || frame.size() < 2 || frame[0] != pending_->query[0]) return false;
   const uint8_t fc = pending_->query[1];
   if (frame[1] == (fc | kExceptionFlag)) return true;
-  return frame[1] == fc &&
-         (pending_->reply_length == 0 || frame.size() == pending_->reply_length);
+  return frame[1] == fc && (pending_->reply_length == 0 || frame.size() == pending_->reply_length);
 }
 
 bool Sniffer::timed_frame(std::size_t first, std::size_t length) const {
@@ -225,9 +239,9 @@ void Sniffer::emit_reply(std::size_t length, bool paired) {
     e.limit = options_.timing.response_time(length);
     if (timed && pending_->timed) {
       e.response = e.last_byte - pending_->end;
-      s.response_us.push_back(static_cast<uint32_t>(
-          std::clamp<int64_t>(std::chrono::duration_cast<std::chrono::microseconds>(*e.response).count(),
-                              0, UINT32_MAX)));
+      s.response_us.push_back(static_cast<uint32_t>(std::clamp<int64_t>(
+          std::chrono::duration_cast<std::chrono::microseconds>(*e.response).count(), 0,
+          UINT32_MAX)));
       if (*e.response > e.limit + options_.tolerance) {
         e.flags |= kSniffLate;
         ++s.late;

@@ -2,8 +2,8 @@
 // low-latency ioctls. See the header for why this is our own code.
 
 #include "lec6/transport/serial_link.hpp"
-#include "lec6/transport/port_holder.hpp"
 #include "lec6/error.hpp"
+#include "lec6/transport/port_holder.hpp"
 
 #include <fcntl.h>
 #include <linux/serial.h>
@@ -37,13 +37,17 @@ constexpr BaudEntry kBauds[] = {
     {57600, B57600}, {115200, B115200}, {230400, B230400},
 };
 
-speed_t speed_for(uint32_t baud) {
+}  // namespace
+
+speed_t termios_speed(uint32_t baud) {
   for (const auto& entry : kBauds) {
     if (entry.baud == baud) return entry.speed;
   }
   throw InvalidArgument(fmt::format(
       "unsupported baud {}: the LEC6 speaks 9600, 19200, 38400, 57600, 115200 or 230400", baud));
 }
+
+namespace {
 
 // Time the bytes take on the wire: 10 bits per char (8N1).
 Duration wire_time(std::size_t bytes, uint32_t baud) {
@@ -93,7 +97,7 @@ std::optional<std::string> check_latency_timer(std::string_view port,
 
 SerialLink::SerialLink(std::string path, SerialOptions options)
     : path_(std::move(path)), options_(std::move(options)) {
-  speed_for(options_.baud);  // refuse an unsupported baud before touching the device
+  termios_speed(options_.baud);  // refuse an unsupported baud before touching the device
 
   const int fd = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) {
@@ -149,7 +153,7 @@ SerialLink::~SerialLink() {
 
 void SerialLink::configure() {
   const int fd = fd_.get();
-  const speed_t speed = speed_for(options_.baud);
+  const speed_t speed = termios_speed(options_.baud);
   auto refuse = [this](const std::string& what, int err) {
     throw LinkError(LinkErrorKind::PortUnavailable,
                     fmt::format("cannot configure {}: {}: {}", path_, what, errno_text(err)));

@@ -3,6 +3,7 @@
 
 #include "lec6/twin/sim_server.hpp"
 #include "lec6/error.hpp"
+#include "lec6/transport/serial_link.hpp"
 
 #include <poll.h>
 #include <sys/eventfd.h>
@@ -44,27 +45,11 @@ constexpr int kNoSource = -1;
 constexpr int kEverySource = -2;  // idle-line noise: every master hears it
 constexpr int kOtherMaster = -4;  // SimServerOptions::other_master_period
 
-speed_t speed_of(uint32_t baud) {
-  switch (baud) {
-    case 9600:
-      return B9600;
-    case 19200:
-      return B19200;
-    case 38400:
-      return B38400;
-    case 57600:
-      return B57600;
-    case 115200:
-      return B115200;
-    default:
-      return B230400;
-  }
-}
-
 // What a UART at the wrong speed makes of bytes: fewer of them, none the same.
 modbus::Bytes garble(std::span<const uint8_t> bytes) {
   modbus::Bytes out;
-  for (std::size_t i = 0; i < bytes.size(); i += 2) out.push_back(static_cast<uint8_t>(bytes[i] ^ 0x5A));
+  for (std::size_t i = 0; i < bytes.size(); i += 2)
+    out.push_back(static_cast<uint8_t>(bytes[i] ^ 0x5A));
   return out;
 }
 
@@ -280,7 +265,7 @@ struct SimServer::Impl {
     if (!options.strict_baud || !self.pty_) return false;
     termios t{};
     if (::tcgetattr(self.pty_->master_fd(), &t) != 0) return false;
-    return cfgetospeed(&t) != speed_of(bus.line().line.baud);
+    return cfgetospeed(&t) != transport::termios_speed(bus.line().line.baud);
   }
 
   // Bytes the pty's master hears (garbled when it listens at the wrong rate).
@@ -408,7 +393,8 @@ struct SimServer::Impl {
         const std::span<const uint8_t> bytes(buf.data(), static_cast<std::size_t>(n));
         const TimePoint now = clock.now();
         if (options.echo_adapter) {  // the adapter hears itself (best effort, as noise)
-          [[maybe_unused]] const ssize_t e = ::write(self.pty_->master_fd(), buf.data(), bytes.size());
+          [[maybe_unused]] const ssize_t e =
+              ::write(self.pty_->master_fd(), buf.data(), bytes.size());
         }
         if (master_at_wrong_baud()) {
           const modbus::Bytes heard = garble(bytes);

@@ -71,8 +71,8 @@ enum SniffFlag : uint32_t {
 struct SniffEvent {
   SniffKind kind = SniffKind::Noise;
   Bytes bytes;
-  TimePoint first_byte{};  // arrival of the chunk holding the first byte
-  TimePoint last_byte{};   // arrival of the chunk holding the last byte
+  TimePoint first_byte{};     // arrival of the chunk holding the first byte
+  TimePoint last_byte{};      // arrival of the chunk holding the last byte
   uint64_t query_number = 0;  // Query: its number (1, 2, ...); Reply/NoReply: the query's; 0: none
   Bytes query;                // Reply: the query it answers (empty if unsolicited)
   // Only when measurable (see the header). Query: the silence since the
@@ -130,15 +130,17 @@ class Sniffer {
   const SniffStats& stats() const noexcept { return stats_; }
   const SnifferOptions& options() const noexcept { return options_; }
 
+  // How the bytes at the head read as one frame (sniffer.cpp's read_frame).
+  enum class Reading : uint8_t { Confirmed, Incomplete, BadCrc, Failed };
+
  private:
   struct Pending {
     Bytes query;
     uint64_t number = 0;
-    TimePoint end{};        // the query's last byte
-    bool timed = false;     // its end was measured
+    TimePoint end{};     // the query's last byte
+    bool timed = false;  // its end was measured
     std::size_t reply_length = 8;
   };
-  enum class Reading : uint8_t { Confirmed, Incomplete, BadCrc, Failed };
 
   void scan(bool settle);
   Reading try_query(std::span<const uint8_t> head, std::size_t& length) const;

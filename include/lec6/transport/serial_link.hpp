@@ -21,11 +21,18 @@
 #include <string_view>
 #include <vector>
 
+#include <termios.h>
+
 #include "lec6/client/link.hpp"
 #include "lec6/clock.hpp"
 #include "lec6/transport/fd.hpp"
 
 namespace lec6::transport {
+
+// The termios speed of a LEC6 baud rate (B9600 … B230400): one table for the
+// serial link, the twin's pty and lec sniff. Another rate: InvalidArgument
+// naming the six the controller speaks.
+speed_t termios_speed(uint32_t baud);
 
 // Kernel RS485 mode (TIOCSRS485): the UART driver switches the transceiver's
 // driver-enable line (RTS) around each transmission. Only for UARTs whose

@@ -8,12 +8,6 @@
 namespace lec6::serve::history {
 namespace {
 
-int64_t system_ms() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 DriftConfig drift_config(const HistoryConfig& c) {
   DriftConfig d;
   d.threshold = c.drift_threshold_pct / 100;
@@ -24,7 +18,8 @@ DriftConfig drift_config(const HistoryConfig& c) {
 
 std::vector<ServiceThreshold> thresholds(const HistoryConfig& c) {
   std::vector<ServiceThreshold> out;
-  for (const auto& s : c.services) out.push_back({s.what, s.every_km, s.every_moves, s.every_hours});
+  for (const auto& s : c.services)
+    out.push_back({s.what, s.every_km, s.every_moves, s.every_hours});
   return out;
 }
 
@@ -48,8 +43,8 @@ History::History(const HistoryConfig& config, std::vector<std::string> axes, Log
   services_ = store_->services();
   for (const auto& a : axes) trackers_.emplace(a, MotionTracker(a));
   if (store_->ok()) {
-    log_(LogLevel::Info, fmt::format("move history in {} ({} records so far)", sc.file.string(),
-                                     next_id_ - 1));
+    log_(LogLevel::Info,
+         fmt::format("move history in {} ({} records so far)", sc.file.string(), next_id_ - 1));
   }
 }
 
@@ -124,10 +119,11 @@ void History::record(MotionRecord r) {
   }
   for (const auto& e : events) {
     log_(LogLevel::Warning,
-         e.raised ? fmt::format("drift on {}: {}", r.axis, to_json(e.warning)["message"].get<std::string>())
-                  : fmt::format("drift on {} cleared: {} of {} is back within {:.1f} %", r.axis,
-                                metric_name(e.warning.metric), e.warning.group,
-                                e.warning.drift_pct));
+         e.raised
+             ? fmt::format("drift on {}: {}", r.axis,
+                           to_json(e.warning)["message"].get<std::string>())
+             : fmt::format("drift on {} cleared: {} of {} is back within {:.1f} %", r.axis,
+                           metric_name(e.warning.metric), e.warning.group, e.warning.drift_pct));
   }
   if (listeners.empty()) return;
   const nlohmann::json record = to_json(r);
@@ -161,7 +157,8 @@ nlohmann::json History::health_locked(const std::string& axis, bool trend) const
   json warnings = json::array();
   for (const auto& w : drift_.warnings(axis)) warnings.push_back(to_json(w));
   json notes = json::array();
-  for (const auto& n : notices_of(axis)) notes.push_back({{"what", n.what}, {"message", n.message}});
+  for (const auto& n : notices_of(axis))
+    notes.push_back({{"what", n.what}, {"message", n.message}});
   json groups = json::array();
   for (const auto& g : drift_.groups(axis)) {
     json baseline = nullptr;
@@ -169,7 +166,7 @@ nlohmann::json History::health_locked(const std::string& axis, bool trend) const
       baseline = json::object();
       for (int m = 0; m < kMetrics; ++m) {
         baseline[metric_name(static_cast<Metric>(m))] = {{"reference", g.reference[m]},
-                                                          {"spread", g.spread[m]}};
+                                                         {"spread", g.spread[m]}};
       }
     }
     groups.push_back({{"group_id", g.group_id},
@@ -179,11 +176,12 @@ nlohmann::json History::health_locked(const std::string& axis, bool trend) const
     if (trend) {
       json points = json::array();
       for (const auto& p : g.trend) {
-        points.push_back({{"id", p.id},
-                          {"start_ms", p.start_ms},
-                          {"duration_s", p.values[0]},
-                          {"peak_thrust_pct", std::isnan(p.values[1]) ? json(nullptr) : json(p.values[1])},
-                          {"settle_s", p.values[2]}});
+        points.push_back(
+            {{"id", p.id},
+             {"start_ms", p.start_ms},
+             {"duration_s", p.values[0]},
+             {"peak_thrust_pct", std::isnan(p.values[1]) ? json(nullptr) : json(p.values[1])},
+             {"settle_s", p.values[2]}});
       }
       groups.back()["trend"] = points;
     }

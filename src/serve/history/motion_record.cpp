@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <chrono>
 #include <ctime>
 
 #include <nlohmann/json.hpp>
@@ -55,9 +56,10 @@ json to_json(const MotionRecord& r) {
           {"force_pct", opt(r.force_pct)},
           {"pushing_force_pct", opt(r.pushing_force_pct)},
           {"outcome", r.outcome},
-          {"timeline", {{"busy_up_s", opt(r.busy_up_s)},
-                        {"busy_down_s", opt(r.busy_down_s)},
-                        {"inp_s", opt(r.inp_s)}}},
+          {"timeline",
+           {{"busy_up_s", opt(r.busy_up_s)},
+            {"busy_down_s", opt(r.busy_down_s)},
+            {"inp_s", opt(r.inp_s)}}},
           {"duration_s", r.duration_s},
           {"settle_s", opt(r.settle_s)},
           {"peak_thrust_pct", opt(r.peak_thrust_pct)},
@@ -88,6 +90,12 @@ std::string csv_row(const MotionRecord& r) {
       csv_opt(r.inp_s), r.duration_s, csv_opt(r.settle_s), csv_opt(r.peak_thrust_pct),
       csv_opt(r.mean_thrust_pct), csv_opt(r.peak_speed_mm_s), csv_opt(r.overshoot_mm),
       csv_opt(r.final_error_mm), r.distance_mm, alarms);
+}
+
+int64_t system_ms() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
 }
 
 }  // namespace lec6::serve::history

@@ -23,14 +23,15 @@ struct MotionRecord {
   std::optional<int> step;
   std::optional<double> start_mm;  // where the carriage was when it started
   std::optional<double> target_mm;
-  std::optional<double> speed_mm_s;  // settings asked (direct moves); nullopt: the step's or unknown
+  std::optional<double>
+      speed_mm_s;  // settings asked (direct moves); nullopt: the step's or unknown
   std::optional<double> accel_mm_s2;
   std::optional<double> force_pct;  // moving force
   std::optional<double> pushing_force_pct;
   std::string outcome;  // reached, pushed, push_missed, stopped, alarm, deadline, not_started
   std::optional<double> busy_up_s, busy_down_s, inp_s;  // the timeline, from the start
-  double duration_s = 0;                                 // start to BUSY down (else to the end)
-  std::optional<double> settle_s;                        // BUSY down to INP
+  double duration_s = 0;                                // start to BUSY down (else to the end)
+  std::optional<double> settle_s;                       // BUSY down to INP
   std::optional<double> peak_thrust_pct, mean_thrust_pct, peak_speed_mm_s;
   std::optional<double> overshoot_mm;    // past the target, in the direction of travel
   std::optional<double> final_error_mm;  // final position − target
@@ -46,5 +47,9 @@ std::string csv_header();
 std::string csv_row(const MotionRecord& r);
 // "2026-11-24T19:04:44.123Z"
 std::string iso_time(int64_t unix_ms);
+
+// The wall clock now, Unix milliseconds (records' times; the default clock of
+// the store and the history).
+int64_t system_ms();
 
 }  // namespace lec6::serve::history

@@ -10,12 +10,6 @@
 namespace lec6::serve::history {
 namespace {
 
-int64_t system_ms() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 class SqlError : public std::runtime_error {
  public:
   SqlError(sqlite3* db, const std::string& what)
@@ -69,8 +63,7 @@ class Stmt {
   int64_t i64(int c) const { return sqlite3_column_int64(s_, c); }
   double f64(int c) const { return sqlite3_column_double(s_, c); }
   std::optional<double> opt(int c) const {
-    return sqlite3_column_type(s_, c) == SQLITE_NULL ? std::nullopt
-                                                     : std::optional<double>(f64(c));
+    return sqlite3_column_type(s_, c) == SQLITE_NULL ? std::nullopt : std::optional<double>(f64(c));
   }
   std::string text(int c) const {
     const auto* p = sqlite3_column_text(s_, c);
@@ -237,7 +230,8 @@ bool Store::open(const std::filesystem::path& file) {
   // The WAL stays within a tenth of the size limit: checkpoints come that often.
   const uint64_t tenth = std::max<uint64_t>(config_.max_bytes / 10, 64 * 1024);
   exec(writer_, fmt::format("PRAGMA journal_size_limit = {}", tenth).c_str());
-  exec(writer_, fmt::format("PRAGMA wal_autocheckpoint = {}", std::max<uint64_t>(tenth / 4096, 16)).c_str());
+  exec(writer_,
+       fmt::format("PRAGMA wal_autocheckpoint = {}", std::max<uint64_t>(tenth / 4096, 16)).c_str());
   exec(writer_, kSchema);
   if (sqlite3_open_v2(file.c_str(), &reader_, SQLITE_OPEN_READONLY | SQLITE_OPEN_NOMUTEX,
                       nullptr) != SQLITE_OK) {
@@ -274,8 +268,7 @@ void Store::load() {
     Stmt s(writer_, "SELECT axis, moves, distance_mm, motion_s, pushes, alarms FROM odometer");
     while (s.step()) odometers_[s.text(0)] = odometer_of(s, 1);
   }
-  Stmt s(writer_,
-         "SELECT axis, what, moves, distance_mm, motion_s, pushes, alarms FROM services");
+  Stmt s(writer_, "SELECT axis, what, moves, distance_mm, motion_s, pushes, alarms FROM services");
   while (s.step()) services_[{s.text(0), s.text(1)}] = odometer_of(s, 2);
 }
 
@@ -416,9 +409,8 @@ void Store::write_batch(std::deque<Item>& batch) {
     if (by_age || logical_bytes() > config_.max_bytes * 85 / 100) prune(by_age);
   } catch (const std::exception& e) {
     sqlite3_exec(writer_, "ROLLBACK", nullptr, nullptr, nullptr);
-    log_(LogLevel::Error,
-         fmt::format("move history: {} records not written to {}: {}", batch.size(),
-                     config_.file.string(), e.what()));
+    log_(LogLevel::Error, fmt::format("move history: {} records not written to {}: {}",
+                                      batch.size(), config_.file.string(), e.what()));
   }
 }
 
@@ -459,8 +451,8 @@ void Store::prune(bool by_age) {
   const int64_t used = (pragma("PRAGMA page_count") - pragma("PRAGMA freelist_count")) * page;
   if (static_cast<uint64_t>(used) > config_.max_bytes * 85 / 100) {
     const int64_t rows = pragma("SELECT COUNT(*) FROM motions");
-    const auto keep = static_cast<int64_t>(double(rows) * 0.65 * double(config_.max_bytes) /
-                                           double(used));
+    const auto keep =
+        static_cast<int64_t>(double(rows) * 0.65 * double(config_.max_bytes) / double(used));
     Stmt del(writer_,
              "DELETE FROM motions WHERE id IN (SELECT id FROM motions ORDER BY id LIMIT ?)");
     del.bind(1, std::max<int64_t>(rows - keep, 0));

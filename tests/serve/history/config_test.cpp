@@ -12,7 +12,8 @@ namespace {
 
 using ::testing::HasSubstr;
 
-const char* kLines = "lines:\n  - port: sim\n    sim: {wear_pct_per_m: 0.25}\n    axes: [{id: 1}]\n";
+const char* kLines =
+    "lines:\n  - port: sim\n    sim: {wear_pct_per_m: 0.25}\n    axes: [{id: 1}]\n";
 
 std::string error_of(const std::string& text) {
   try {
@@ -66,8 +67,9 @@ TEST(HistoryConfig, MistakesNameTheKey) {
               HasSubstr("exactly one of every_km"));
   EXPECT_THAT(error_of(base + "history: {state_dir: s, services: [{every_km: 1}]}\n"),
               HasSubstr("history.services[0].what"));
-  EXPECT_THAT(error_of("lines:\n  - port: sim\n    sim: {wear_pct_per_m: -2}\n    axes: [{id: 1}]\n"),
-              HasSubstr("lines[0].sim.wear_pct_per_m"));
+  EXPECT_THAT(
+      error_of("lines:\n  - port: sim\n    sim: {wear_pct_per_m: -2}\n    axes: [{id: 1}]\n"),
+      HasSubstr("lines[0].sim.wear_pct_per_m"));
   EXPECT_THAT(error_of(base + "history: {state_dir: s, queue: 3}\n"), HasSubstr("lec6.yaml:"));
 }
 

@@ -3,6 +3,7 @@
 // the listeners (SSE, MQTT).
 
 #include "serve/history/history.hpp"
+#include "temp_dir.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,17 +15,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    char tmpl[] = "/tmp/lec6-history-XXXXXX";
-    path = mkdtemp(tmpl);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
+using testing::TempDir;
 
 // The wall clock the history sees; records start near it (retention keeps them).
 constexpr int64_t kT0 = 1'790'000'000'000;
@@ -50,7 +41,6 @@ MotionRecord move(double duration_s, double thrust, int64_t start_ms) {
 }
 
 void quiet(LogLevel, std::string_view) {}
-
 
 TEST(History, TheOdometerAndTheRecordIdsCarryOnAfterARestart) {
   TempDir dir;

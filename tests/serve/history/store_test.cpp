@@ -2,6 +2,7 @@
 // kill -9, retention by size and age, a corrupt file is moved aside.
 
 #include "serve/history/store.hpp"
+#include "temp_dir.hpp"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -20,17 +21,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    char tmpl[] = "/tmp/lec6-history-XXXXXX";
-    path = mkdtemp(tmpl);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
+using testing::TempDir;
 
 struct Logged {
   std::mutex m;

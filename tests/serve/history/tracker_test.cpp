@@ -32,7 +32,7 @@ TEST(Tracker, AnOperationsMoveTakesItsSettingsOutcomeAndTimelineAndTheSamplesBet
   MotionTracker t("x");
   TimePoint now{};
   EXPECT_FALSE(t.telemetry(state(10, 0, 5, 10), flags(false, true), now, 1000));
-  nlohmann::json started{{"event", "started"}, {"op", "move"}, {"source", "http 127.0.0.1"},
+  nlohmann::json started{{"event", "started"}, {"op", "move"},      {"source", "http 127.0.0.1"},
                          {"target_mm", 150.0}, {"speed_mm_s", 100}, {"moving_force_pct", 100}};
   EXPECT_FALSE(t.op_event(started, now, 1000));
   double pos[] = {20, 60, 110, 150.3, 150.0};
@@ -42,10 +42,17 @@ TEST(Tracker, AnOperationsMoveTakesItsSettingsOutcomeAndTimelineAndTheSamplesBet
     EXPECT_FALSE(t.telemetry(state(pos[i], i < 3 ? 100 : 0, thrust[i], 150), flags(i < 3, i >= 3),
                              now, 1000 + 300 * (i + 1)));
   }
-  nlohmann::json finished{{"event", "finished"}, {"op", "move"}, {"outcome", "reached"},
-                          {"ok", true}, {"position_mm", 150.0}, {"target_mm", 150.0},
-                          {"speed_mm_s", 0}, {"thrust_pct", 10}, {"elapsed_s", 1.5},
-                          {"timeline", {{"busy_up_s", 0.02}, {"busy_down_s", 1.2}, {"inp_s", 1.26}}}};
+  nlohmann::json finished{
+      {"event", "finished"},
+      {"op", "move"},
+      {"outcome", "reached"},
+      {"ok", true},
+      {"position_mm", 150.0},
+      {"target_mm", 150.0},
+      {"speed_mm_s", 0},
+      {"thrust_pct", 10},
+      {"elapsed_s", 1.5},
+      {"timeline", {{"busy_up_s", 0.02}, {"busy_down_s", 1.2}, {"inp_s", 1.26}}}};
   const auto r = t.op_event(finished, now, 2500);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->axis, "x");
@@ -97,9 +104,9 @@ TEST(Tracker, AfterAnOperationEndsTheTailOfItsBusyIsNotAnotherMotion) {
   t.op_event({{"event", "started"}, {"op", "move"}, {"source", "mqtt"}}, now, 0);
   now += 200ms;
   t.telemetry(state(30, 100, 40, 150), flags(true, false), now, 200);
-  const auto r = t.op_event({{"event", "finished"}, {"op", "move"}, {"outcome", "stopped"},
-                             {"position_mm", 31.0}},
-                            now, 200);
+  const auto r = t.op_event(
+      {{"event", "finished"}, {"op", "move"}, {"outcome", "stopped"}, {"position_mm", 31.0}}, now,
+      200);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->outcome, "stopped");
   now += 100ms;
@@ -127,8 +134,11 @@ TEST(HistoryQueryParse, BadFiltersNameTheParameter) {
   EXPECT_EQ(err({{"format", "xml"}}), "format");
   EXPECT_EQ(err({{"colour", "red"}}), "colour");
   EXPECT_EQ(err({{"since", "2026-11-24"}, {"until", "2026-11-23"}}), "until");
-  EXPECT_EQ(err({{"since", "2026-11-24T10:00:00Z"}, {"kind", "run-step"}, {"step", "3"},
-                 {"limit", "50"}, {"format", "csv"}}),
+  EXPECT_EQ(err({{"since", "2026-11-24T10:00:00Z"},
+                 {"kind", "run-step"},
+                 {"step", "3"},
+                 {"limit", "50"},
+                 {"format", "csv"}}),
             "(accepted)");
 }
 
