@@ -28,6 +28,7 @@
 #include "lec6/transport/port_spec.hpp"
 #include "lec6/transport/pty.hpp"
 #include "lec6/transport/serial_link.hpp"
+#include "read_link.hpp"
 
 namespace lec6::transport {
 namespace {
@@ -78,19 +79,7 @@ Bytes read_fd(int fd, std::size_t count, Duration timeout = 2s) {
   return out;
 }
 
-// Up to `count` bytes from the link before `timeout`.
-Bytes read_link(client::Link& link, std::size_t count, Duration timeout = 2s) {
-  const TimePoint deadline = from_now(timeout);
-  Bytes out(count);
-  std::size_t got = 0;
-  while (got < count) {
-    const std::size_t n = link.read_some(std::span(out).subspan(got), deadline);
-    if (n == 0) break;
-    got += n;
-  }
-  out.resize(got);
-  return out;
-}
+using testing::read_link;
 
 // Runs `f`, which must throw LinkError, and returns it.
 LinkError link_error(const std::function<void()>& f) {

@@ -20,6 +20,7 @@
 #include "lec6/transport/fd.hpp"
 #include "lec6/transport/tcp_link.hpp"
 #include "lec6/transport/tcp_server.hpp"
+#include "read_link.hpp"
 
 namespace lec6::transport {
 namespace {
@@ -73,18 +74,7 @@ void send_fd(int fd, std::span<const uint8_t> data) {
   ASSERT_EQ(::send(fd, data.data(), data.size(), MSG_NOSIGNAL), static_cast<ssize_t>(data.size()));
 }
 
-Bytes read_link(client::Link& link, std::size_t count) {
-  const TimePoint deadline = from_now(2s);
-  Bytes out(count);
-  std::size_t got = 0;
-  while (got < count) {
-    const std::size_t n = link.read_some(std::span(out).subspan(got), deadline);
-    if (n == 0) break;
-    got += n;
-  }
-  out.resize(got);
-  return out;
-}
+using testing::read_link;
 
 struct Connected {
   TcpListener listener;

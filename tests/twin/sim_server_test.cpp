@@ -31,6 +31,7 @@
 #include "lec6/transport/tcp_link.hpp"
 #include "lec6/twin/sim_server.hpp"
 #include "lec6/twin/state_file_io.hpp"
+#include "read_link.hpp"
 #include "twin/served_twin.hpp"
 
 namespace lec6::twin {
@@ -60,19 +61,7 @@ Bytes echo(uint8_t id, uint16_t data) {
   return frame(id, modbus::EchoRequest{0, data});
 }
 
-// Up to `count` bytes from the link before `timeout`.
-Bytes read_link(client::Link& link, std::size_t count, Duration timeout = 2s) {
-  const TimePoint deadline = kClock.now() + timeout;
-  Bytes out(count);
-  std::size_t got = 0;
-  while (got < count) {
-    const std::size_t n = link.read_some(std::span(out).subspan(got), deadline);
-    if (n == 0) break;
-    got += n;
-  }
-  out.resize(got);
-  return out;
-}
+using testing::read_link;
 
 class TempDir {
  public:

@@ -12,6 +12,7 @@
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/transport/serial_link.hpp"
 #include "lec6/twin/sim_server.hpp"
+#include "read_link.hpp"
 
 namespace lec6::twin {
 namespace {
@@ -30,16 +31,7 @@ constexpr std::size_t kReplyBytes = 5 + 14;
 
 // Up to `count` bytes before `timeout`.
 Bytes read_bytes(client::Link& link, std::size_t count, Duration timeout = 3s) {
-  const TimePoint deadline = kClock.now() + timeout;
-  Bytes out(count);
-  std::size_t got = 0;
-  while (got < count) {
-    const std::size_t n = link.read_some(std::span(out).subspan(got), deadline);
-    if (n == 0) break;
-    got += n;
-  }
-  out.resize(got);
-  return out;
+  return testing::read_link(link, count, timeout);
 }
 
 class Twin {
@@ -89,9 +81,13 @@ void expect_tap_hears_the_exchange(Duration tap_latency, Duration usb_latency) {
   EXPECT_EQ(twin.server().stats().tap_bytes_dropped, 0u);
 }
 
-TEST(Tap, CarriesTheQueryAndTheReply) { expect_tap_hears_the_exchange(0s, 0s); }
+TEST(Tap, CarriesTheQueryAndTheReply) {
+  expect_tap_hears_the_exchange(0s, 0s);
+}
 
-TEST(Tap, InUsbLumpsCarriesTheSameBytes) { expect_tap_hears_the_exchange(16ms, 0s); }
+TEST(Tap, InUsbLumpsCarriesTheSameBytes) {
+  expect_tap_hears_the_exchange(16ms, 0s);
+}
 
 TEST(Tap, UsbLatencyOnThePtyStillDeliversEveryReplyWhole) {
   expect_tap_hears_the_exchange(0s, 16ms);
@@ -103,7 +99,7 @@ TEST(Tap, WhatIsWrittenIntoTheTapNeverReachesTheLine) {
   o.tap_link = tap_path("write");
   Twin twin(std::move(o));
   SerialLink tap(twin.server().tap()->client_path(), SerialOptions{.baud = 38400});
-  tap.write(read_state());  // a listener that transmits: discarded
+  tap.write(read_state());             // a listener that transmits: discarded
   std::this_thread::sleep_for(100ms);  // (nothing to wait for: the absence of a reply)
   EXPECT_EQ(twin.server().stats().bytes_in, 0u);
   EXPECT_EQ(twin.server().stats().replies_sent, 0u);
