@@ -15,7 +15,9 @@
 //   - a Query or Reply event is a frame whose CRC holds;
 //   - a Reply paired with a query carries the query's ID; a NoReply repeats
 //     a query that was reported;
-//   - the statistics agree with the events (frames, noise bytes).
+//   - the statistics agree with the events (frames, noise bytes);
+//   - after advance(t), deadline() is later than t (or none): a caller that
+//     sleeps until the deadline never spins.
 
 #include <cstddef>
 #include <cstdint>
@@ -55,6 +57,9 @@ inline void sniff_one(const uint8_t* data, std::size_t size) {
       if (*d > t) break;
       sniffer.advance(t);
       take();
+      const auto after = sniffer.deadline();
+      check(!after || *after > t,
+            "deadline() is still due after advance(): a caller's read loop would spin");
     }
     take();
   }

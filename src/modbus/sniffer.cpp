@@ -364,13 +364,17 @@ std::vector<SniffEvent> Sniffer::take() {
 }
 
 std::optional<TimePoint> Sniffer::deadline() const {
-  std::optional<TimePoint> d;
-  if (unresolved() && have_arrival_) d = last_arrival_ + options_.idle_gap;
-  if (pending_) {
-    const TimePoint t = pending_->end + options_.reply_wait;
-    if (!d || t < *d) d = t;
+  // Only what advance() acts on: a deadline it would not act on made a
+  // caller's loop spin (found by fuzz_sniff: a query's reply wait ran out
+  // while bytes waited for the idle gap; lec sniff's read loop then woke
+  // without pause until the gap ended). Buffered bytes settle after the idle
+  // gap; only then can a waiting query's reply wait end.
+  if (unresolved()) {
+    if (have_arrival_) return last_arrival_ + options_.idle_gap;
+    return std::nullopt;
   }
-  return d;
+  if (pending_) return pending_->end + options_.reply_wait;
+  return std::nullopt;
 }
 
 }  // namespace lec6::modbus

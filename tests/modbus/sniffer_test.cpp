@@ -24,9 +24,9 @@ Bytes cat(std::initializer_list<Bytes> parts) {
   return out;
 }
 
-const Bytes kRead = frame({0x01, 0x03, 0x90, 0x00, 0x00, 0x01});       // ID 1 read D9000 x1
-const Bytes kReadReply = frame({0x01, 0x03, 0x02, 0x00, 0x64});        // = 100
-const Bytes kSvon = frame({0x01, 0x05, 0x00, 0x19, 0xFF, 0x00});       // ID 1 write Y19 ON (echoed)
+const Bytes kRead = frame({0x01, 0x03, 0x90, 0x00, 0x00, 0x01});  // ID 1 read D9000 x1
+const Bytes kReadReply = frame({0x01, 0x03, 0x02, 0x00, 0x64});   // = 100
+const Bytes kSvon = frame({0x01, 0x05, 0x00, 0x19, 0xFF, 0x00});  // ID 1 write Y19 ON (echoed)
 const Bytes kException = frame({0x01, 0x83, 0x02});
 const TimePoint t0{};
 
@@ -64,6 +64,28 @@ TEST(Sniffer, PairsAReadWithItsReplyAndTimesIt) {
   EXPECT_EQ(s.exchanges, 1u);
   EXPECT_EQ(s.timeouts, 0u);
   EXPECT_EQ(response_percentile(s, 0.5), 8ms);
+}
+
+// A query's reply wait runs out while a byte waits for the idle gap: the
+// deadline is the gap's end, not the past (lec sniff's read loop sleeps
+// until deadline(); a past one made it spin; found by fuzz_sniff).
+TEST(Sniffer, TheDeadlineIsNeverDueAfterAdvance) {
+  Line l;
+  l.at(t0 + 1ms, kRead);
+  const TimePoint late = t0 + 1ms + l.options.reply_wait + 1ms;
+  l.at(late - 100ms, Bytes{0x01});  // the start of something, 100 ms before
+  l.sniffer.advance(late);
+  const auto d = l.sniffer.deadline();
+  ASSERT_TRUE(d);
+  EXPECT_GT(*d, late);
+  EXPECT_EQ(*d, late - 100ms + l.options.idle_gap);
+  // At the gap's end the byte settles as noise and the query gets no reply.
+  l.sniffer.advance(*d);
+  const auto e = l.sniffer.take();
+  ASSERT_EQ(e.size(), 3u);
+  EXPECT_EQ(e[1].kind, SniffKind::Noise);
+  EXPECT_EQ(e[2].kind, SniffKind::NoReply);
+  EXPECT_FALSE(l.sniffer.deadline());
 }
 
 TEST(Sniffer, SplitsALumpByLengthAndCrcNotByGaps) {
