@@ -32,6 +32,13 @@ export class ResultList {
   }
 
   show(r: OpResult, status: number): void {
+    // A result replaces the "running…" line of its op (the newest one; a
+    // result without an op, as a move the controller refused with an alarm
+    // answers: the newest running line, whose op names the result).
+    const running = [...this.el.querySelectorAll<HTMLElement>("li.running")];
+    const line = running.find((li) => !r.op || li.dataset.op === r.op);
+    const op = r.op ?? line?.dataset.op;
+    line?.remove();
     const ok = r.ok !== false && status < 400;
     const outcome = r.outcome ? h("span", { class: `outcome ${ok ? "ok" : "bad"}` }, r.outcome) : null;
     const details = DETAIL_KEYS.filter(([k]) => typeof r[k] === "number").map(
@@ -39,8 +46,8 @@ export class ResultList {
     );
     const li = h(
       "li",
-      { class: ok ? "ok" : "bad", "data-op": r.op ?? "" },
-      h("b", {}, r.op ?? "command"),
+      { class: ok ? "ok" : "bad", "data-op": op ?? "" },
+      h("b", {}, op ?? "command"),
       " ",
       outcome,
       " ",
@@ -48,10 +55,6 @@ export class ResultList {
       details.length ? h("div", { class: "muted" }, details.join(" · ")) : null,
       r.timeline ? timeline(r.timeline) : null,
     );
-    // A result replaces the "running…" line of its op (the newest one; a
-    // result without an op: the newest running line).
-    const running = [...this.el.querySelectorAll<HTMLElement>("li.running")];
-    running.find((li) => !r.op || li.dataset.op === r.op)?.remove();
     this.add(li);
   }
 

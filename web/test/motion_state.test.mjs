@@ -42,6 +42,8 @@ test("a refused move (alarm 62) then RESET: the page follows the daemon, not its
   assert.ok(!notes.some((n) => /running/.test(n)), `notes still say a move runs: ${JSON.stringify(notes)}`);
   // Nor the results: the refused move's "running…" line gives way to its result.
   await page.waitForFunction(() => !document.querySelector(".results li.running"), null, { timeout: 5000 });
+  // The alarm's result is titled by the move it ended, not "command".
+  assert.equal(await page.locator(".results li.bad b").first().textContent(), "move");
   await shot(page, "motion-state-after-reset");
   // The refused move's 422 is the browser's own log line, not the page's error.
   assert.deepEqual(page.errors.filter((e) => !/status of 422/.test(e)), []);

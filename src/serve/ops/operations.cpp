@@ -148,6 +148,9 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
     } catch (...) {
       result = result_of(std::current_exception(), run->stopped_by_other);
     }
+    // Every result names its op, a failure too (an alarm's came without it,
+    // and the dashboard titled it "command"; issue 27).
+    if (!result.body.contains("op")) result.body["op"] = op_name(cmd.op);
     finished(axis, run, result);
     done(result);
     std::lock_guard lock(active_mutex_);

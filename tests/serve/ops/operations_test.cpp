@@ -141,6 +141,18 @@ TEST(Operations, AMoveWhoseControllerStoppedAnsweringKeepsTheAxisAndAStopStillGo
   EXPECT_EQ(next.status, 200) << next.body.dump();
 }
 
+// A move the controller refuses (alarm 62: beyond the stroke) ends in a
+// failure whose body still names its op: the dashboard titles results by it
+// and took the alarm for "command" (issue 27).
+TEST(Operations, EveryResultNamesItsOpAFailureToo) {
+  Rig rig;
+  rig.prepare();
+  const OpResult r = rig.run("move", {{"position_mm", 9999}, {"speed_mm_s", 100}});
+  EXPECT_GE(r.status, 400) << r.body.dump();
+  EXPECT_EQ(r.body.value("op", ""), "move") << r.body.dump();
+  EXPECT_EQ(rig.run("reset").body.value("op", ""), "reset");
+}
+
 TEST(Operations, HoldOffIsACommandAndHoldOnAStop) {
   Rig rig;
   rig.prepare();
