@@ -21,6 +21,7 @@ Usage: readme.py README.md LEC_BUILD_DIR"""
 import os
 import re
 import shlex
+import signal
 import socket
 import subprocess
 import sys
@@ -139,9 +140,22 @@ def main():
             with open(os.path.join(work, "readme.sh"), "w") as f:
                 f.write(script)
             print("skipped (install or browser):\n  " + "\n  ".join(skipped), flush=True)
-            r = subprocess.run(["bash", os.path.join(work, "readme.sh")], env=env, cwd=work,
-                               timeout=400)
-            if r.returncode != 0:
+            # Its own process group: a line that hangs (the timeout) must not
+            # leave the daemons it started running.
+            sh = subprocess.Popen(["bash", os.path.join(work, "readme.sh")], env=env, cwd=work,
+                                  start_new_session=True)
+            try:
+                rc = sh.wait(timeout=400)
+            except subprocess.TimeoutExpired:
+                print("FAIL: the README's shell lines did not end within 400 s", flush=True)
+                rc = 1
+            finally:
+                try:
+                    os.killpg(sh.pid, signal.SIGTERM)
+                except ProcessLookupError:
+                    pass
+                sh.wait()
+            if rc != 0:
                 return 1
             # The Python block, with the module of this build.
             import glob
