@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "client/coil_reset.hpp"
 #include "lec6/client/actuator.hpp"
 #include "lec6/lec/alarms.hpp"
@@ -14,6 +16,10 @@ namespace lec6::client {
 namespace {
 
 using lec::Coil;
+
+// Between polls that failed while a grace runs (WaitOptions::unanswered_grace):
+// a backed-off controller refuses at once, and the wait must not spin.
+constexpr Duration kUnansweredPause = std::chrono::milliseconds(50);
 
 std::string codes_text(const std::vector<uint8_t>& codes) {
   std::string out;
@@ -133,11 +139,33 @@ MoveResult Actuator::home(TimePoint deadline, const WaitOptions& wait) {
 MoveResult Actuator::poll_until_done(Completion& done, TimePoint started_at,
                                      const WaitOptions& wait) {
   try {
+    bool unanswered = false;  // polls are failing now, since the start of the first
+    TimePoint unanswered_since{};
     for (;;) {
       const TimePoint began = client_.clock().now();
-      const auto flags = client_.read_flags();
-      const TimePoint at = client_.clock().now();
-      const auto state = client_.read_state();
+      lec::StatusFlags flags;
+      lec::StateData state;
+      TimePoint at;
+      try {
+        flags = client_.read_flags();
+        at = client_.clock().now();
+        state = client_.read_state();
+      } catch (const TransportError& e) {
+        if (!is_line_fault(e.kind()) || wait.unanswered_grace <= Duration::zero()) throw;
+        const TimePoint now = client_.clock().now();
+        if (!unanswered) unanswered_since = began;
+        unanswered = true;
+        if (now - unanswered_since >= wait.unanswered_grace) {
+          throw TransportError(e.kind(),
+                               fmt::format("{} (the move's polls went unanswered for {:.1f} s; "
+                                           "the axis may still be moving)",
+                                           e.what(), to_seconds(now - unanswered_since)));
+        }
+        if (wait.cancel && wait.cancel()) stop_after_interrupt(done.interrupted());
+        client_.idle_until(now + std::max(wait.poll_interval, kUnansweredPause));
+        continue;
+      }
+      unanswered = false;
       if (wait.progress) wait.progress({state, flags, at - started_at});
       if (auto r = done.feed({flags, state, at})) return *r;
       if (wait.cancel && wait.cancel()) stop_after_interrupt(done.interrupted());

@@ -24,6 +24,12 @@ std::string_view transport_error_name(TransportErrorKind k) noexcept {
   return "transport";
 }
 
+bool is_line_fault(TransportErrorKind k) noexcept {
+  return k == TransportErrorKind::Timeout || k == TransportErrorKind::Crc ||
+         k == TransportErrorKind::Framing || k == TransportErrorKind::EchoMismatch ||
+         k == TransportErrorKind::LineBusy;
+}
+
 Transaction::Transaction(const modbus::RequestFrame& request, const TransactionTiming& timing)
     : request_(request), timing_(timing) {
   auto encoded = modbus::encode_request(request);

@@ -363,5 +363,72 @@ TEST(Actuator, AStopReleasesResetEvenWhenTheRisingHalfGotNoAnswer) {
   EXPECT_FALSE(f.bus.find(1)->control().test(lec::Coil::RESET)) << "RESET left at 1";
 }
 
+// A noisy line loses every reply for a second in the middle of a move: with a
+// grace (what lec serve sets), the wait sees the move through to its end.
+struct LostPolls {
+  testing::SimFixture f;
+  DirectMove m;
+  std::optional<TimePoint> lost_from;
+  Duration lost_for{};
+
+  LostPolls() {
+    f.prepare();
+    m.position_001mm = 20000;
+    m.speed_mm_s = 100;  // 200 mm: ~2 s
+    f.on_trace = [this](const TraceEvent&) {
+      if (lost_from && f.clock.now() >= *lost_from + lost_for) f.bus.set_faults({});
+    };
+  }
+  WaitOptions losing(Duration after, Duration for_, Duration grace) {
+    WaitOptions w;
+    w.unanswered_grace = grace;
+    w.progress = [this, after, for_](const Progress& p) {
+      if (!lost_from && p.elapsed >= after) {
+        sim::FaultConfig faults;
+        faults.drop = 1.0;
+        f.bus.set_faults(faults);
+        lost_from = f.clock.now();
+        lost_for = for_;
+      }
+    };
+    return w;
+  }
+};
+
+TEST(Actuator, AMoveOutlivesASecondOfLostPollsWithinItsGrace) {
+  LostPolls t;
+  const auto w = t.losing(std::chrono::milliseconds(500), std::chrono::seconds(1),
+                          std::chrono::seconds(3));
+  const auto r = t.f.axis->move(t.m, t.f.axis->deadline_in(std::chrono::seconds(20)), w);
+  ASSERT_TRUE(t.lost_from);
+  EXPECT_EQ(r.outcome, MoveOutcome::Reached);
+  EXPECT_EQ(t.f.client->read_state().position_001mm, 20000);
+}
+
+TEST(Actuator, WithoutAGraceTheFirstUnansweredPollEndsTheWait) {
+  LostPolls t;
+  const auto w = t.losing(std::chrono::milliseconds(500), std::chrono::seconds(1), Duration{});
+  EXPECT_THROW(t.f.axis->move(t.m, t.f.axis->deadline_in(std::chrono::seconds(20)), w),
+               TransportError);
+}
+
+TEST(Actuator, PollsUnansweredLongerThanTheGraceEndTheWaitSayingHowLong) {
+  LostPolls t;
+  const auto w = t.losing(std::chrono::milliseconds(500), std::chrono::hours(1),
+                          std::chrono::seconds(3));
+  try {
+    t.f.axis->move(t.m, t.f.axis->deadline_in(std::chrono::seconds(20)), w);
+    FAIL() << "the move was reported without an answer";
+  } catch (const TransportError& e) {
+    EXPECT_EQ(e.kind(), TransportErrorKind::Timeout);
+    EXPECT_THAT(e.what(), HasSubstr("unanswered for 3."));
+    EXPECT_THAT(e.what(), HasSubstr("may still be moving"));
+    ASSERT_TRUE(t.lost_from);
+    const double waited = to_seconds(t.f.clock.now() - *t.lost_from);
+    EXPECT_GE(waited, 3.0);
+    EXPECT_LT(waited, 3.5);
+  }
+}
+
 }  // namespace
 }  // namespace lec6::client

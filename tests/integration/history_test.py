@@ -209,11 +209,14 @@ history: {{state_dir: {os.path.join(tmp, 'state')}, drift_baseline_moves: 8}}
     # client lags at the start, as under ASan) shifted them 5-11 %, which the
     # detector cannot tell from wear. What this scenario checks is the noise.
     step = threading.Barrier(2, timeout=60)
+    answers = {"axis1": [], "axis2": []}
 
     def loop(name):
         for i in range(90):
             step.wait()
-            move(serve, targets[i % 3], name)
+            s, r = move(serve, targets[i % 3], name)
+            if s != 200 or r.get("outcome") != "reached":
+                answers[name].append((i, s, r))
 
     threads = [threading.Thread(target=loop, args=(n,)) for n in ("axis1", "axis2")]
     for t in threads:
@@ -221,6 +224,7 @@ history: {{state_dir: {os.path.join(tmp, 'state')}, drift_baseline_moves: 8}}
     for t in threads:
         t.join(300)
     for name in ("axis1", "axis2"):
+        print(f"{name}: moves not answered 'reached': {answers[name]}", flush=True)
         s, h = serve.http("GET", f"/api/axes/{name}/health")
         ck.check(h["odometer"]["moves"] == 91, f"{name}: 91 motions recorded", h["odometer"])
         s, failed = serve.http("GET", f"/api/axes/{name}/history?outcome=reached&limit=10000")

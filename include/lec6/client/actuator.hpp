@@ -49,6 +49,14 @@ struct WaitOptions {
   // uses): back to back at the wire's speed.
   Duration poll_interval{};
   CompletionOptions completion{};  // the start window
+  // How long the polls may go unanswered on a working line (timeouts, CRC
+  // and framing errors: is_line_fault) before the wait gives up with the
+  // last error. A lost poll says nothing about the axis, which runs on
+  // (what a daemon wants on a noisy line, whose controller is backed off a
+  // few seconds: lec serve uses a grace longer than its probe interval).
+  // 0 (the default, and what `lec` uses): the first poll that fails after
+  // the client's retries ends the wait. The deadline ends it either way.
+  Duration unanswered_grace{};
 };
 
 // A direct operation. Every move writes a complete set of direct data

@@ -33,6 +33,11 @@ enum class TransportErrorKind {
 
 std::string_view transport_error_name(TransportErrorKind k) noexcept;
 
+// A fault of one exchange on a working line (timeout, CRC, framing, echo,
+// line busy): the next exchange may pass. Not a port that is gone, nor a
+// gateway without a path to the unit.
+bool is_line_fault(TransportErrorKind k) noexcept;
+
 class TransportError : public Error {
  public:
   TransportError(TransportErrorKind kind, const std::string& what) : Error(what), kind_(kind) {}

@@ -37,12 +37,6 @@ ExchangeResult result_of(TransportErrorKind k) {
   }
 }
 
-bool is_line_fault(TransportErrorKind k) {
-  return k == TransportErrorKind::Timeout || k == TransportErrorKind::Crc ||
-         k == TransportErrorKind::Framing || k == TransportErrorKind::EchoMismatch ||
-         k == TransportErrorKind::LineBusy;
-}
-
 }  // namespace
 
 Job Scheduler::internal_read(Priority p, uint8_t id, Block b) {
@@ -272,7 +266,7 @@ void Scheduler::failed(const client::TransportError& error, TimePoint start, Tim
   r.submitted = f.submitted;
   r.started = start;
   r.finished = end;
-  if (!is_line_fault(error.kind())) {
+  if (!client::is_line_fault(error.kind())) {
     r.failure = Failure::LineDown;
     complete(f.job, std::move(r));
     line_down(error.what(), end);

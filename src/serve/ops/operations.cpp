@@ -295,6 +295,15 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
     act.set_soft_limits(client::SoftLimits{l->first, l->second});
   const TimePoint deadline = kClock.now() + cmd.timeout;
   client::WaitOptions wait;
+  // A move outlives a few lost polls: its controller, backed off after
+  // `offline_after` failed exchanges on a noisy line, is probed again within
+  // probe_interval, and the move's end is seen then (two probes' grace, at
+  // least 5 s). Without it a burst of noise failed a move that went on to
+  // reach its target (502), and the axis refused motion until a probe.
+  wait.unanswered_grace = std::max<Duration>(
+      std::chrono::seconds(5),
+      2 * std::chrono::duration_cast<Duration>(
+              std::chrono::duration<double, std::milli>(axis.line_config->probe_interval_ms)));
   if (cmd.op == Op::Home || cmd.op == Op::Move || cmd.op == Op::RunStep) {
     // A stop or reset for this axis wins over its motion, even one whose start
     // has not reached the line yet (the stop goes first, at emergency

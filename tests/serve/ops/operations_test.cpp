@@ -141,6 +141,29 @@ TEST(Operations, AMoveWhoseControllerStoppedAnsweringKeepsTheAxisAndAStopStillGo
   EXPECT_EQ(next.status, 200) << next.body.dump();
 }
 
+// A burst of noise long enough to back the controller off, in the middle of
+// a move: the move is seen through to its target once a probe finds the
+// controller again (the history's healthy scenario lost a move to a 502 this
+// way, and the axis refused motion until the next probe).
+TEST(Operations, AMoveOutlivesItsControllerBackedOffForABurstOfNoise) {
+  Rig rig;
+  rig.prepare();
+  auto move = rig.start("move", {{"position_mm", 200}, {"speed_mm_s", 100}});
+  ASSERT_TRUE(eventually([&] {
+    const auto s = rig.line->snapshot(1);
+    return s.state && s.state->speed_mm_s > 0;
+  }));
+  rig.replies_lost(true);
+  ASSERT_TRUE(eventually([&] { return rig.line->health(1).offline; }));
+  rig.replies_lost(false);
+  ASSERT_EQ(move.wait_for(30s), std::future_status::ready);
+  const OpResult r = move.get();
+  EXPECT_EQ(r.status, 200) << r.body.dump();
+  EXPECT_EQ(r.body.value("outcome", ""), "reached") << r.body.dump();
+  EXPECT_FALSE(rig.ops.running(rig.axis));
+  EXPECT_EQ(rig.run("move", {{"position_mm", 50}, {"speed_mm_s", 500}}).status, 200);
+}
+
 // A move the controller refuses (alarm 62: beyond the stroke) ends in a
 // failure whose body still names its op: the dashboard titles results by it
 // and took the alarm for "command" (issue 27).
