@@ -58,6 +58,8 @@ endif()
 
 install(FILES ${PROJECT_SOURCE_DIR}/tools/completion/lec.bash
         DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions RENAME lec)
+# The Wireshark dissector (docs/sniff.md): /usr/share/lec6/wireshark/lec6.lua.
+install(FILES ${PROJECT_SOURCE_DIR}/tools/wireshark/lec6.lua DESTINATION ${CMAKE_INSTALL_DATADIR}/lec6/wireshark)
 # Under the prefix (/usr in the package): /usr/lib/systemd/system.
 install(FILES ${PROJECT_SOURCE_DIR}/docs/lec-serve.service DESTINATION lib/systemd/system)
 

@@ -67,7 +67,8 @@ fns = [int(l.split()[0]) for l in open(sys.argv[1]) if l.strip()]
 ours = [int(j["hex"].split()[1], 16) & 0x7F for j in map(json.loads, open(sys.argv[2]))
         if j.get("dir") in ("query", "reply")]
 print(len(fns), len(ours)); sys.exit(0 if fns == ours and fns else 1)' "$TMP/s1.tshark" "$TMP/s1.jsonl" >"$TMP/s1.fns" 2>&1
-  check "tshark decodes the --pcap as Modbus RTU: same frames, same function codes ($(cat "$TMP/s1.fns"))" [ $? = 0 ]
+  rc=$?  # (taken before the message's $(cat …), which would set $? to cat's)
+  check "tshark decodes the --pcap as Modbus RTU: same frames, same function codes ($(cat "$TMP/s1.fns"))" [ $rc = 0 ]
   # The capture replays through the same decoder: the same frames.
   "$LEC" sniff --read "$TMP/s1.capture.jsonl" --json >"$TMP/r1.jsonl" 2>"$TMP/r1.err"
   check "lec sniff --read replays the capture (exit 0)" [ $? = 0 ]
