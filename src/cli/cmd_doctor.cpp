@@ -37,6 +37,7 @@ constexpr Duration kScanMargin = milliseconds(20);  // beyond Tx: a USB adapter'
 constexpr Duration kSearchBudget = seconds(18);
 constexpr Duration kBurstBudget = seconds(3);
 constexpr int kBurstExchanges = 200;
+constexpr int kNoisyRescans = 4;
 
 std::string port_text(const GlobalOptions& g) {
   if (!g.port.empty()) return g.port;
@@ -114,15 +115,39 @@ void search(const transport::PortSpec& spec, const GlobalOptions& g,
         }
       };
       scan(window_margin);
+      // Noise on the line at the rate the user gave (or lec's default), and
+      // no answer: a garbled query gets no reply at all, so one scan can miss
+      // a controller that is there. kNoisyRescans more at that rate only (a
+      // noisy line is noisy at every rate: asking again everywhere would cost
+      // the search's budget). At half the exchanges lost, one scan misses
+      // the controller 1 time in 2, all of them 1 in 2^7.
+      for (int again = 0; again < kNoisyRescans && baud == order.front() && bp.answering.empty() &&
+                          (bp.stray_bytes > 0 || !bp.garbled.empty());
+           ++again) {
+        const dx::BaudProbe before = bp;
+        scan(window_margin);
+        bp.stray_bytes += before.stray_bytes;
+        for (uint8_t id : before.garbled)
+          if (std::find(bp.garbled.begin(), bp.garbled.end(), id) == bp.garbled.end())
+            bp.garbled.push_back(id);
+        std::sort(bp.garbled.begin(), bp.garbled.end());
+        std::erase_if(bp.garbled, [&](uint8_t id) {
+          return std::find(bp.answering.begin(), bp.answering.end(), id) != bp.answering.end();
+        });
+        bp.echo = bp.echo || before.echo;
+      }
       // Bytes but no answer: perhaps replies later than the short window (a
       // slow converter, a busy host): once more with the full reply margin.
       if (pass == 0 && bp.answering.empty() && (bp.stray_bytes > 0 || !bp.garbled.empty()) &&
           g.reply_margin > kScanMargin) {
         scan(g.reply_margin);
       }
-      if (!bp.answering.empty()) {
-        // A garbled reply at a rate where others answer: that controller is
-        // there (a collision or noise); ask it again, so the later checks include it.
+      if (!bp.answering.empty() || !bp.garbled.empty()) {
+        // A garbled reply carried its ID at this rate: that controller is
+        // there (a collision or noise); ask it again, so the later checks
+        // include it. Also when no other answered: on a noisy line with one
+        // controller its one scan query may be garbled, and the doctor said
+        // "nothing answers at any baud" (seen once in a test run).
         std::vector<uint8_t> still;
         for (uint8_t id : bp.garbled) {  // Crc, Framing: a reply that carried the ID
           bool ok = false;
