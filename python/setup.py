@@ -4,7 +4,8 @@ Metadata is in pyproject.toml. The build configures the repository root
 (the directory above this one) with -DLEC6_PYTHON=ON, builds only the
 `_lec6` target (the library layers it links and the module: no CLI, tests or
 benchmarks) with -O2, and copies the module into the wheel.
-CMAKE_BUILD_PARALLEL_LEVEL sets the parallel jobs (default: all cores).
+CMAKE_BUILD_PARALLEL_LEVEL sets the parallel jobs (default: all cores);
+LEC6_CMAKE_ARGS adds CMake arguments (space-separated).
 """
 import os
 import re
@@ -34,11 +35,14 @@ class CMakeBuild(build_ext):
         build = Path(self.build_temp).resolve() / "cmake"
         # -O2 as the project's own builds (GCC 12 at -O3 warns falsely in
         # <string>, and warnings are errors).
+        # LEC6_CMAKE_ARGS (space-separated) come last: e.g. the packaging test
+        # builds at -O0, to check the install quickly (python/tests/pip_install_test.sh).
+        extra = os.environ.get("LEC6_CMAKE_ARGS", "").split()
         subprocess.run(["cmake", "-S", str(ROOT), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
                         "-DCMAKE_CXX_FLAGS_RELEASE=-O2 -DNDEBUG",
                         "-DLEC6_PYTHON=ON", "-DLEC6_BENCH=OFF", "-DLEC6_FUZZ=OFF",
                         "-DLEC6_SANITIZE=OFF", "-DLEC6_WEB=OFF", "-DLEC6_TESTS=OFF",
-                        "-DLEC6_WERROR=OFF", f"-DPython_EXECUTABLE={sys.executable}"],
+                        "-DLEC6_WERROR=OFF", f"-DPython_EXECUTABLE={sys.executable}", *extra],
                        check=True)
         env = dict(os.environ)
         env.setdefault("CMAKE_BUILD_PARALLEL_LEVEL", str(os.cpu_count() or 1))

@@ -26,6 +26,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from mqtt_lib import LEC, Axis, Broker, Client, Serve, run_scenarios, wait_until  # noqa: E402
 
 PREFIX = "t"
+MOVES = 66  # per axis in the healthy scenario
 
 
 def serve_with_history(tmp, procs, broker=None, name="serve"):
@@ -186,7 +187,7 @@ def kill9(ck, tmp, procs):
 
 def healthy(ck, tmp, procs):
     """A healthy twin on a noisy line (lost and corrupt replies: retries jitter
-    every timeline), two axes, three groups each, 90 moves per axis: no drift
+    every timeline), two axes, three groups each, 66 moves per axis: no drift
     warning. (10^4 moves: the sans-I/O detector's test.)"""
     serve = Serve(tmp, None)
     with open(serve.config, "w") as f:
@@ -209,10 +210,12 @@ history: {{state_dir: {os.path.join(tmp, 'state')}, drift_baseline_moves: 8}}
     # client lags at the start, as under ASan) shifted them 5-11 %, which the
     # detector cannot tell from wear. What this scenario checks is the noise.
     step = threading.Barrier(2, timeout=60)
+    # 22 moves in each of the three groups: a baseline of 8, then a window of
+    # 9 and more (the first move, from home, is a group of its own).
     answers = {"axis1": [], "axis2": []}
 
     def loop(name):
-        for i in range(90):
+        for i in range(MOVES):
             step.wait()
             s, r = move(serve, targets[i % 3], name)
             if s != 200 or r.get("outcome") != "reached":
@@ -226,9 +229,9 @@ history: {{state_dir: {os.path.join(tmp, 'state')}, drift_baseline_moves: 8}}
     for name in ("axis1", "axis2"):
         print(f"{name}: moves not answered 'reached': {answers[name]}", flush=True)
         s, h = serve.http("GET", f"/api/axes/{name}/health")
-        ck.check(h["odometer"]["moves"] == 91, f"{name}: 91 motions recorded", h["odometer"])
+        ck.check(h["odometer"]["moves"] == MOVES + 1, f"{name}: {MOVES + 1} motions recorded", h["odometer"])
         s, failed = serve.http("GET", f"/api/axes/{name}/history?outcome=reached&limit=10000")
-        print(f"{name}: {len(failed['records'])} of 91 reached", flush=True)
+        print(f"{name}: {len(failed['records'])} of {MOVES + 1} reached", flush=True)
         busy = [g for g in h["groups"] if g["moves"] >= 20]
         ck.check(len(busy) == 3 and all(g["baseline"] for g in busy), f"{name}: three groups with baselines",
                  [(g["group"], g["moves"]) for g in h["groups"]])
