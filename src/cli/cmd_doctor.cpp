@@ -120,7 +120,8 @@ void search(const transport::PortSpec& spec, const GlobalOptions& g,
       // a controller that is there. kNoisyRescans more at that rate only (a
       // noisy line is noisy at every rate: asking again everywhere would cost
       // the search's budget). At half the exchanges lost, one scan misses
-      // the controller 1 time in 2, all of them 1 in 2^7.
+      // the controller every other time, five scans about once in 32 (and
+      // the rescan with the full reply margin below is one more).
       for (int again = 0; again < kNoisyRescans && baud == order.front() && bp.answering.empty() &&
                           (bp.stray_bytes > 0 || !bp.garbled.empty());
            ++again) {
