@@ -1,5 +1,5 @@
-#include <algorithm>
 #include "lec6/client/actuator.hpp"
+#include <algorithm>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -397,8 +397,8 @@ struct LostPolls {
 
 TEST(Actuator, AMoveOutlivesASecondOfLostPollsWithinItsGrace) {
   LostPolls t;
-  const auto w = t.losing(std::chrono::milliseconds(500), std::chrono::seconds(1),
-                          std::chrono::seconds(3));
+  const auto w =
+      t.losing(std::chrono::milliseconds(500), std::chrono::seconds(1), std::chrono::seconds(3));
   const auto r = t.f.axis->move(t.m, t.f.axis->deadline_in(std::chrono::seconds(20)), w);
   ASSERT_TRUE(t.lost_from);
   EXPECT_EQ(r.outcome, MoveOutcome::Reached);
@@ -414,8 +414,8 @@ TEST(Actuator, WithoutAGraceTheFirstUnansweredPollEndsTheWait) {
 
 TEST(Actuator, PollsUnansweredLongerThanTheGraceEndTheWaitSayingHowLong) {
   LostPolls t;
-  const auto w = t.losing(std::chrono::milliseconds(500), std::chrono::hours(1),
-                          std::chrono::seconds(3));
+  const auto w =
+      t.losing(std::chrono::milliseconds(500), std::chrono::hours(1), std::chrono::seconds(3));
   try {
     t.f.axis->move(t.m, t.f.axis->deadline_in(std::chrono::seconds(20)), w);
     FAIL() << "the move was reported without an answer";

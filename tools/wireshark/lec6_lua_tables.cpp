@@ -114,7 +114,8 @@ void registers() {
 }  // namespace
 
 int main() {
-  fmt::print("-- BEGIN TABLES: generated from lec6's memory map by tools/wireshark/update-tables\n");
+  fmt::print(
+      "-- BEGIN TABLES: generated from lec6's memory map by tools/wireshark/update-tables\n");
   bits(Space::Coil, "COILS", 0x00, 0x3F);
   bits(Space::Input, "INPUTS", 0x40, 0x4F);
   registers();
