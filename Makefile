@@ -55,8 +55,11 @@ test-fast: build
 # in test-fast; under the sanitizers the C++ they drive (serve/, client/, twin/)
 # is covered by the serve, HTTP and integration tests. All this keeps `make
 # test` within its 30 minutes on 2 cores.
+# Line tables only (-g1): the sanitizers' reports still name file and line,
+# and the tree builds a minute faster than with full debug info.
+ASAN_DEBUG_FLAGS ?= -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1
 $(ASAN_BUILD)/CMakeCache.txt: | deps
-	CC=clang CXX=clang++ cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug -DLEC6_SANITIZE=ON -DLEC6_FUZZ=ON -DLEC6_BENCH=OFF -DLEC6_WEB=OFF -DLEC6_PYTHON=OFF
+	CC=clang CXX=clang++ cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug $(ASAN_DEBUG_FLAGS) -DLEC6_SANITIZE=ON -DLEC6_FUZZ=ON -DLEC6_BENCH=OFF -DLEC6_WEB=OFF -DLEC6_PYTHON=OFF
 
 # Not run again under the sanitizers: the package checks (they compile headers
 # and a consumer, and pack: nothing of ours runs) and the README test (its lines
