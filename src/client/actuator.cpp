@@ -243,10 +243,12 @@ void Actuator::hold(bool on) {
 }
 
 void Actuator::stop() {
+  release_if_set(Coil::RESET);
   pulse(Coil::RESET);
 }
 
 std::vector<uint8_t> Actuator::reset_alarms() {
+  release_if_set(Coil::RESET);  // RESET acts on its edge
   pulse(Coil::RESET);
   return active_alarms(client_.read_flags());
 }

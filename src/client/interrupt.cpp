@@ -1,10 +1,12 @@
 #include "lec6/client/interrupt.hpp"
 
 #include <algorithm>
+#include <array>
 #include <utility>
 #include <variant>
 
 #include "lec6/lec/flags.hpp"
+#include "lec6/lec/memory_map.hpp"
 
 namespace lec6::client {
 namespace {
@@ -69,6 +71,31 @@ bool stops_or_releases(const modbus::Request& request) noexcept {
     return stops(count, [&](std::size_t i) {
       return std::pair<uint16_t, bool>{static_cast<uint16_t>(w->start + i), w->bit(i)};
     });
+  }
+  if (const auto* w = std::get_if<modbus::WriteRegistersRequest>(&request)) {
+    // The control words: D90C1 is Y10-Y1F as one word (bit 0 = Y10), D90C2
+    // Y30-Y3F. A PLC that writes its output image as a word writes every
+    // coil of it at once (issue 31: a HOLD written so is a stop too).
+    // No allocation (noexcept): at most the two control words' 32 coils.
+    std::array<std::pair<uint16_t, bool>, 32> levels{};
+    std::size_t n = 0;
+    const std::size_t count = std::min<std::size_t>(w->count, w->data.size() / 2);
+    for (std::size_t i = 0; i < count; ++i) {
+      const auto address = static_cast<uint16_t>(w->start + i);
+      uint16_t first_coil = 0;
+      if (address == lec::kControlWordY10) {
+        first_coil = 0x10;
+      } else if (address == lec::kControlWordY30) {
+        first_coil = 0x30;
+      } else {
+        continue;
+      }
+      const auto word = static_cast<uint16_t>((w->data[2 * i] << 8) | w->data[2 * i + 1]);
+      for (uint16_t bit = 0; bit < 16 && n < levels.size(); ++bit)
+        levels[n++] = {static_cast<uint16_t>(first_coil + bit), ((word >> bit) & 1U) != 0};
+    }
+    if (n == 0) return false;
+    return stops(n, [&](std::size_t i) { return levels[i]; });
   }
   return false;
 }

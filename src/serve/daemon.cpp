@@ -49,6 +49,7 @@ Daemon::Daemon(ServeConfig config, Log log)
       log_(std::move(log)),
       directory_(std::make_unique<Directory>(*this)),
       stats_timer_(io_),
+      stop_timer_(io_),
       signals_(io_),
       work_(asio::make_work_guard(io_)) {
   ops_ = std::make_unique<Operations>(log_);
@@ -192,18 +193,47 @@ Line* Daemon::line(std::string_view name) const {
   return it == lines_.end() ? nullptr : it->second.get();
 }
 
-// On the event loop's thread. Lines stop after the listeners stop accepting,
-// so every queued job is answered (with an error) before connections close.
+// On the event loop's thread, and it does not block it: while lec serve
+// shuts down, stop, hold and reset are still taken from every channel (issue
+// 31 rule 4). First every line takes only stops and fails its other queued
+// jobs, operations take only stops and release jogs; the front-ends keep
+// listening until the operations have ended (at most kStopGrace); then they
+// close, and the lines send the stops still queued before they close.
+namespace {
+constexpr auto kStopGrace = std::chrono::seconds(5);
+constexpr auto kStopPoll = std::chrono::milliseconds(20);
+}  // namespace
+
 void Daemon::begin_stop() {
   if (stopping_) return;
   stopping_ = true;
-  log_(LogLevel::Info, "stopping: finishing the transactions on the wire");
+  stop_began_ = std::chrono::steady_clock::now();
+  log_(LogLevel::Info, "stopping: only stop, hold and reset are taken now");
   signals_.cancel();
   stats_timer_.cancel();
+  for (auto& [name, line] : lines_) line->begin_stop();
+  ops_->begin_shutdown();  // hold-to-run jogs are released while the lines still run
+  finish_stop_when_idle();
+}
+
+void Daemon::finish_stop_when_idle() {
+  if (ops_->idle() || std::chrono::steady_clock::now() - stop_began_ >= kStopGrace)
+    return finish_stop();
+  stop_timer_.expires_after(kStopPoll);
+  stop_timer_.async_wait([this](const asio::error_code& ec) {
+    if (!ec) finish_stop_when_idle();
+  });
+}
+
+// Lines stop after the listeners stop accepting, so every queued job is
+// answered (with an error) before connections close.
+void Daemon::finish_stop() {
+  if (finished_) return;
+  finished_ = true;
+  log_(LogLevel::Info, "stopping: finishing the transactions on the wire");
   for (auto& s : modbus_) s->shutdown();
-  ops_->shutdown();          // hold-to-run jogs are released while the lines still run
   if (mqtt_) mqtt_->stop();  // "offline" goes out; the will is for a crash
-  for (auto& [name, line] : lines_) line->stop();
+  for (auto& [name, line] : lines_) line->stop();  // the stops still queued go out first
   ops_->shutdown();  // operations end on "shutting down"; their HTTP answers go out
   if (http_) http_->stop();
   work_.reset();

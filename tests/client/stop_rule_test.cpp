@@ -9,6 +9,7 @@
 
 #include "lec6/client/interrupt.hpp"
 #include "lec6/lec/flags.hpp"
+#include "lec6/lec/memory_map.hpp"
 
 namespace lec6::client {
 namespace {
@@ -91,6 +92,45 @@ TEST(StopRule, ReadsAndRegisterWritesAreNoStops) {
       modbus::ReadBitsRequest{modbus::FunctionCode::ReadCoils, lec::address(Coil::RESET), 1}));
   EXPECT_FALSE(stops_or_releases(modbus::WriteRegistersRequest{0x9100, 1, {0x01, 0x00}}));
   EXPECT_FALSE(stops_or_releases(modbus::EchoRequest{0}));
+}
+
+modbus::Request words(uint16_t start, std::vector<uint16_t> values) {
+  return modbus::WriteRegistersRequest::of(start, values);
+}
+
+// Issue 31 rule 3: the control words are the coils written at once. Every
+// value of D90C1 (Y10-Y1F, bit 0 = Y10) stops exactly when the same levels
+// written by FC0F over Y10-Y1F would; D90C2 (Y30-Y3F) never stops.
+TEST(StopRule, EveryValueOfTheControlWordsReadsAsItsCoils) {
+  for (uint32_t v = 0; v <= 0xFFFF; ++v) {
+    std::vector<bool> bits(16);
+    for (int b = 0; b < 16; ++b) bits[b] = ((v >> b) & 1U) != 0;
+    const bool as_coils = stops_or_releases(coils(0x10, bits));
+    ASSERT_EQ(stops_or_releases(words(lec::kControlWordY10, {static_cast<uint16_t>(v)})), as_coils)
+        << "D90C1 = " << v;
+    // Both words in one FC10: Y30 neither stops nor starts.
+    ASSERT_EQ(stops_or_releases(words(lec::kControlWordY10, {static_cast<uint16_t>(v), 1})),
+              as_coils)
+        << "D90C1-D90C2 = " << v << ", 1";
+    ASSERT_FALSE(stops_or_releases(words(lec::kControlWordY30, {static_cast<uint16_t>(v)})))
+        << "D90C2 = " << v;
+  }
+}
+
+TEST(StopRule, APlcsControlWordImages) {
+  const auto bit = [](Coil c) { return static_cast<uint16_t>(1U << (lec::address(c) - 0x10)); };
+  const uint16_t svon = bit(Coil::SVON);
+  EXPECT_TRUE(stops_or_releases(words(lec::kControlWordY10, {uint16_t(svon | bit(Coil::HOLD))})))
+      << "HOLD as a word";
+  EXPECT_TRUE(stops_or_releases(words(lec::kControlWordY10, {uint16_t(svon | bit(Coil::RESET))})))
+      << "RESET as a word";
+  EXPECT_TRUE(stops_or_releases(words(lec::kControlWordY10, {0}))) << "servo off as a word";
+  EXPECT_FALSE(stops_or_releases(words(lec::kControlWordY10, {uint16_t(svon | bit(Coil::DRIVE))})))
+      << "a start as a word";
+  EXPECT_FALSE(stops_or_releases(words(lec::kControlWordY10, {svon}))) << "servo on, nothing else";
+  // A block that begins before the control word still writes it.
+  EXPECT_TRUE(stops_or_releases(words(0x90C0, {0, uint16_t(svon | bit(Coil::HOLD))})));
+  EXPECT_FALSE(stops_or_releases(words(0x90C3, {0}))) << "past the control words";
 }
 
 }  // namespace

@@ -30,6 +30,7 @@
 
 #include "lec6/client/client.hpp"
 #include "lec6/client/completion.hpp"
+#include "lec6/client/stop.hpp"
 #include "lec6/client/move_result.hpp"
 
 namespace lec6::client {
@@ -146,8 +147,15 @@ class Actuator {
   // JOG± ← 1 until `until` or cancel(), then ← 0; waits for the axis to stop.
   MoveResult jog(bool plus, TimePoint until, TimePoint deadline, const WaitOptions& wait = {});
   void hold(bool on);
-  // Decelerating stop: a RESET pulse with no alarm active cancels the operation.
+  // Decelerating stop: a RESET pulse with no alarm active cancels the
+  // operation. RESET is released first when it reads 1 or cannot be read (a
+  // 1 over a 1 is no edge); nothing is checked afterwards: prefer stop(kind,
+  // policy), which watches the axis.
   void stop();
+  // A stop judged by the axis (stop.hpp): the edge, then reads until the
+  // axis is at rest, escalating by `policy`. Never throws for a line fault:
+  // the report says what could not be sent or read.
+  StopReport stop(StopKind kind, const StopPolicy& policy);
   // RESET pulse; returns the codes still active afterwards (not resettable).
   std::vector<uint8_t> reset_alarms();
   // The codes of the alarm being generated (history group 0) when ALARM = 1.
@@ -163,6 +171,11 @@ class Actuator {
   void check_soft_limits(int32_t target_001mm) const;
   void require_serial_mode(const lec::ControlFlags& controls);
   void pulse(lec::Coil coil);
+  // Releases `coil` first when it reads 1 or cannot be read; returns whether it wrote.
+  bool release_if_set(lec::Coil coil);
+  bool at_rest(StopKind kind, StopReport& report);
+  bool watch(StopKind kind, const StopPolicy& policy, TimePoint until_rest, TimePoint deadline,
+             StopReport& report);
   [[noreturn]] void raise_alarm(const lec::StatusFlags& flags, std::string_view during);
   void check_cancel(const WaitOptions& wait);
   void check_deadline(TimePoint deadline, std::string_view what);

@@ -11,15 +11,19 @@
 
 namespace lec6::client {
 
-// A coil write (FC05, or FC0F over several coils) that stops or releases the
+// A coil write (FC05, or FC0F over several coils, or FC10 to the control words) that stops or releases the
 // axis and starts nothing:
 //   - it stops when it writes RESET ← 1, HOLD ← 1 or SVON ← 0;
 //   - otherwise, when each coil it writes that matters releases (RESET,
 //     DRIVE, SETUP, JOG−, JOG+ ← 0) and none starts (SVON, DRIVE, SETUP,
 //     JOG−, JOG+ ← 1, or HOLD ← 0, which resumes a held operation).
-// IN0–IN5 and Y30 neither stop nor start. Reads, register writes (a D9100
-// start) and coil values other than FF00/0000 (refused: exception 03) are
-// not stops. The table test is tests/client/stop_rule_test.cpp.
+// IN0–IN5 and Y30 neither stop nor start. An FC10 write of the control words
+// D90C1 (Y10–Y1F as one word, bit 0 = Y10) and D90C2 (Y30–Y3F) is the same
+// coil levels written at once, judged alike (a PLC's HOLD as a word is a
+// stop). Reads, other register writes (a D9100 start) and coil values other
+// than FF00/0000 (refused: exception 03) are not stops. The table test is
+// tests/client/stop_rule_test.cpp (every coil at both levels, every value of
+// both control words).
 bool stops_or_releases(const modbus::Request& request) noexcept;
 
 }  // namespace lec6::client

@@ -47,6 +47,10 @@ struct AxisConfig {
   // soft_limits_mm: [MIN, MAX]: moves to a target outside are refused before
   // anything is written (client::SoftLimits). Empty: none.
   std::optional<std::pair<int32_t, int32_t>> soft_limits_001mm;
+  // A stop the axis did not obey (still moving after HOLD too) turns the
+  // servo off (client::StopPolicy::escalate_servo_off). Off by default: with
+  // the servo off a vertical axis may drop; say so where it is safe.
+  bool stop_servo_off = false;
 };
 
 struct Rs485Config {

@@ -93,10 +93,16 @@ class Daemon {
   std::unique_ptr<HttpServer> http_;
   std::unique_ptr<MqttBridge> mqtt_;
   asio::steady_timer stats_timer_;
+  // Shutting down: the grace in which stops are still taken (finish_stop()).
+  asio::steady_timer stop_timer_;
+  std::chrono::steady_clock::time_point stop_began_{};
   asio::signal_set signals_;
   // Keeps run() going until stop, whatever listens.
   asio::executor_work_guard<asio::io_context::executor_type> work_;
   bool stopping_ = false;
+  bool finished_ = false;
+  void finish_stop_when_idle();
+  void finish_stop();
 };
 
 }  // namespace lec6::serve

@@ -66,7 +66,7 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
 }
 
 AxisConfig read_axis(const Reader& r, const YAML::Node& n, const std::string& path) {
-  r.keys(n, path, {"id", "name", "telemetry_hz", "soft_limits_mm"});
+  r.keys(n, path, {"id", "name", "telemetry_hz", "soft_limits_mm", "stop_servo_off"});
   AxisConfig a;
   if (!n["id"]) r.fail(n, path, "every axis needs an id (the controller ID, 1 to 255)");
   a.id = static_cast<uint8_t>(
@@ -83,6 +83,7 @@ AxisConfig read_axis(const Reader& r, const YAML::Node& n, const std::string& pa
     a.soft_limits_001mm = std::pair{end(0), end(1)};
     if (a.soft_limits_001mm->first > a.soft_limits_001mm->second) r.fail(l, at, "MIN is above MAX");
   }
+  a.stop_servo_off = r.get<bool>(n["stop_servo_off"], path + ".stop_servo_off", false);
   return a;
 }
 

@@ -32,9 +32,31 @@ void Line::start() {
   thread_ = std::thread([this] { loop(); });
 }
 
-void Line::stop() {
+void Line::begin_stop() {
+  std::vector<PendingCompletion> done;
   {
     std::lock_guard lock(mutex_);
+    scheduler_.begin_shutdown(clock_.now());
+    done = scheduler_.take_completions();
+  }
+  wake_.notify_all();
+  deliver(std::move(done), {});
+}
+
+void Line::stop() {
+  begin_stop();
+  {
+    // The stops still queued go out while the line works (a dead line's
+    // stops fail below: they cannot reach anything).
+    std::unique_lock lock(mutex_);
+    if (thread_.joinable()) {
+      const auto until = std::chrono::steady_clock::now() +
+                         std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                             options_.stop_drain);
+      drained_.wait_until(lock, until, [this] {
+        return scheduler_.drained() || scheduler_.is_line_down();
+      });
+    }
     stopping_ = true;
   }
   wake_.notify_all();
@@ -172,6 +194,7 @@ bool Line::run_once() {
     }
     done = scheduler_.take_completions();
     events = scheduler_.take_events();
+    if (scheduler_.drained()) drained_.notify_all();
   }
   deliver(std::move(done), std::move(events));
   return true;
@@ -192,11 +215,9 @@ void Line::loop() {
     if (!tasks_.empty()) continue;
     std::optional<TimePoint> at =
         scheduler_.is_line_down() ? std::optional(next_reopen_) : scheduler_.wake_at();
-    // Anything queued is picked up at once: wait only when nothing is.
-    const auto depth = scheduler_.queue_depth();
-    bool queued = false;
-    for (auto n : depth) queued = queued || n > 0;
-    if (queued && !scheduler_.is_line_down()) continue;
+    // Anything ready is picked up at once: wait only when nothing is (a
+    // stop that waits for its backoff wakes us at wake_at()).
+    if (scheduler_.ready(clock_.now())) continue;
     if (at) {
       wake_.wait_until(lock, *at);
     } else {

@@ -45,6 +45,8 @@ struct LineOptions {
   std::string port;  // as configured: "/dev/ttyUSB0", "sim", "rtu+tcp://…"
   SchedulerConfig scheduler;
   Duration reopen_interval = std::chrono::seconds(1);
+  // stop(): how long the stops still queued may take to reach the wire.
+  Duration stop_drain = std::chrono::seconds(5);
 };
 
 using TelemetryObserver = std::function<void(const TelemetryEvent&, const AxisSnapshot&)>;
@@ -61,9 +63,15 @@ class Line {
 
   // Starts the line's thread. Without it, run_once() drives the line (tests).
   void start();
-  // Finishes the transaction in flight, fails every queued job with
-  // ShuttingDown, joins the thread.
+  // Refuses every new job but stops, fails the queued ones but stops
+  // (ShuttingDown), sends the stops still queued and those submitted
+  // meanwhile (for at most `stop_drain`), then finishes the transaction in
+  // flight, fails what is left and joins the thread. An accepted stop is never
+  // dropped by a shutdown while the line works (issue 31 rule 4;
+  // tests/serve/line/line_shutdown_test.cpp).
   void stop();
+  // The first half of stop(): from now on only stops are taken.
+  void begin_stop();
 
   JobId submit(Job job);
   bool cancel(JobId id);
@@ -104,6 +112,7 @@ class Line {
   const Clock& clock_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
+  std::condition_variable drained_;  // stop(): the last stop left
   Scheduler scheduler_;
   Wire wire_;
   std::string describe_;

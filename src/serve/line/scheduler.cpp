@@ -65,7 +65,7 @@ std::string_view failure_name(Failure f) noexcept {
 }
 
 Scheduler::Scheduler(SchedulerConfig config, TimePoint now)
-    : config_(std::move(config)), stats_(now) {
+    : config_(std::move(config)), lane_(config_.emergency_backoff), stats_(now) {
   for (const AxisSchedule& a : config_.axes) {
     telemetry_[a.id] = Telemetry{a, now, {}};
     health_[a.id];
@@ -84,7 +84,7 @@ void Scheduler::complete(Job& job, JobResult result) {
 std::optional<JobResult> Scheduler::refuse_now(const Job& job, TimePoint now) const {
   JobResult r;
   r.submitted = r.started = r.finished = now;
-  if (shutting_down_) {
+  if (closed_ || (shutting_down_ && job.priority != Priority::Emergency)) {
     r.failure = Failure::ShuttingDown;
     r.error_kind = TransportErrorKind::Port;
     r.error = "lec serve is shutting down";
@@ -131,6 +131,10 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     complete(job, std::move(*refused));
     return id;
   }
+  if (job.priority == Priority::Emergency) {
+    lane_.push(Queued{id, std::move(job), now});
+    return id;
+  }
   if (answer_from_cache(job, now, now)) return id;
   queues_[index(job.priority)].push_back(Queued{id, std::move(job), now});
   return id;
@@ -155,6 +159,8 @@ bool Scheduler::answer_from_cache(Job& job, TimePoint submitted, TimePoint now) 
   return true;
 }
 
+// Stops are not in queues_: an accepted stop is never cancelled (issue 31
+// rule 4: a PLC that hangs up after writing HOLD still holds its axis).
 bool Scheduler::cancel(JobId id, TimePoint now) {
   for (auto& q : queues_) {
     const auto it = std::find_if(q.begin(), q.end(), [&](const Queued& x) { return x.id == id; });
@@ -278,7 +284,13 @@ void Scheduler::failed(const client::TransportError& error, TimePoint start, Tim
   const bool emergency = f.job.priority == Priority::Emergency;
   if (!f.internal && f.job.attempts > 1 && (!offline || emergency)) {
     --f.job.attempts;
-    queues_[index(f.job.priority)].push_front(Queued{f.id, std::move(f.job), f.submitted, true});
+    if (emergency) {
+      // Other controllers' stops go first; a controller that stopped
+      // answering waits its backoff (emergency_lane.hpp).
+      lane_.retry(Queued{f.id, std::move(f.job), f.submitted, true}, !offline, end);
+    } else {
+      queues_[index(f.job.priority)].push_front(Queued{f.id, std::move(f.job), f.submitted, true});
+    }
     return;
   }
   r.failure = offline && f.job.attempts > 1 && !emergency ? Failure::Offline : Failure::NoAnswer;
@@ -315,6 +327,15 @@ void Scheduler::fail_queued(uint8_t id, Failure why, const std::string& text, Ti
 }
 
 void Scheduler::fail_all_queued(Failure why, const std::string& text, TimePoint now) {
+  for (Queued& x : lane_.take_all()) {
+    JobResult r;
+    r.failure = why;
+    r.error_kind = TransportErrorKind::Port;
+    r.error = text;
+    r.submitted = x.submitted;
+    r.started = r.finished = now;
+    complete(x.job, std::move(r));
+  }
   for (auto& q : queues_) {
     for (auto& x : q) {
       JobResult r;
@@ -340,9 +361,35 @@ void Scheduler::line_up(TimePoint now) {
   for (auto& [id, t] : telemetry_) t.due = now;
 }
 
-void Scheduler::shut_down(TimePoint now) {
+void Scheduler::begin_shutdown(TimePoint now) {
   shutting_down_ = true;
+  for (auto& q : queues_) {
+    for (auto& x : q) {
+      JobResult r;
+      r.failure = Failure::ShuttingDown;
+      r.error_kind = TransportErrorKind::Port;
+      r.error = "lec serve is shutting down";
+      r.submitted = x.submitted;
+      r.started = r.finished = now;
+      complete(x.job, std::move(r));
+    }
+    q.clear();
+  }
+  for (auto& [id, t] : telemetry_) t.pass.clear();
+}
+
+void Scheduler::shut_down(TimePoint now) {
+  shutting_down_ = closed_ = true;
   fail_all_queued(Failure::ShuttingDown, "lec serve is shutting down", now);
+}
+
+bool Scheduler::ready(TimePoint now) const {
+  if (flight_ || !line_down_.empty() || closed_) return false;
+  if (lane_.ready(now)) return true;
+  if (shutting_down_) return false;
+  for (std::size_t p = 0; p < kPriorities; ++p)
+    if (p != index(Priority::Emergency) && !queues_[p].empty()) return true;
+  return false;
 }
 
 std::vector<PendingCompletion> Scheduler::take_completions() {
@@ -361,6 +408,7 @@ DeviceHealth Scheduler::health(uint8_t id) const {
 std::array<std::size_t, kPriorities> Scheduler::queue_depth() const {
   std::array<std::size_t, kPriorities> d{};
   for (std::size_t p = 0; p < kPriorities; ++p) d[p] = queues_[p].size();
+  d[index(Priority::Emergency)] = lane_.size();
   return d;
 }
 

@@ -61,13 +61,13 @@
 #include "lec6/clock.hpp"
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/modbus/timing.hpp"
+#include "line/emergency_lane.hpp"
+#include "line/job.hpp"
 #include "line/line_stats.hpp"
 #include "line/priority.hpp"
 #include "line/telemetry_cache.hpp"
 
 namespace lec6::serve {
-
-using JobId = uint64_t;
 
 // Why a job got no reply from its controller.
 enum class Failure : uint8_t {
@@ -91,18 +91,6 @@ struct JobResult {
   TimePoint submitted{}, started{}, finished{};
 };
 
-struct Job {
-  Priority priority = Priority::Command;
-  modbus::RequestFrame frame;
-  std::function<void(const JobResult&)> done;  // called once, by the driver, outside its lock
-  // > 0: a read of a telemetry block may be answered from the cache if no
-  // older, and taken no earlier than `not_before` (what the client last saw).
-  Duration max_cache_age{};
-  TimePoint not_before{};
-  // Exchanges to try on a line fault (timeout, CRC, framing); reads may retry, starts never.
-  int attempts = 1;
-};
-
 struct AxisSchedule {
   uint8_t id = 1;
   Duration telemetry_period{};  // zero: no telemetry for this axis
@@ -118,6 +106,10 @@ struct SchedulerConfig {
   // Exchanges an Emergency job (stop, hold, reset) gets on a line fault, at
   // least: also to an offline controller (a lost reply must not cost the stop).
   int emergency_attempts = 3;
+  // After a failed attempt to a controller that does not answer, its next
+  // stop waits this long (emergency_lane.hpp): other controllers' stops and
+  // other traffic go meanwhile.
+  Duration emergency_backoff = std::chrono::milliseconds(250);
   modbus::LineTiming timing;  // for the utilisation figure
 };
 
@@ -186,8 +178,16 @@ class Scheduler {
   void line_up(TimePoint now);
   bool is_line_down() const noexcept { return !line_down_.empty(); }
   const std::string& down_reason() const noexcept { return line_down_; }
-  // Fails every queued job with ShuttingDown; later submits fail likewise.
+  // lec serve is stopping: every queued job but the stops fails with
+  // ShuttingDown, and so do later submits but stops; the stops queued and
+  // submitted go on reaching the wire (issue 31 rule 4) until shut_down().
+  void begin_shutdown(TimePoint now);
+  // No stop queued nor any job on the wire (after begin_shutdown(): the line may close).
+  bool drained() const noexcept { return !flight_ && lane_.empty(); }
+  // Fails every queued job, the stops too, with ShuttingDown; later submits fail likewise.
   void shut_down(TimePoint now);
+  // Whether next(now) has something to put on the wire.
+  bool ready(TimePoint now) const;
 
   std::vector<PendingCompletion> take_completions();
   std::vector<TelemetryEvent> take_events();
@@ -199,12 +199,6 @@ class Scheduler {
   const SchedulerConfig& config() const noexcept { return config_; }
 
  private:
-  struct Queued {
-    JobId id;
-    Job job;
-    TimePoint submitted;
-    bool retry = false;  // a further attempt (its first one's wait is counted)
-  };
   struct Flight {
     JobId id;
     Job job;
@@ -253,7 +247,8 @@ class Scheduler {
   void complete(Job& job, JobResult result);
 
   SchedulerConfig config_;
-  std::array<std::deque<Queued>, kPriorities> queues_;
+  std::array<std::deque<Queued>, kPriorities> queues_;  // Emergency: lane_
+  EmergencyLane lane_;
   std::optional<Flight> flight_;
   std::map<uint8_t, Telemetry> telemetry_;
   std::map<uint8_t, DeviceHealth> health_;
@@ -262,7 +257,8 @@ class Scheduler {
   std::vector<PendingCompletion> completions_;
   std::vector<TelemetryEvent> events_;
   std::string line_down_;  // non-empty: why the line is down
-  bool shutting_down_ = false;
+  bool shutting_down_ = false;  // only stops are taken
+  bool closed_ = false;         // nothing is taken
   Turn last_turn_ = Turn::Reads;  // the kind of the last dispatch (for taking turns)
   JobId next_id_ = 1;
 };

@@ -29,8 +29,14 @@ std::optional<Dispatch> Scheduler::pop(Priority p, TimePoint now) {
 }
 
 std::optional<Dispatch> Scheduler::next(TimePoint now) {
-  if (flight_ || !line_down_.empty() || shutting_down_) return std::nullopt;
-  if (auto d = pop(Priority::Emergency, now)) return d;
+  if (flight_ || !line_down_.empty() || closed_) return std::nullopt;
+  // Stops first, one controller after another (emergency_lane.hpp).
+  const auto answering = [this](uint8_t id) {
+    const auto h = health_.find(id);
+    return h == health_.end() || h->second.consecutive_failures == 0;
+  };
+  if (auto q = lane_.pop(now, answering)) return dispatch(std::move(*q), false, now);
+  if (shutting_down_) return std::nullopt;  // only stops go now
   // A poll that waited too long: the kinds take turns (see the header).
   if (const Starved s = starved(now); s.completion || s.reads) {
     for (int k = 1; k <= kTurns; ++k) {
@@ -172,7 +178,8 @@ std::optional<Dispatch> Scheduler::next_telemetry(TimePoint now) {
 }
 
 std::optional<TimePoint> Scheduler::wake_at() const {
-  std::optional<TimePoint> at;
+  std::optional<TimePoint> at = lane_.wake_at();
+  if (shutting_down_) return at;
   for (const auto& [id, t] : telemetry_) {
     const auto due = read_due(id, t);
     if (due && (!at || *due < *at)) at = due;

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <deque>
 #include <map>
@@ -71,9 +72,9 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   }
 
   void read() {
-    if (closed_ || closing_ || reading_) return;
-    frames();  // those already read first
-    if (closed_ || full()) return;
+    if (closed_ || closing_) return;
+    frames();  // those already read first (also while a read is pending)
+    if (closed_ || reading_ || stalled()) return;
     reading_ = true;
     socket_.async_read_some(asio::buffer(buffer_),
                             [self = shared_from_this()](asio::error_code ec, std::size_t n) {
@@ -94,15 +95,57 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
     frames();
   }
 
-  // Handles the frames read, while the connection has room (see full()).
+  // Frames read but not yet handed to the line: a connection that is full
+  // keeps reading (up to this many waiting) so that a stop behind its other
+  // requests is seen and sent at once (issue 31 rule 4).
+  struct Waiting {
+    uint16_t transaction = 0;
+    uint8_t unit = 0;
+    GatewayDecision decision;
+  };
+  std::size_t waiting_cap() const { return std::max<std::size_t>(server_.limits_.max_queued, 1); }
+  bool stalled() const {
+    return waiting_.size() >= waiting_cap() || writes_.size() >= waiting_cap();
+  }
+
+  void arrived(uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu) {
+    waiting_.push_back({transaction, unit, decide(server_.policy_, unit, pdu)});
+  }
+
+  static bool is_stop(const GatewayDecision& d) {
+    const auto* r = std::get_if<LineRequest>(&d);
+    return r && r->priority == Priority::Emergency;
+  }
+
+  // Stops go to the line whatever this connection holds; the rest in order,
+  // while it has room (see full()).
+  void dispatch() {
+    for (auto it = waiting_.begin(); it != waiting_.end() && !closed_;) {
+      if (!is_stop(it->decision)) {
+        ++it;
+        continue;
+      }
+      Waiting w = std::move(*it);
+      it = waiting_.erase(it);
+      handle(w.transaction, w.unit, w.decision);
+    }
+    while (!waiting_.empty() && !full() && !closed_) {
+      Waiting w = std::move(waiting_.front());
+      waiting_.pop_front();
+      handle(w.transaction, w.unit, w.decision);
+    }
+  }
+
+  // Handles the frames read.
   void frames() {
     if (closed_) return;
     if (server_.framing_ == Framing::Mbap) {
-      while (!full()) {
+      while (waiting_.size() < waiting_cap()) {
         auto adu = mbap_.next();
         if (!adu) break;
-        handle(adu->header.transaction, adu->header.unit, adu->pdu);
+        arrived(adu->header.transaction, adu->header.unit, adu->pdu);
       }
+      dispatch();
       if (mbap_.status() == modbus::MbapFramer::Status::Broken) {
         server_.log_(LogLevel::Warning,
                      fmt::format("Modbus TCP {}: closing the connection from {}: {}", server_.url(),
@@ -112,6 +155,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
       return;
     }
     rtu_frames();
+    dispatch();
   }
 
   // RTU over TCP: a frame completes on the length its function implies. A
@@ -120,7 +164,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   // unknown function is all that arrived (devices servers send a frame per
   // segment) and gets exception 01 if its CRC holds.
   void rtu_frames() {
-    while (rtu_.size() >= 4 && !full()) {
+    while (rtu_.size() >= 4 && waiting_.size() < waiting_cap()) {
       const auto length = modbus::request_length(rtu_);
       std::size_t size = rtu_.size();
       if (length.status == modbus::FrameLength::Status::NeedMore) return;
@@ -134,13 +178,12 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
         return;
       }
       const uint8_t unit = frame[0];
-      handle(0, unit, frame.subspan(1, size - 3));
+      arrived(0, unit, frame.subspan(1, size - 3));
       rtu_.erase(rtu_.begin(), rtu_.begin() + static_cast<std::ptrdiff_t>(size));
     }
   }
 
-  void handle(uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu) {
-    const auto decision = decide(server_.policy_, unit, pdu);
+  void handle(uint16_t transaction, uint8_t unit, const GatewayDecision& decision) {
     if (const auto* local = std::get_if<LocalAnswer>(&decision))
       return answer(transaction, unit, local->pdu);
     const auto& request = std::get<LineRequest>(decision);
@@ -214,6 +257,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   modbus::MbapFramer mbap_;
   modbus::Bytes rtu_;
   std::deque<modbus::Bytes> writes_;
+  std::deque<Waiting> waiting_;
   std::map<uint64_t, JobId> outstanding_;
   std::map<uint8_t, TimePoint> seen_;  // per unit: the newest data this master was shown
   uint64_t next_key_ = 1;

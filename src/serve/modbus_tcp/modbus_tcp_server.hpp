@@ -7,12 +7,16 @@
 //
 // A connection that breaks the MBAP framing (protocol id ≠ 0, a lying
 // length) is closed, and only that one. A connection that closes with
-// requests queued cancels them; one on the wire completes and its reply is
-// dropped.
+// requests queued cancels them, except stops: an accepted stop is never
+// cancelled (a PLC that writes HOLD and hangs up still holds its axis); one
+// on the wire completes and its reply is dropped.
 //
 // Bounded (ModbusTcpLimits): a connection holds at most `max_queued`
-// requests queued plus replies unwritten — beyond that its socket is not
-// read, and frames already read wait, until answers go out; at most
+// requests queued plus replies unwritten; beyond that, frames read wait (at
+// most `max_queued` of them; then its socket is not read) until answers go
+// out, except stops, which go to the line at once however full the
+// connection is (issue 31 rule 4; tests/serve/modbus_tcp/
+// modbus_tcp_stop_test.cpp); at most
 // `max_connections` connections (more are closed at once, with a log line);
 // a connection with no request for `idle_timeout` and nothing owed is closed;
 // running out of file descriptors at accept retries after 100 ms, never in a

@@ -41,15 +41,17 @@ void MqttBridge::Core::command(const MqttMessage& m) {
     // A retained copy is refused whatever its id: never a result lookup.
     if (!received.retained) seen = commands[i].find(c.id_key, kClock.now(), to);
     if (seen.seen == CommandLog::Seen::New) {
-      why = check_fresh(c, received);
+      auto parsed = parse_command(c.op, c.payload);
+      if (!parsed) {
+        why = EnvelopeError{c.id, 400, parsed.error().field, parsed.error().message};
+      } else if (!stops_motion(*parsed)) {
+        // Freshness exists so that a late command never moves an axis: a
+        // stop, hold or reset is never refused by it (issue 31 rule 5).
+        why = check_fresh(c, received);
+      }
       if (!why) {
-        auto parsed = parse_command(c.op, c.payload);
-        if (parsed) {
-          cmd = std::move(*parsed);
-          commands[i].start(c.id_key, kClock.now(), to);
-        } else {
-          why = EnvelopeError{c.id, 400, parsed.error().field, parsed.error().message};
-        }
+        cmd = std::move(*parsed);
+        commands[i].start(c.id_key, kClock.now(), to);
       }
     }
   }

@@ -238,6 +238,10 @@ std::string_view op_name(Op op) noexcept {
   return "?";
 }
 
+bool stops_motion(const Command& cmd) noexcept {
+  return cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
+}
+
 bool is_motion(Op op) noexcept {
   return op == Op::Home || op == Op::Move || op == Op::RunStep || op == Op::Jog;
 }

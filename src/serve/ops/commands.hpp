@@ -79,5 +79,9 @@ struct CommandError {
 
 // Parses and checks one command. `args` is a JSON object (or null for none).
 Expected<Command, CommandError> parse_command(std::string_view op, const nlohmann::json& args);
+// Stop, reset and HOLD on (not HOLD off: it resumes motion): taken from every
+// channel at any time (shutdown included), never refused as stale or busy
+// (issue 31 rules 4 and 5): a late stop never moves an axis.
+bool stops_motion(const Command& cmd) noexcept;
 
 }  // namespace lec6::serve

@@ -54,6 +54,21 @@ namespace {
 
 const SteadyClock kClock;
 
+OpResult judged(Op op, const client::StopReport& r) {
+  // 200 only on evidence; otherwise 502: the stop went out, the axis says
+  // otherwise, or could not be read.
+  OpResult result{r.stopped ? 200 : 502, {{"ok", r.stopped}, {"op", op_name(op)}}};
+  result.body[r.stopped ? "message" : "error"] = r.describe();
+  result.body["stopped"] = r.stopped;
+  result.body["actions"] = r.actions;
+  if (r.answered) {
+    result.body["position_mm"] = static_cast<double>(r.state.position_001mm) / 100.0;
+    result.body["speed_mm_s"] = r.state.speed_mm_s;
+  }
+  result.body["took_s"] = to_seconds(r.took);
+  return result;
+}
+
 void renew(std::atomic<int64_t>& lease_until, Duration lease) {
   lease_until = (kClock.now() + lease).time_since_epoch().count();
 }
@@ -87,8 +102,10 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
   {
     std::lock_guard lock(mutex_);
     Slot& slot = slots_[axis.name];
-    if (shutting_down_) {
-      at_once = refusal(503, "lec serve is shutting down");
+    // A stop, hold or reset is taken while lec serve shuts down: the line
+    // sends stops until it closes (issue 31 rule 4).
+    if (shutting_down_ && !stops_motion(cmd)) {
+      at_once = refusal(503, "lec serve is shutting down: only stop, hold and reset are taken");
     } else if (cmd.op == Op::JogStop) {
       if (slot.motion && slot.motion->op == Op::Jog) slot.motion->cancel = true;
       at_once =
@@ -121,11 +138,12 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
       run->jog_plus = cmd.jog_plus;
       if (cmd.op == Op::Jog && cmd.jog_lease > Duration{}) renew(run->lease_until, cmd.jog_lease);
       if (is_motion(cmd.op)) slot.motion = run, slot.unsettled.reset();
-      const bool stop_like =
-          cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
-      if (stop_like && slot.motion && slot.motion != run) slot.motion->stopped_by_other = true;
-      if ((cmd.op == Op::Stop || cmd.op == Op::Reset) && slot.motion && slot.motion != run)
+      if (stops_motion(cmd) && slot.motion && slot.motion != run) slot.motion->stopped_by_other = true;
+      if ((cmd.op == Op::Stop || cmd.op == Op::Reset) && slot.motion && slot.motion != run) {
+        // A stop ends what moves: a jog releases JOG at once (issue 31 rule 6).
         slot.motion->stop_requested = true;
+        if (slot.motion->op == Op::Jog) slot.motion->cancel = true;
+      }
     }
   }
   if (at_once) return done(std::move(*at_once));
@@ -264,14 +282,21 @@ std::optional<nlohmann::json> Operations::last_result(const std::string& axis) c
   return it == slots_.end() ? std::nullopt : it->second.last;
 }
 
-void Operations::shutdown() {
-  {
-    std::lock_guard lock(mutex_);
-    shutting_down_ = true;
-    for (auto& [name, slot] : slots_) {
-      if (slot.motion && slot.motion->op == Op::Jog) slot.motion->cancel = true;
-    }
+void Operations::begin_shutdown() {
+  std::lock_guard lock(mutex_);
+  shutting_down_ = true;
+  for (auto& [name, slot] : slots_) {
+    if (slot.motion && slot.motion->op == Op::Jog) slot.motion->cancel = true;
   }
+}
+
+bool Operations::idle() const {
+  std::lock_guard lock(active_mutex_);
+  return active_ == 0;
+}
+
+void Operations::shutdown() {
+  begin_shutdown();
   // Jogs release JOG and wait for the axis to stop; moves end when their
   // line answers "shutting down". Bounded: a dead line cannot hold us.
   std::unique_lock lock(active_mutex_);
@@ -280,11 +305,26 @@ void Operations::shutdown() {
 
 // ---- execution -----------------------------------------------------------------
 
+client::StopPolicy Operations::stop_policy(const AxisRef& axis) {
+  client::StopPolicy p;
+  p.escalate_servo_off = axis.config->stop_servo_off;
+  return p;
+}
+
 OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& run) {
-  // Stop, reset and hold (not HOLD off: it resumes motion) go at Emergency,
-  // their reads too; their writes would anyway (priority_of).
-  const bool urgent = cmd.op == Op::Stop || cmd.op == Op::Reset || (cmd.op == Op::Hold && cmd.on);
-  LineMaster master(*axis.line, urgent ? Priority::Emergency : Priority::Completion,
+  // Stop, reset and hold (not HOLD off: it resumes motion) write at
+  // Emergency (priority_of: the one rule); the reads that judge them go
+  // ahead of telemetry, and at Emergency once lec serve is shutting down
+  // (only stops are taken then).
+  const bool urgent = stops_motion(cmd);
+  bool closing = false;
+  {
+    std::lock_guard lock(mutex_);
+    closing = shutting_down_;
+  }
+  LineMaster master(*axis.line,
+                    urgent ? (closing ? Priority::Emergency : Priority::Command)
+                           : Priority::Completion,
                     urgent ? Priority::Emergency : Priority::Command);
   client::ClientOptions co;
   co.id = axis.id;
@@ -337,18 +377,18 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
       const TimePoint until =
           cmd.jog_duration > Duration{} ? kClock.now() + cmd.jog_duration : TimePoint::max();
       wait.cancel = [&run] {
-        return run.cancel.load() || run.lease_expired(kClock.now()) || run.tie_closed();
+        return run.cancel.load() || run.stop_requested.load() || run.lease_expired(kClock.now()) ||
+               run.tie_closed();
       };
       const auto r = act.jog(cmd.jog_plus, until, kClock.now() + std::chrono::hours(24), wait);
       return jog_result(r, run.lease_expired(kClock.now()), run.tie_closed());
     }
     case Op::Hold:
-      act.hold(cmd.on);
-      return done_result(cmd.op, cmd.on ? "HOLD = 1: the operation is suspended"
-                                        : "HOLD = 0: the operation resumes");
+      if (cmd.on) return judged(cmd.op, act.stop(client::StopKind::Hold, stop_policy(axis)));
+      act.hold(false);
+      return done_result(cmd.op, "HOLD = 0: the operation resumes");
     case Op::Stop:
-      act.stop();
-      return done_result(cmd.op, "stopped (RESET pulse: decelerating stop)");
+      return judged(cmd.op, act.stop(client::StopKind::Stop, stop_policy(axis)));
     case Op::Reset:
       return reset_result(act.reset_alarms());
     case Op::StepRead:

@@ -11,8 +11,13 @@
 //     without the axis seen stopped (5xx: deadline, no answer, line down)
 //     keeps the axis taken until a read of its flags, taken after that end,
 //     shows BUSY = 0;
-//   - stop, hold and reset always go, at Priority::Emergency, and the motion
-//     under way then ends as "stopped";
+//   - stop, hold and reset always go, at Priority::Emergency, also while lec
+//     serve shuts down (a line sends stops until it closes), and the motion
+//     under way then ends as "stopped"; a stop or reset ends a jog too (JOG
+//     released). A stop or hold is judged by the axis (client/stop.hpp):
+//     200 "stopped at X mm" only when a read shows it at rest, else 502
+//     saying what was sent and what the axis did. Attacked by
+//     tests/serve/ops/operations_stop_test.cpp;
 //   - a hold-to-run jog lives while its lease is renewed (repeating the jog
 //     command), and ends on jog-stop, when its lease runs out, or when the
 //     stream it was tied to closes (the browser went away): the daemon then
@@ -91,9 +96,13 @@ class Operations {
   std::optional<nlohmann::json> last_result(const std::string& axis) const;
   void add_observer(OpObserver observer);
 
-  // Releases running jogs and waits (bounded) for them to stop; later
-  // commands are refused with 503. Then joins every operation thread once
-  // the lines have stopped (call again after stopping the lines).
+  // From now on only stop, hold and reset are taken (others: 503); running
+  // jogs are released. Does not wait.
+  void begin_shutdown();
+  // No operation runs.
+  bool idle() const;
+  // begin_shutdown(), then waits (bounded) for the operations to end. Call
+  // again after stopping the lines: every thread has ended then.
   void shutdown();
 
  private:
@@ -101,6 +110,7 @@ class Operations {
   struct Unsettled;
   struct Slot;
   OpResult execute(const AxisRef& axis, const Command& cmd, Running& run);
+  static client::StopPolicy stop_policy(const AxisRef& axis);
   void start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
                     std::function<void(OpResult)> done);
   void finished(const AxisRef& axis, const std::shared_ptr<Running>& run, const OpResult& result);
@@ -114,7 +124,7 @@ class Operations {
   std::vector<OpObserver> observers_;
   bool shutting_down_ = false;
   // Operation threads are detached; shutdown() waits for them to end.
-  std::mutex active_mutex_;
+  mutable std::mutex active_mutex_;
   std::condition_variable idle_;
   std::size_t active_ = 0;
 };

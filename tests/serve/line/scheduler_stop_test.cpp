@@ -77,8 +77,11 @@ TEST(SchedulerStop, ALostReplyDoesNotCostTheStop) {
   take_offline(h);
   h.s.submit(h.job(Priority::Emergency, 9, kResetOn), h.clock.now());
   h.step({9});  // replies lost twice …
+  EXPECT_FALSE(h.s.next(h.clock.now())) << "a non-answering controller's stop backs off";
+  h.clock.advance(h.s.config().emergency_backoff);
   h.step({9});
   EXPECT_TRUE(h.results.empty()) << "the stop gave up after one attempt";
+  h.clock.advance(h.s.config().emergency_backoff);
   const auto d = h.step();  // … the third attempt is answered
   ASSERT_TRUE(d);
   EXPECT_EQ(d->frame.pdu, kResetOn);
@@ -93,7 +96,13 @@ TEST(SchedulerStop, AStopThatNeverGetsAnAnswerSaysSoAfterItsAttempts) {
   take_offline(h);
   h.s.submit(h.job(Priority::Emergency, 9, kResetOn), h.clock.now());
   int sent = 0;
-  while (h.results.empty() && h.step({9})) ++sent;
+  for (int i = 0; i < 100 && h.results.empty(); ++i) {
+    if (h.step({9})) {
+      ++sent;
+    } else {
+      h.clock.advance(10ms);  // its backoff between attempts
+    }
+  }
   EXPECT_EQ(sent, 4);
   ASSERT_EQ(h.results.size(), 1u);
   EXPECT_EQ(h.results[0].failure, Failure::NoAnswer) << "not 'offline': it was sent";

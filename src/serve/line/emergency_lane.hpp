@@ -1,0 +1,77 @@
+#pragma once
+// The emergency lane of a line's scheduler (sans-I/O): the stops, holds and
+// resets (client::stops_or_releases, the one rule) waiting for the wire, kept
+// per controller so that one controller's stops cannot delay another's
+// (issue 31 rule 2):
+//
+//   - controllers take turns: one exchange each, round robin;
+//   - a controller that answers goes before one that does not (its last
+//     exchange failed), except that a non-answering one gets one exchange
+//     after each answering one once it has waited `backoff`: so a stop to an
+//     answering controller waits for at most the transaction on the wire,
+//     one exchange for a non-answering controller, and one exchange for each
+//     other answering controller with a stop queued;
+//   - a non-answering controller's stop keeps its attempts, but after a
+//     failed attempt it waits `backoff` before the next (other traffic, not
+//     only other stops, goes meanwhile);
+//   - a stop identical to one queued for the same controller (same request,
+//     not yet on the wire) joins it: one exchange, both submitters answered.
+//     A PLC rewriting its output image every scan then holds one entry, not
+//     hundreds.
+//
+// Attacked by tests/serve/line/emergency_lane_test.cpp and the deterministic
+// line simulation (tests/serve/sim/).
+//
+// Thread safety: none; the scheduler's driver serialises every call.
+
+#include <deque>
+#include <functional>
+#include <map>
+#include <optional>
+#include <vector>
+
+#include "lec6/clock.hpp"
+#include "line/job.hpp"
+
+namespace lec6::serve {
+
+class EmergencyLane {
+ public:
+  explicit EmergencyLane(Duration backoff) : backoff_(backoff) {}
+
+  // A new stop: joins an identical one queued for its controller, or queues.
+  // Returns true when it joined.
+  bool push(Queued q);
+  // A stop whose exchange failed and has attempts left: first in its
+  // controller's queue again. `answering`: whether the controller still
+  // counts as answering (only its replies may be lost); if not, it waits
+  // `backoff` first.
+  void retry(Queued q, bool answering, TimePoint now);
+  // The stop to put on the wire now, if any. `answering(id)`: whether the
+  // controller answered its last exchange.
+  std::optional<Queued> pop(TimePoint now, const std::function<bool(uint8_t)>& answering);
+
+  // When a stop that waits for its backoff may go.
+  std::optional<TimePoint> wake_at() const;
+  bool ready(TimePoint now) const;
+  bool empty() const noexcept { return size_ == 0; }
+  std::size_t size() const noexcept { return size_; }
+  // Every queued stop, in no particular order (the line went down).
+  std::vector<Queued> take_all();
+
+ private:
+  struct Controller {
+    std::deque<Queued> jobs;
+    TimePoint not_before{};     // backoff after a failed attempt
+    TimePoint waiting_since{};  // when its front became ready
+  };
+  std::optional<Queued> take(std::map<uint8_t, Controller>::iterator it, bool answering);
+
+  Duration backoff_;
+  std::map<uint8_t, Controller> controllers_;
+  std::size_t size_ = 0;
+  uint8_t last_ = 0;             // the controller served last (round robin)
+  bool last_answering_ = false;  // whether that one was answering
+};
+
+}  // namespace lec6::serve

@@ -1,0 +1,37 @@
+#pragma once
+// A request for the line, as its submitters hand it to the scheduler, and as
+// it waits in a queue.
+
+#include <cstdint>
+#include <functional>
+
+#include "lec6/clock.hpp"
+#include "lec6/modbus/pdu.hpp"
+#include "line/priority.hpp"
+
+namespace lec6::serve {
+
+struct JobResult;
+using JobId = uint64_t;
+
+struct Job {
+  Priority priority = Priority::Command;
+  modbus::RequestFrame frame;
+  std::function<void(const JobResult&)> done;  // called once, by the driver, outside its lock
+  // > 0: a read of a telemetry block may be answered from the cache if no
+  // older, and taken no earlier than `not_before` (what the client last saw).
+  Duration max_cache_age{};
+  TimePoint not_before{};
+  // Exchanges to try on a line fault (timeout, CRC, framing); reads may retry, starts never.
+  int attempts = 1;
+};
+
+// A job waiting for the wire.
+struct Queued {
+  JobId id = 0;
+  Job job;
+  TimePoint submitted{};
+  bool retry = false;  // a further attempt (its first one's wait is counted)
+};
+
+}  // namespace lec6::serve
