@@ -73,6 +73,19 @@ MoveResult finished(client::MoveResult r, std::string operation, bool waited = t
   return MoveResult{std::move(r), std::move(operation), waited};
 }
 
+namespace {
+
+// A stop or hold judged by the axis (client/stop.hpp).
+py::object judged_stop(Axis& self, client::StopKind kind) {
+  const auto r = self.call(
+      [kind](client::Client&, client::Actuator& a) { return a.stop(kind, client::StopPolicy{}); });
+  if (!r.stopped)
+    raise_error("Error", r.describe(),
+                py::dict(py::arg("stopped") = false, py::arg("actions") = r.actions));
+  return py::str(r.describe());
+}
+}  // namespace
+
 void bind_reads(py::class_<Axis>& c) {
   c.def(
        "status",
@@ -256,14 +269,21 @@ void bind_motion(py::class_<Axis>& c) {
           "axis to stop (at most `timeout` s).")
       .def(
           "hold",
-          [](Axis& self, bool on) {
-            self.call([on](client::Client&, client::Actuator& a) { a.hold(on); });
+          [](Axis& self, bool on) -> py::object {
+            if (!on) {
+              self.call([](client::Client&, client::Actuator& a) { a.hold(false); });
+              return py::none();
+            }
+            return judged_stop(self, client::StopKind::Hold);
           },
-          py::arg("on") = true, "HOLD on (decelerate and suspend) or off (resume).")
+          py::arg("on") = true,
+          "HOLD on: decelerate and suspend, judged by the axis (returns where it was held; "
+          "raises lec6.Error when a read does not show it at rest). HOLD off resumes.")
       .def(
-          "stop",
-          [](Axis& self) { self.call([](client::Client&, client::Actuator& a) { a.stop(); }); },
-          "Decelerating stop of the running operation (RESET pulse).")
+          "stop", [](Axis& self) { return judged_stop(self, client::StopKind::Stop); },
+          "Decelerating stop (RESET pulse; RESET released first when another client left it at "
+          "1), judged by the axis: returns 'stopped at X mm after T s (...)'; raises lec6.Error "
+          "with what was sent and what the axis does when it is not seen at rest.")
       .def(
           "reset",
           [](Axis& self) {
@@ -297,8 +317,10 @@ void bind_axis(py::module_& m) {
         const auto range = v.cast<py::sequence>();
         if (py::isinstance<py::str>(v) || range.size() != 2)
           throw client::InvalidRequest("soft_limits: expected (min_mm, max_mm), e.g. (0.0, 400.0)");
-        const auto lo = static_cast<int32_t>(field_value(StepField::Position, py::object(range[0]), "soft_limits"));
-        const auto hi = static_cast<int32_t>(field_value(StepField::Position, py::object(range[1]), "soft_limits"));
+        const auto lo = static_cast<int32_t>(
+            field_value(StepField::Position, py::object(range[0]), "soft_limits"));
+        const auto hi = static_cast<int32_t>(
+            field_value(StepField::Position, py::object(range[1]), "soft_limits"));
         if (lo > hi) throw client::InvalidRequest("soft_limits: min_mm is above max_mm");
         a.soft_limits = client::SoftLimits{lo, hi};
       },

@@ -28,6 +28,19 @@ using std::chrono::seconds;
 struct DoctorArgs {
   bool fix = false;
   std::string ids = "1-32";
+  std::string serial_ids;  // the IDs --fix may put into serial mode (issue 31 rule 7)
+};
+
+// What --fix may change. Serial mode only on the IDs named: a controller
+// driven through parallel I/O ignores its PLC's HOLD and RESET once Y30 = 1
+// (manual, footnote on serial mode), so the doctor never takes one away
+// from its PLC unless told (the report names the command that would).
+struct Fix {
+  bool on = false;
+  std::vector<uint8_t> serial_ids;
+  bool may_set_serial(uint8_t id) const {
+    return on && std::find(serial_ids.begin(), serial_ids.end(), id) != serial_ids.end();
+  }
 };
 
 // Every check's deadline (the whole run stays within the sum, about 25 s at
@@ -290,20 +303,20 @@ bool echo_fix_works(const transport::PortSpec& spec, const GlobalOptions& g, uin
 
 // 8. Each controller's state, read only (--fix: serial mode on, alarms reset).
 dx::ControllerState read_controller(client::Client& c, client::Actuator& axis, uint8_t id,
-                                    bool fix) {
+                                    const Fix& fix) {
   dx::ControllerState st;
   st.id = id;
   c.set_id(id);
   try {
     auto controls = c.read_controls();
-    if (fix && !controls.serial_mode) {
+    if (fix.may_set_serial(id) && !controls.serial_mode) {
       axis.set_serial_mode(true);
       controls = c.read_controls();
       if (controls.serial_mode) st.fixed.push_back("serial mode on (Y30)");
     }
     auto flags = c.read_flags();
     auto alarms = axis.active_alarms(flags);
-    if (fix && !alarms.empty() &&
+    if (fix.on && !alarms.empty() &&
         std::all_of(alarms.begin(), alarms.end(), lec::alarm_resettable) && controls.serial_mode) {
       const auto left = axis.reset_alarms();
       for (uint8_t a : alarms)
@@ -332,7 +345,7 @@ dx::ControllerState read_controller(client::Client& c, client::Actuator& axis, u
 }
 
 void read_controllers(const transport::PortSpec& spec, const twin::PortOptions& po,
-                      const std::vector<uint8_t>& ids, bool fix, dx::Observations& obs) {
+                      const std::vector<uint8_t>& ids, const Fix& fix, dx::Observations& obs) {
   auto port = twin::open_port(spec, po);
   client::Client c(port->master(),
                    {.id = ids.front(), .retries = 2, .timeout_margin = po.timeout_margin});
@@ -345,7 +358,7 @@ void read_controllers(const transport::PortSpec& spec, const twin::PortOptions& 
 
 // Through a gateway (tcp://, e.g. lec serve): only the controllers.
 void through_gateway(const transport::PortSpec& spec, const GlobalOptions& g,
-                     const std::vector<uint8_t>& ids, bool fix, dx::Observations& obs) {
+                     const std::vector<uint8_t>& ids, const Fix& fix, dx::Observations& obs) {
   obs.gateway = true;
   auto po = port_options(g, g.baud, false);
   auto port = twin::open_port(spec, po);
@@ -445,6 +458,10 @@ void run_doctor(Session& s, const DoctorArgs& a) {
         "the in-process twin has no line to check");
   }
   auto id_list = sim_args::parse_ids(a.ids);
+  const Fix fix{a.fix,
+                a.serial_ids.empty() ? std::vector<uint8_t>{} : sim_args::parse_ids(a.serial_ids)};
+  if (!a.serial_ids.empty() && !a.fix)
+    throw UsageError("--serial-ids names what --fix may put into serial mode: give --fix too");
   const TimePoint start = SteadyClock{}.now();
 
   dx::Observations obs;
@@ -457,7 +474,7 @@ void run_doctor(Session& s, const DoctorArgs& a) {
   obs.assumed.delay_td = g.delay_td;
 
   if (spec.kind == transport::PortKind::Tcp) {
-    through_gateway(spec, g, id_list, a.fix, obs);
+    through_gateway(spec, g, id_list, fix, obs);
   } else {
     search(spec, g, id_list, obs);
     if (obs.found_baud) {
@@ -477,8 +494,8 @@ void run_doctor(Session& s, const DoctorArgs& a) {
           if (a.fix && t->ms > 1) obs.latency_fixed = doctor_line::set_latency_timer_1ms(*t);
         }
       }
-      read_controllers(spec, port_options(g, *obs.found_baud, obs.echo_seen || g.echo), found,
-                       a.fix, obs);
+      read_controllers(spec, port_options(g, *obs.found_baud, obs.echo_seen || g.echo), found, fix,
+                       obs);
     }
   }
   const dx::Report r = dx::diagnose(obs);
@@ -516,8 +533,12 @@ void add_doctor_command(CLI::App& app, Session& session) {
       "Exit codes: 0 healthy, 7 degraded (works, but slower or less reliable than it could be), "
       "8 broken (something does not work); 2 usage, 3 port missing or busy.");
   cmd->add_flag("--fix", a->fix,
-                "Apply the safe fixes: serial mode on (Y30), clear alarms that RESET clears, USB "
-                "latency timer to 1 ms (needs permission). Never a move.");
+                "Apply the safe fixes: clear alarms that RESET clears, USB latency timer to 1 ms "
+                "(needs permission); serial mode (Y30) only on --serial-ids. Never a move.");
+  cmd->add_option("--serial-ids", a->serial_ids,
+                  "With --fix: the IDs it may put into serial mode (Y30 = 1), e.g. 1,3. A "
+                  "controller in serial mode ignores its PLC's parallel I/O (HOLD, RESET "
+                  "included): name only those no PLC drives");
   cmd->add_option("--ids", a->ids, "IDs to scan, e.g. 1-32 or 1,3,5")->capture_default_str();
   cmd->callback([&session, a] { run_doctor(session, *a); });
 }

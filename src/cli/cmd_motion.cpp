@@ -88,8 +88,7 @@ client::DirectMove direct_move(const MoveArgs& a) {
 void run_move(Session& s, const MoveArgs& a) {
   const bool by_step = a.step >= 0;
   if (by_step == !a.to.empty()) throw UsageError("move: give exactly one of --step N or --to MM");
-  if (by_step &&
-      (a.relative || a.keep || !a.speed.empty() || !a.push.empty() || !a.area.empty())) {
+  if (by_step && (a.relative || a.keep || !a.speed.empty() || !a.push.empty() || !a.area.empty())) {
     throw UsageError("move --step runs the stored step as it is: edit it with `lec step set`");
   }
   const client::DirectMove m =
@@ -141,7 +140,22 @@ void run_jog(Session& s, const std::string& dir, Duration jog_for) {
   }
 }
 
-void say(const Session& s, const std::string& text, nlohmann::json j = {}) {
+void say(const Session& s, const std::string& text, nlohmann::json j = {});
+
+// A stop or hold judged by the axis (client/stop.hpp): exit 0 only when a
+// read shows it at rest; otherwise the report says what was sent and what
+// the axis does, and the exit code is kFailure.
+void report_stop(Session& session, client::StopKind kind) {
+  const auto r = session.axis().stop(kind, client::StopPolicy{});
+  if (!r.stopped) throw CommandFailed(kFailure, r.describe());
+  say(session, r.describe(),
+      {{"stopped", true},
+       {"position_mm", static_cast<double>(r.state.position_001mm) / 100.0},
+       {"actions", r.actions},
+       {"took_s", to_seconds(r.took)}});
+}
+
+void say(const Session& s, const std::string& text, nlohmann::json j) {
   if (s.json()) {
     j["ok"] = true;
     print_json(j);
@@ -240,16 +254,24 @@ void add_motion_commands(CLI::App& app, Session& session) {
   hold->callback([&session, value] {
     const bool on = parse_on_off(*value, "hold");
     session.allow_broadcast();
+    if (on && session.options().id != modbus::kBroadcastId)
+      return report_stop(session, client::StopKind::Hold);
     session.axis().hold(on);
-    say(session, on ? "HOLD on: operation suspended" : "HOLD off: operation resumed",
+    say(session,
+        on ? "HOLD on (broadcast: no controller answers, nothing is judged)"
+           : "HOLD off: operation resumed",
         {{"hold", on}});
   });
 
-  app.add_subcommand("stop", "Decelerating stop of the running operation (RESET pulse)")
+  app.add_subcommand("stop",
+                     "Decelerating stop (RESET pulse; RESET released first if another client "
+                     "left it at 1), judged by the axis: exit 0 only when it is seen at rest")
       ->callback([&session] {
         session.allow_broadcast();
-        session.axis().stop();
-        say(session, "Stopped (decelerating stop)");
+        if (session.options().id != modbus::kBroadcastId)
+          return report_stop(session, client::StopKind::Stop);
+        session.axis().stop();  // broadcast: no reply, so nothing can be judged
+        say(session, "RESET pulse broadcast (no controller answers a broadcast: not judged)");
       });
 
   app.add_subcommand("reset", "Reset alarms (RESET pulse)")->callback([&session] {

@@ -425,7 +425,12 @@ void Builder::controllers() {
                                : "servo off");
     state.push_back(c.homed ? "homed (SETON)" : "not homed");
     if (c.estop) state.push_back("EMG stop active (ESTOP)");
-    if (!c.serial_mode) steps.push_back(lec_cmd(o_, c.id, "serial on"));
+    // Never done by --fix unless named: a controller in parallel mode may be its PLC's.
+    if (!c.serial_mode)
+      steps.push_back(
+          fmt::format("{} (or lec doctor --fix --serial-ids {}; only if no PLC drives "
+                      "it through parallel I/O)",
+                      lec_cmd(o_, c.id, "serial on"), c.id));
     if (!c.servo_on) steps.push_back(lec_cmd(o_, c.id, "servo on"));
     if (!c.homed) steps.push_back(lec_cmd(o_, c.id, "home"));
     std::string joined;

@@ -33,9 +33,10 @@ std::string StopReport::describe() const {
                        lec::format_mm(state.position_001mm), to_seconds(took), joined(actions));
   }
   if (!answered) {
-    return fmt::format("{} sent ({}); the axis could not be read afterwards{}: whether it stopped "
-                       "is not known",
-                       what, joined(actions), problem.empty() ? "" : " (" + problem + ")");
+    return fmt::format(
+        "{} sent ({}); the axis could not be read afterwards{}: whether it stopped "
+        "is not known",
+        what, joined(actions), problem.empty() ? "" : " (" + problem + ")");
   }
   return fmt::format("{} sent ({}); the axis is still moving at {} mm/s at {} mm{}", what,
                      joined(actions), state.speed_mm_s, lec::format_mm(state.position_001mm),

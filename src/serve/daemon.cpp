@@ -232,7 +232,7 @@ void Daemon::finish_stop() {
   finished_ = true;
   log_(LogLevel::Info, "stopping: finishing the transactions on the wire");
   for (auto& s : modbus_) s->shutdown();
-  if (mqtt_) mqtt_->stop();  // "offline" goes out; the will is for a crash
+  if (mqtt_) mqtt_->stop();                        // "offline" goes out; the will is for a crash
   for (auto& [name, line] : lines_) line->stop();  // the stops still queued go out first
   ops_->shutdown();  // operations end on "shutting down"; their HTTP answers go out
   if (http_) http_->stop();

@@ -21,6 +21,7 @@ doctor() {
   sed 's/^/    /' "$TMP/$name.doc"
 }
 has() { grep -qF -- "$2" "$TMP/$1.doc"; }
+hasnt() { ! grep -qF -- "$2" "$TMP/$1.doc"; }
 # doctor_healthy NAME ARGS...: as doctor, for a line that must be healthy: the
 # verdict must hold in one of two runs. A host busy with other work (the twin
 # under ASan) stalls the twin past the doctor's windows now and then: a scan
@@ -75,8 +76,11 @@ check "two: the command that clears it" has two "lec --port $TMP/two --baud 5760
 check "two: ID 1 needs serial mode first" has two "--id 1 serial on"
 doctor two-fix --port "$TMP/two" --baud 57600 doctor --ids 1-3 --fix
 check "two --fix: the alarm cleared" has two-fix "alarm 62 cleared (RESET)"
-check "two --fix: serial mode on" has two-fix "serial mode on (Y30)"
+check "two --fix: serial mode left alone (a PLC may drive it)" hasnt two-fix "serial mode on (Y30)"
+check "two --fix: names the command that would" has two-fix "lec doctor --fix --serial-ids 1"
 check "two --fix: nothing moved" has two-fix "nothing was moved"
+doctor two-serial --port "$TMP/two" --baud 57600 doctor --ids 1-3 --fix --serial-ids 1
+check "two --fix --serial-ids 1: serial mode on" has two-serial "serial mode on (Y30)"
 stop_twin "$TWIN_PID"
 
 # Echo: a 2-wire adapter.

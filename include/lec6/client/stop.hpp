@@ -39,15 +39,16 @@ struct StopPolicy {
   unsigned decel_mm_s2 = 0;
   unsigned assumed_decel_mm_s2 = 500;
   Duration margin = std::chrono::milliseconds(300);
-  bool escalate_hold = true;        // a stop that did not stop: HOLD <- 1 (left on; said so)
-  bool escalate_servo_off = false;  // then SVON <- 0 (the axis coasts or brakes: configure knowingly)
+  bool escalate_hold = true;  // a stop that did not stop: HOLD <- 1 (left on; said so)
+  bool escalate_servo_off =
+      false;  // then SVON <- 0 (the axis coasts or brakes: configure knowingly)
   Duration deadline = std::chrono::seconds(10);  // the whole judgement, at most
 };
 
 struct StopReport {
   StopKind kind = StopKind::Stop;
-  bool stopped = false;   // a read showed the axis at rest after the stop
-  bool answered = false;  // at least one read of the axis came back
+  bool stopped = false;              // a read showed the axis at rest after the stop
+  bool answered = false;             // at least one read of the axis came back
   std::vector<std::string> actions;  // what was written, in order, in the manual's terms
   lec::StatusFlags flags;            // the last read
   lec::StateData state;

@@ -74,8 +74,9 @@ std::optional<Queued> EmergencyLane::pop(TimePoint now,
   // A non-answering controller that waited its backoff gets one exchange
   // after each answering one: it is never starved, and costs the answering
   // ones at most one exchange each time.
-  if (first_silent && (!first_answering || (last_answering_ &&
-                                            now - (*first_silent)->second.waiting_since >= backoff_)))
+  if (first_silent &&
+      (!first_answering ||
+       (last_answering_ && now - (*first_silent)->second.waiting_since >= backoff_)))
     return take(*first_silent, false);
   if (first_answering) return take(*first_answering, true);
   return std::nullopt;

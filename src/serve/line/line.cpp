@@ -50,12 +50,11 @@ void Line::stop() {
     // stops fail below: they cannot reach anything).
     std::unique_lock lock(mutex_);
     if (thread_.joinable()) {
-      const auto until = std::chrono::steady_clock::now() +
-                         std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                             options_.stop_drain);
-      drained_.wait_until(lock, until, [this] {
-        return scheduler_.drained() || scheduler_.is_line_down();
-      });
+      const auto until =
+          std::chrono::steady_clock::now() +
+          std::chrono::duration_cast<std::chrono::steady_clock::duration>(options_.stop_drain);
+      drained_.wait_until(lock, until,
+                          [this] { return scheduler_.drained() || scheduler_.is_line_down(); });
     }
     stopping_ = true;
   }

@@ -138,7 +138,8 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
       run->jog_plus = cmd.jog_plus;
       if (cmd.op == Op::Jog && cmd.jog_lease > Duration{}) renew(run->lease_until, cmd.jog_lease);
       if (is_motion(cmd.op)) slot.motion = run, slot.unsettled.reset();
-      if (stops_motion(cmd) && slot.motion && slot.motion != run) slot.motion->stopped_by_other = true;
+      if (stops_motion(cmd) && slot.motion && slot.motion != run)
+        slot.motion->stopped_by_other = true;
       if ((cmd.op == Op::Stop || cmd.op == Op::Reset) && slot.motion && slot.motion != run) {
         // A stop ends what moves: a jog releases JOG at once (issue 31 rule 6).
         slot.motion->stop_requested = true;
@@ -322,10 +323,10 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
     std::lock_guard lock(mutex_);
     closing = shutting_down_;
   }
-  LineMaster master(*axis.line,
-                    urgent ? (closing ? Priority::Emergency : Priority::Command)
-                           : Priority::Completion,
-                    urgent ? Priority::Emergency : Priority::Command);
+  LineMaster master(
+      *axis.line,
+      urgent ? (closing ? Priority::Emergency : Priority::Command) : Priority::Completion,
+      urgent ? Priority::Emergency : Priority::Command);
   client::ClientOptions co;
   co.id = axis.id;
   co.retries = axis.line_config->retries;
