@@ -7,6 +7,7 @@ DEB_BUILD ?= build-deb
 FUZZ_SECONDS ?= 600
 FUZZ_SMOKE_SECONDS ?= 15
 SOAK_TRANSACTIONS ?= 10000
+SIM_SOAK_SEEDS ?= 1000000
 # The one optimised configuration: `make build`, the tree `make test` runs,
 # and `make deb` (the package users install) all compile with these flags, so
 # what the tests pass is what ships, and a warning that only an optimiser
@@ -99,6 +100,7 @@ soak: build
 	LEC6_SOAK_TRANSACTIONS=$(SOAK_TRANSACTIONS) $(BUILD)/tests/test_client --gtest_filter='Soak.*'
 	SNIFF_EXCHANGES=$(SNIFF_SOAK_EXCHANGES) SNIFF_BAUDS="115200 9600" LEC=$(BUILD)/lec \
 	  LEC6_BUILD_DIR=$(BUILD) bash tests/integration/sniff_tap_test.sh
+	$(BUILD)/tests/serve_sim --seeds 0:$(SIM_SOAK_SEEDS)
 
 bench: build
 	bench/compare

@@ -20,8 +20,9 @@ namespace {
 
 const SteadyClock kClock;
 
-GatewayPolicy policy_of(const LineConfig& line) {
+GatewayPolicy policy_of(const LineConfig& line, const ListenerConfig& listener) {
   GatewayPolicy p;
+  p.accept_fc06 = listener.fc06;
   for (const auto& a : line.axes) p.units.insert(a.id);
   p.allow_broadcast = line.allow_broadcast;
   p.cache_max_age = line.cache_max_age();
@@ -144,11 +145,12 @@ void Daemon::start_listeners() {
     Line& line = *lines_.at(lc.name);
     if (lc.modbus_tcp) {
       modbus_.push_back(std::make_unique<ModbusTcpServer>(
-          io_, *lc.modbus_tcp, ModbusTcpServer::Framing::Mbap, line, policy_of(lc), log_));
+          io_, *lc.modbus_tcp, ModbusTcpServer::Framing::Mbap, line, policy_of(lc, *lc.modbus_tcp),
+          log_));
     }
     if (lc.rtu_tcp) {
       modbus_.push_back(std::make_unique<ModbusTcpServer>(
-          io_, *lc.rtu_tcp, ModbusTcpServer::Framing::Rtu, line, policy_of(lc), log_));
+          io_, *lc.rtu_tcp, ModbusTcpServer::Framing::Rtu, line, policy_of(lc, *lc.rtu_tcp), log_));
     }
   }
   if (config_.http) {

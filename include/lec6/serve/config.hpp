@@ -38,6 +38,11 @@ struct Endpoint {
 struct ListenerConfig {
   Endpoint listen;
   bool read_only = false;  // writes get exception 01 / HTTP 403
+  // Modbus TCP / RTU over TCP: a client's FC06 (write one register) is
+  // written as the equivalent one-register FC10 and answered as FC06 (its
+  // echo): lec6's extension, the controller itself refuses FC06
+  // (docs/protocol-decisions.md). false: exception 01, as the controller.
+  bool fc06 = true;
 };
 
 struct AxisConfig {

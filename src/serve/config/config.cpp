@@ -25,10 +25,11 @@ void read_listener(const Reader& r, const YAML::Node& n, const std::string& path
                    std::optional<ListenerConfig>& out, uint16_t default_port) {
   if (!n) return;
   if (n.IsScalar() && !n.as<bool>(true)) return;  // `modbus_tcp: false`
-  r.keys(n, path, {"listen", "read_only"});
+  r.keys(n, path, {"listen", "read_only", "fc06"});
   ListenerConfig l;
   l.listen = r.endpoint(n["listen"], path + ".listen", fmt::format("127.0.0.1:{}", default_port));
   l.read_only = r.get<bool>(n["read_only"], path + ".read_only", false);
+  l.fc06 = r.get<bool>(n["fc06"], path + ".fc06", true);
   out = l;
 }
 

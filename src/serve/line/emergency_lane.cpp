@@ -42,8 +42,8 @@ std::optional<Queued> EmergencyLane::take(std::map<uint8_t, Controller>::iterato
   Queued q = std::move(c.jobs.front());
   c.jobs.pop_front();
   --size_;
-  last_ = it->first;
-  last_answering_ = answering;
+  (answering ? last_answering_ : last_silent_) = it->first;
+  last_was_answering_ = answering;
   if (c.jobs.empty()) {
     controllers_.erase(it);
   } else {
@@ -52,31 +52,39 @@ std::optional<Queued> EmergencyLane::take(std::map<uint8_t, Controller>::iterato
   return q;
 }
 
+// The first controller after `last` (round robin) with a stop ready now
+// that is (or is not) answering.
+std::optional<std::map<uint8_t, EmergencyLane::Controller>::iterator> EmergencyLane::next_after(
+    uint8_t last, bool want_answering, TimePoint now,
+    const std::function<bool(uint8_t)>& answering) {
+  const auto ready = [&](const auto& it) {
+    return !it->second.jobs.empty() && it->second.not_before <= now &&
+           answering(it->first) == want_answering;
+  };
+  for (auto it = controllers_.upper_bound(last); it != controllers_.end(); ++it)
+    if (ready(it)) return it;
+  for (auto it = controllers_.begin(); it != controllers_.end() && it->first <= last; ++it)
+    if (ready(it)) return it;
+  return std::nullopt;
+}
+
 std::optional<Queued> EmergencyLane::pop(TimePoint now,
                                          const std::function<bool(uint8_t)>& answering) {
   if (size_ == 0) return std::nullopt;
-  // Round robin from the controller after the last one served.
-  std::vector<std::map<uint8_t, Controller>::iterator> order;
-  for (auto it = controllers_.upper_bound(last_); it != controllers_.end(); ++it)
-    order.push_back(it);
-  for (auto it = controllers_.begin(); it != controllers_.end() && it->first <= last_; ++it)
-    order.push_back(it);
-  std::optional<std::map<uint8_t, Controller>::iterator> first_answering, first_silent;
-  for (auto it : order) {
-    const Controller& c = it->second;
-    if (c.jobs.empty() || c.not_before > now) continue;
-    if (answering(it->first)) {
-      if (!first_answering) first_answering = it;
-    } else if (!first_silent) {
-      first_silent = it;
-    }
-  }
+  // Two rounds, each with its own cursor: the answering controllers', and
+  // the non-answering ones' (a turn of the latter must not restart the
+  // former's round).
+  const auto first_answering = next_after(last_answering_, true, now, answering);
+  const auto first_silent = next_after(last_silent_, false, now, answering);
   // A non-answering controller that waited its backoff gets one exchange
-  // after each answering one: it is never starved, and costs the answering
-  // ones at most one exchange each time.
-  if (first_silent &&
-      (!first_answering ||
-       (last_answering_ && now - (*first_silent)->second.waiting_since >= backoff_)))
+  // where the answering controllers' round begins again: it is never
+  // starved, and costs each answering controller's stop at most one
+  // exchange.
+  const bool round_begins =
+      first_answering && (*first_answering)->first <= last_answering_ && last_was_answering_;
+  if (first_silent && (!first_answering || (round_begins && now - (*first_silent)->second
+                                                                        .waiting_since >=
+                                                                    backoff_)))
     return take(*first_silent, false);
   if (first_answering) return take(*first_answering, true);
   return std::nullopt;

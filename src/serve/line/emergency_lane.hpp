@@ -6,11 +6,14 @@
 //
 //   - controllers take turns: one exchange each, round robin;
 //   - a controller that answers goes before one that does not (its last
-//     exchange failed), except that a non-answering one gets one exchange
-//     after each answering one once it has waited `backoff`: so a stop to an
-//     answering controller waits for at most the transaction on the wire,
-//     one exchange for a non-answering controller, and one exchange for each
-//     other answering controller with a stop queued;
+//     exchange failed), except that non-answering ones get one exchange
+//     where the answering ones' round begins again, once they have waited
+//     `backoff`: so a stop to an answering controller waits for at most the
+//     transaction on the wire, one exchange for a non-answering controller,
+//     and one exchange for each other controller with a stop queued that
+//     counts as answering (one whose reply is lost then costs a lost
+//     exchange: nobody can know before) — per stop to the same controller
+//     queued ahead of it;
 //   - a non-answering controller's stop keeps its attempts, but after a
 //     failed attempt it waits `backoff` before the next (other traffic, not
 //     only other stops, goes meanwhile);
@@ -66,12 +69,16 @@ class EmergencyLane {
     TimePoint waiting_since{};  // when its front became ready
   };
   std::optional<Queued> take(std::map<uint8_t, Controller>::iterator it, bool answering);
+  std::optional<std::map<uint8_t, Controller>::iterator> next_after(
+      uint8_t last, bool want_answering, TimePoint now,
+      const std::function<bool(uint8_t)>& answering);
 
   Duration backoff_;
   std::map<uint8_t, Controller> controllers_;
   std::size_t size_ = 0;
-  uint8_t last_ = 0;             // the controller served last (round robin)
-  bool last_answering_ = false;  // whether that one was answering
+  uint8_t last_answering_ = 0;       // round robin of the answering controllers
+  uint8_t last_silent_ = 0;          // and of the non-answering ones
+  bool last_was_answering_ = false;  // the last stop served went to an answering one
 };
 
 }  // namespace lec6::serve

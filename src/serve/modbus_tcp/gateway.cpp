@@ -28,9 +28,31 @@ modbus::Response write_reply(const modbus::Request& r) {
 
 }  // namespace
 
+namespace {
+
+constexpr uint8_t kWriteSingleRegister = 0x06;
+
+// FC06 as the one-register FC10 it stands for (issue 33 rule 4). Our codec
+// does not know FC06 (the controller refuses it): this is the gateway's
+// extension, so it lives here.
+std::optional<modbus::Request> fc06_as_fc10(std::span<const uint8_t> pdu) {
+  if (pdu.size() != 5 || pdu[0] != kWriteSingleRegister) return std::nullopt;
+  const auto address = static_cast<uint16_t>((pdu[1] << 8) | pdu[2]);
+  const uint16_t value[] = {static_cast<uint16_t>((pdu[3] << 8) | pdu[4])};
+  return modbus::WriteRegistersRequest::of(address, value);
+}
+
+}  // namespace
+
 GatewayDecision decide(const GatewayPolicy& policy, uint8_t unit, std::span<const uint8_t> pdu) {
   const uint8_t fc = pdu.empty() ? 0 : pdu[0];
+  std::optional<modbus::Bytes> fc06_echo;
   auto request = modbus::decode_request_pdu(pdu);
+  if (!request && policy.accept_fc06 && fc == kWriteSingleRegister) {
+    if (pdu.size() != 5) return exception(fc, ExceptionCode::IllegalAccessRange);
+    request = *fc06_as_fc10(pdu);
+    fc06_echo = modbus::Bytes(pdu.begin(), pdu.end());
+  }
   if (!request) {
     return exception(fc, request.error().kind == modbus::ErrorKind::UnknownFunction
                              ? ExceptionCode::IllegalFunction
@@ -47,7 +69,8 @@ GatewayDecision decide(const GatewayPolicy& policy, uint8_t unit, std::span<cons
   // The map's rules, answered here: no line time for a request the
   // controller can only refuse. The input mode is the controller's to judge.
   if (auto refusal = lec::check_request(*request, true)) return exception(fc, refusal->code);
-  LineRequest line{modbus::RequestFrame{unit, std::move(*request)}, {}, 1, Priority::Command};
+  LineRequest line{modbus::RequestFrame{unit, std::move(*request)}, {}, 1, Priority::Command, {}};
+  line.fc06_echo = std::move(fc06_echo);
   line.priority = priority_of(line.frame, Priority::Command, Priority::Command);
   if (!write) {
     line.max_cache_age = policy.cache_max_age;
@@ -76,6 +99,22 @@ std::optional<modbus::Response> tcp_reply(const modbus::RequestFrame& frame, con
       return std::nullopt;
   }
   return std::nullopt;
+}
+
+std::optional<modbus::Bytes> tcp_reply_pdu(const LineRequest& request, const JobResult& r) {
+  const bool fc06 = request.fc06_echo.has_value();
+  if (fc06 && r.failure == Failure::None && r.reply &&
+      !std::holds_alternative<modbus::ExceptionResponse>(r.reply->pdu))
+    return *request.fc06_echo;
+  auto reply = tcp_reply(request.frame, r);
+  if (!reply) return std::nullopt;
+  if (fc06) {
+    // An exception to an FC06 names FC06 (86), not the FC10 it was written as.
+    if (auto* ex = std::get_if<modbus::ExceptionResponse>(&*reply)) {
+      ex->raw_function = 0x06;
+    }
+  }
+  return modbus::encode_response_pdu(*reply);
 }
 
 }  // namespace lec6::serve

@@ -9,6 +9,10 @@
 //   - a write on a read-only listener: exception 01;
 //   - what the memory map refuses (lec::check_request): the controller's own
 //     exception code, answered without using the line;
+//   - FC06 (write one register), when the listener accepts it: the same
+//     register written by a one-register FC10, under the same checks and the
+//     same stop rule (a HOLD written to D90C1 by FC06 is a stop), answered
+//     with FC06's echo (tcp_reply_pdu); else exception 01, as the controller;
 //   - anything else: a Job at client priority — reads may be answered from
 //     the telemetry cache and are retried on a lost reply; writes never are.
 //
@@ -19,6 +23,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <vector>
 #include <set>
 #include <span>
 #include <variant>
@@ -34,6 +39,9 @@ struct GatewayPolicy {
   bool read_only = false;
   Duration cache_max_age{};
   int read_retries = 2;
+  // FC06 (write one register) accepted as the equivalent one-register FC10
+  // and answered with FC06's echo (ListenerConfig::fc06).
+  bool accept_fc06 = true;
 };
 
 // Either an answer to give at once, or the request to put on the line.
@@ -47,6 +55,9 @@ struct LineRequest {
   // A PLC's stop is a stop too: RESET, HOLD, SVON off… go at Emergency
   // (priority_of, the one rule), everything else at Command.
   Priority priority = Priority::Command;
+  // An FC06 written as FC10: its answer is this echo (the request PDU), not
+  // the FC10 reply.
+  std::optional<modbus::Bytes> fc06_echo;
 };
 using GatewayDecision = std::variant<LocalAnswer, LineRequest>;
 
@@ -55,5 +66,8 @@ GatewayDecision decide(const GatewayPolicy& policy, uint8_t unit, std::span<cons
 // The reply a Modbus TCP master gets for a finished job; nullopt: none
 // (cancelled: the master is gone).
 std::optional<modbus::Response> tcp_reply(const modbus::RequestFrame& frame, const JobResult& r);
+// The PDU a master gets for a finished LineRequest: FC06's echo when the
+// request was an FC06 and the FC10 succeeded, else tcp_reply's, encoded.
+std::optional<modbus::Bytes> tcp_reply_pdu(const LineRequest& request, const JobResult& r);
 
 }  // namespace lec6::serve

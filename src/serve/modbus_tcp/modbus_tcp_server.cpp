@@ -196,21 +196,22 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
     job.attempts = request.attempts;
     std::weak_ptr<Session> weak = weak_from_this();
     auto& io = server_.io_;
-    job.done = [weak, &io, key, transaction, frame = request.frame](const JobResult& r) {
-      asio::post(io, [weak, key, transaction, frame, r] {
-        if (auto self = weak.lock()) self->finished(key, transaction, frame, r);
+    job.done = [weak, &io, key, transaction, request](const JobResult& r) {
+      asio::post(io, [weak, key, transaction, request, r] {
+        if (auto self = weak.lock()) self->finished(key, transaction, request, r);
       });
     };
     outstanding_[key] = 0;  // before submit: a cache hit answers at once (posted)
     outstanding_[key] = server_.line_.submit(std::move(job));
   }
 
-  void finished(uint64_t key, uint16_t transaction, const modbus::RequestFrame& frame,
+  void finished(uint64_t key, uint16_t transaction, const LineRequest& request,
                 const JobResult& r) {
+    const modbus::RequestFrame& frame = request.frame;
     outstanding_.erase(key);
     if (closed_) return;
     if (r.failure == Failure::None) seen_[frame.id] = std::max(seen_[frame.id], r.started);
-    if (auto reply = tcp_reply(frame, r)) answer(transaction, frame.id, *reply);
+    if (auto reply = tcp_reply_pdu(request, r)) answer_pdu(transaction, frame.id, *reply);
     close_if_done();
     read();  // a slot came free
   }
@@ -232,6 +233,21 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
       return;
     }
     send(modbus::encode_mbap(transaction, unit, modbus::encode_response_pdu(pdu)));
+  }
+
+  // An encoded reply PDU (FC06's echo is not in our codec: gateway.hpp).
+  void answer_pdu(uint16_t transaction, uint8_t unit, const modbus::Bytes& pdu) {
+    if (server_.framing_ == Framing::Rtu) {
+      const bool exception = pdu.size() >= 2 && (pdu[0] & 0x80) != 0;
+      if (unit == modbus::kBroadcastId || (exception && !modbus::is_controller_exception(pdu[1])))
+        return;
+      modbus::Bytes adu{unit};
+      adu.insert(adu.end(), pdu.begin(), pdu.end());
+      modbus::append_crc(adu);
+      send(std::move(adu));
+      return;
+    }
+    send(modbus::encode_mbap(transaction, unit, pdu));
   }
 
   void send(modbus::Bytes bytes) {

@@ -41,7 +41,9 @@ TEST(Gateway, ReadsQueueWithCacheAndRetriesWritesWithout) {
 TEST(Gateway, RefusalsAnsweredWithoutTheLine) {
   EXPECT_EQ(local_code(decide(policy(), 9, kReadState)), ExceptionCode::GatewayPathUnavailable);
   EXPECT_EQ(local_code(decide(policy(), 0, kSvonOn)), ExceptionCode::GatewayPathUnavailable);
-  EXPECT_EQ(local_code(decide(policy(), 1, Bytes{0x06, 0x91, 0x02, 0x00, 0x01})),
+  auto no_fc06 = policy();
+  no_fc06.accept_fc06 = false;
+  EXPECT_EQ(local_code(decide(no_fc06, 1, Bytes{0x06, 0x91, 0x02, 0x00, 0x01})),
             ExceptionCode::IllegalFunction);
   EXPECT_EQ(local_code(decide(policy(), 1, Bytes{0x03, 0x50, 0x00, 0x00, 0x01})),
             ExceptionCode::IllegalAddress);  // outside the map: the controller's 02
@@ -59,6 +61,53 @@ TEST(Gateway, BroadcastOnlyWhenAllowedAndOnlyWrites) {
   p.allow_broadcast = true;
   EXPECT_EQ(std::get<LineRequest>(decide(p, 0, kSvonOn)).frame.id, 0);
   EXPECT_EQ(local_code(decide(p, 0, kReadState)), ExceptionCode::GatewayPathUnavailable);
+}
+
+// Issue 33 rule 4: FC06 through lec serve, as the one-register FC10, answered
+// as FC06's echo, under the same checks and the same stop rule.
+TEST(Gateway, AnFc06IsWrittenAsFc10AndAnsweredWithItsEcho) {
+  const Bytes fc06 = {0x06, 0x91, 0x02, 0x00, 0x01};  // D9102 <- 1
+  const auto line = std::get<LineRequest>(decide(policy(), 1, fc06));
+  EXPECT_EQ(line.frame.pdu, modbus::Request(modbus::WriteRegistersRequest{0x9102, 1, {0x00, 0x01}}));
+  EXPECT_EQ(line.priority, Priority::Command);
+  ASSERT_TRUE(line.fc06_echo);
+  JobResult ok;
+  ok.reply = modbus::ResponseFrame{
+      1, modbus::WriteMultipleResponse{modbus::FunctionCode::WriteRegisters, 0x9102, 1}};
+  EXPECT_EQ(tcp_reply_pdu(line, ok), fc06) << "the echo, as a controller answers FC06";
+  JobResult refused;
+  refused.reply = modbus::ResponseFrame{
+      1, modbus::ExceptionResponse{modbus::FunctionCode::WriteRegisters, 0x10,
+                                   ExceptionCode::IllegalAddress}};
+  EXPECT_EQ(tcp_reply_pdu(line, refused), (Bytes{0x86, 0x02})) << "an exception names FC06";
+  JobResult lost;
+  lost.failure = Failure::NoAnswer;
+  EXPECT_EQ(tcp_reply_pdu(line, lost), (Bytes{0x86, 0x0B}));
+}
+
+TEST(Gateway, AnFc06HoldToTheControlWordIsAStop) {
+  // D90C1 = SVON | HOLD (Y19, Y18): a PLC's HOLD as a word, by FC06.
+  const auto hold = std::get<LineRequest>(decide(policy(), 1, Bytes{0x06, 0x90, 0xC1, 0x03, 0x00}));
+  EXPECT_EQ(hold.priority, Priority::Emergency);
+  const auto run = std::get<LineRequest>(decide(policy(), 1, Bytes{0x06, 0x90, 0xC1, 0x06, 0x00}));
+  EXPECT_EQ(run.priority, Priority::Command) << "SVON | DRIVE starts: a command";
+}
+
+TEST(Gateway, AnFc06GetsTheChecksOfItsFc10) {
+  EXPECT_EQ(local_code(decide(policy(), 1, Bytes{0x06, 0x90, 0x00, 0x00, 0x01})),
+            ExceptionCode::IllegalAddress)
+      << "D9000 is read-only";
+  EXPECT_EQ(local_code(decide(policy(), 1, Bytes{0x06, 0x91, 0x02, 0x00})),
+            ExceptionCode::IllegalAccessRange)
+      << "a short FC06";
+  auto ro = policy();
+  ro.read_only = true;
+  EXPECT_EQ(local_code(decide(ro, 1, Bytes{0x06, 0x91, 0x02, 0x00, 0x01})),
+            ExceptionCode::IllegalFunction);
+  const auto d = decide(policy(), 1, Bytes{0x06, 0x90, 0x00, 0x00, 0x01});
+  const auto* l = std::get_if<LocalAnswer>(&d);
+  ASSERT_TRUE(l);
+  EXPECT_EQ(modbus::encode_response_pdu(l->pdu)[0], 0x86);
 }
 
 TEST(Gateway, FailedJobsBecomeGatewayExceptions) {

@@ -1,0 +1,45 @@
+#pragma once
+// A deterministic simulation of a line of lec serve (issue 31): the real
+// scheduler and emergency lane, the real Modbus TCP gateway rule (decide())
+// and the twin's controllers (sim::Controller, the model lec sim serves),
+// on a virtual clock, in a plant drawn from a seed: 1-8 controllers, some
+// dead, noisy or flapping; PLC output images every 10-100 ms in every
+// encoding (FC05, FC0F, FC10 to D90C1); SCADA floods; masters that hang up;
+// operators' stops at random moments; a shutdown now and then.
+//
+// Invariants checked on every run (a violation names its seed; the run
+// replays exactly from it, with a trace):
+//   1. every stop to an answering controller is on the wire within the
+//      emergency lane's bound (line/emergency_lane.hpp);
+//   2. an accepted stop is never cancelled, and fails with ShuttingDown only
+//      once the line has closed;
+//   3. every job is answered exactly once (none lost, none twice);
+//   4. no job waits without bound (each is answered within kMaxWait, or by
+//      the line's close);
+//   5. a HOLD the line answered as done holds the twin's axis: at rest within
+//      its deceleration time, unless a later write released it.
+//
+// What it does not simulate yet: lec serve's operations (moves, jogs,
+// judged stops: they block on threads of their own) and the HTTP/MQTT
+// front-ends; they are tested through the twin and real sockets
+// (tests/serve/ops/operations_stop_test.cpp, tests/integration/).
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace lec6::serve::sim_testing {
+
+struct SimRun {
+  uint64_t seed = 0;
+  std::vector<std::string> violations;  // empty: every invariant held
+  std::vector<double> stop_wait_ms;     // submit -> on the wire, stops to answering controllers
+  std::string plant;                    // what the seed drew, in words
+  std::string trace;                    // with `trace`: every event, one per line
+  uint64_t hash = 0;                    // of every event: equal runs, equal hashes
+  std::size_t jobs = 0, stops = 0, exchanges = 0;
+};
+
+SimRun run_line_sim(uint64_t seed, bool trace = false);
+
+}  // namespace lec6::serve::sim_testing
