@@ -107,6 +107,22 @@ StopReport Actuator::stop(StopKind kind, const StopPolicy& policy) {
   };
   // 1. The edge.
   const Coil coil = kind == StopKind::Hold ? Coil::HOLD : Coil::RESET;
+  if (kind == StopKind::Hold) {
+    // HOLD already 1: releasing it would resume a held operation. Only when
+    // the axis moves all the same (the 1 was no edge) is it released and set
+    // again: it is moving anyway.
+    bool held = false;
+    try {
+      held = client_.read_controls().test(Coil::HOLD) && at_rest(kind, report);
+    } catch (const Error&) {
+    }
+    if (held) {
+      report.actions.push_back("HOLD was already 1");
+      report.stopped = true;
+      report.took = clock.now() - began;
+      return report;
+    }
+  }
   attempt([&] {
     if (release_if_set(coil))
       report.actions.push_back(fmt::format("{} released first (a 1 over a 1 is no edge)",

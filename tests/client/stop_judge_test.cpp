@@ -68,6 +68,20 @@ TEST(StopJudge, AHoldIsJudgedBySpeedAndTheMoveResumesAfterIt) {
   EXPECT_GT(f.client->read_state().speed_mm_s, 0) << "HOLD off resumes the move";
 }
 
+TEST(StopJudge, AHoldOnAnAxisAlreadyHeldNeverReleasesIt) {
+  SimFixture f;
+  f.prepare();
+  moving(f);
+  f.axis->hold(true);
+  f.client->idle_until(f.clock.now() + 500ms);
+  ASSERT_EQ(f.client->read_state().speed_mm_s, 0);
+  f.sent.clear();
+  const auto r = f.axis->stop(StopKind::Hold, {});
+  EXPECT_TRUE(r.stopped) << r.describe();
+  for (const auto& frame : f.sent)
+    EXPECT_NE(frame[1], 0x05) << "a coil was written: releasing HOLD resumes the held move";
+}
+
 // A controller that answers RESET writes but does not act on them (a worn
 // input stage, a firmware in another mode: what the judgement exists for):
 // a master in front of the twin answers them itself.

@@ -4,7 +4,9 @@
 //
 // RESET and HOLD act on their edge: a write of 1 over a 1 (an HMI or a PLC
 // that left the coil set) is no edge and stops nothing. So a stop first
-// releases the coil when it reads 1 (or cannot be read), then makes the edge,
+// releases the coil when it reads 1 (or cannot be read), then makes the edge
+// (a hold whose HOLD already reads 1 with the axis at rest is left alone:
+// releasing it would resume the held operation),
 // then watches the axis: "stopped at X mm" only when a read shows it at rest
 // (speed 0, and BUSY 0 for a stop; a held axis keeps BUSY). If the axis is
 // not at rest within the time its speed needs at the deceleration (plus a

@@ -82,9 +82,8 @@ std::optional<Queued> EmergencyLane::pop(TimePoint now,
   // exchange.
   const bool round_begins =
       first_answering && (*first_answering)->first <= last_answering_ && last_was_answering_;
-  if (first_silent && (!first_answering || (round_begins && now - (*first_silent)->second
-                                                                        .waiting_since >=
-                                                                    backoff_)))
+  if (first_silent && (!first_answering ||
+                       (round_begins && now - (*first_silent)->second.waiting_since >= backoff_)))
     return take(*first_silent, false);
   if (first_answering) return take(*first_answering, true);
   return std::nullopt;

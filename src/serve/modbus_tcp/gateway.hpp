@@ -23,10 +23,10 @@
 
 #include <cstdint>
 #include <optional>
-#include <vector>
 #include <set>
 #include <span>
 #include <variant>
+#include <vector>
 
 #include "lec6/modbus/pdu.hpp"
 #include "line/scheduler.hpp"

@@ -68,7 +68,8 @@ TEST(Gateway, BroadcastOnlyWhenAllowedAndOnlyWrites) {
 TEST(Gateway, AnFc06IsWrittenAsFc10AndAnsweredWithItsEcho) {
   const Bytes fc06 = {0x06, 0x91, 0x02, 0x00, 0x01};  // D9102 <- 1
   const auto line = std::get<LineRequest>(decide(policy(), 1, fc06));
-  EXPECT_EQ(line.frame.pdu, modbus::Request(modbus::WriteRegistersRequest{0x9102, 1, {0x00, 0x01}}));
+  EXPECT_EQ(line.frame.pdu,
+            modbus::Request(modbus::WriteRegistersRequest{0x9102, 1, {0x00, 0x01}}));
   EXPECT_EQ(line.priority, Priority::Command);
   ASSERT_TRUE(line.fc06_echo);
   JobResult ok;
@@ -76,9 +77,9 @@ TEST(Gateway, AnFc06IsWrittenAsFc10AndAnsweredWithItsEcho) {
       1, modbus::WriteMultipleResponse{modbus::FunctionCode::WriteRegisters, 0x9102, 1}};
   EXPECT_EQ(tcp_reply_pdu(line, ok), fc06) << "the echo, as a controller answers FC06";
   JobResult refused;
-  refused.reply = modbus::ResponseFrame{
-      1, modbus::ExceptionResponse{modbus::FunctionCode::WriteRegisters, 0x10,
-                                   ExceptionCode::IllegalAddress}};
+  refused.reply =
+      modbus::ResponseFrame{1, modbus::ExceptionResponse{modbus::FunctionCode::WriteRegisters, 0x10,
+                                                         ExceptionCode::IllegalAddress}};
   EXPECT_EQ(tcp_reply_pdu(line, refused), (Bytes{0x86, 0x02})) << "an exception names FC06";
   JobResult lost;
   lost.failure = Failure::NoAnswer;

@@ -26,7 +26,7 @@ using namespace std::chrono_literals;
 using lec::Coil;
 
 constexpr Duration kRun = 3s;
-constexpr Duration kMaxWait = 10s;  // invariant 4
+constexpr Duration kMaxWait = 10s;   // invariant 4
 constexpr Duration kTimeout = 65ms;  // a reply window that stays empty
 const client::TransportError kNoReply(client::TransportErrorKind::Timeout, "no reply (simulated)");
 
@@ -35,8 +35,8 @@ enum class Kind { Clean, Dead, Noisy, Flapping };
 struct Device {
   uint8_t id = 1;
   Kind kind = Kind::Clean;
-  double fail = 0;  // Noisy: the chance an exchange fails
-  TimePoint dead_from{}, dead_until{};  // Flapping: a dead spell
+  double fail = 0;                        // Noisy: the chance an exchange fails
+  TimePoint dead_from{}, dead_until{};    // Flapping: a dead spell
   std::unique_ptr<sim::Controller> twin;  // not for Dead
   bool driven_by_plc = false;
   std::size_t last_write_key = 0;  // the last write answered done
@@ -58,7 +58,7 @@ struct Actor {
   Duration period{};
   TimePoint next{};
   std::vector<uint8_t> ids;
-  int encoding = 0;     // Plc: 0 FC05, 1 FC0F, 2 FC10 word
+  int encoding = 0;  // Plc: 0 FC05, 1 FC0F, 2 FC10 word
   bool hangs_up = false;
   std::size_t depth = 0;  // Scada: reads kept queued
 };
@@ -130,7 +130,10 @@ class World {
       Device d;
       d.id = static_cast<uint8_t>(i);
       const double r = std::uniform_real_distribution<double>(0, 1)(rng_);
-      d.kind = r < 0.55 ? Kind::Clean : r < 0.7 ? Kind::Dead : r < 0.85 ? Kind::Noisy : Kind::Flapping;
+      d.kind = r < 0.55   ? Kind::Clean
+               : r < 0.7  ? Kind::Dead
+               : r < 0.85 ? Kind::Noisy
+                          : Kind::Flapping;
       if (i == 1) d.kind = Kind::Clean;  // the operator's axis answers
       if (d.kind == Kind::Noisy) d.fail = std::uniform_real_distribution<double>(0.05, 0.5)(rng_);
       if (d.kind == Kind::Flapping) {
@@ -145,11 +148,13 @@ class World {
         on(Coil::SerialMode);
         on(Coil::SVON);
       }
-      config.axes.push_back({d.id, chance(0.7) ? std::chrono::milliseconds(pick(50, 200)) : Duration{}});
-      words += fmt::format(" {}={}", i, d.kind == Kind::Clean   ? "clean"
-                                        : d.kind == Kind::Dead  ? "dead"
-                                        : d.kind == Kind::Noisy ? fmt::format("noisy({:.2f})", d.fail)
-                                                                : "flapping");
+      config.axes.push_back(
+          {d.id, chance(0.7) ? std::chrono::milliseconds(pick(50, 200)) : Duration{}});
+      words += fmt::format(" {}={}", i,
+                           d.kind == Kind::Clean   ? "clean"
+                           : d.kind == Kind::Dead  ? "dead"
+                           : d.kind == Kind::Noisy ? fmt::format("noisy({:.2f})", d.fail)
+                                                   : "flapping");
       devices_[d.id] = std::move(d);
     }
     clock_ += 1s;  // the servos turn on
@@ -165,11 +170,19 @@ class World {
       return ids;
     };
     for (int i = pick(0, 2); i > 0; --i) {
-      Actor a{Actor::Type::Plc, std::chrono::milliseconds(pick(10, 100)), clock_, some_ids(),
-              pick(0, 2), chance(0.3), 0};
+      Actor a{Actor::Type::Plc,
+              std::chrono::milliseconds(pick(10, 100)),
+              clock_,
+              some_ids(),
+              pick(0, 2),
+              chance(0.3),
+              0};
       for (uint8_t id : a.ids) devices_[id].driven_by_plc = true;
       words += fmt::format("; PLC every {} ms (FC{}) to {} IDs", ms(a.period),
-                           a.encoding == 0 ? "05" : a.encoding == 1 ? "0F" : "10 D90C1", a.ids.size());
+                           a.encoding == 0   ? "05"
+                           : a.encoding == 1 ? "0F"
+                                             : "10 D90C1",
+                           a.ids.size());
       actors_.push_back(a);
     }
     for (int i = pick(0, 3); i > 0; --i) {
@@ -177,8 +190,13 @@ class World {
                          static_cast<std::size_t>(pick(3, 20))});
       words += "; SCADA flood";
     }
-    actors_.push_back({Actor::Type::Operator, std::chrono::milliseconds(pick(100, 700)),
-                       clock_ + 200ms, {}, 0, chance(0.3), 0});
+    actors_.push_back({Actor::Type::Operator,
+                       std::chrono::milliseconds(pick(100, 700)),
+                       clock_ + 200ms,
+                       {},
+                       0,
+                       chance(0.3),
+                       0});
     actors_.push_back({Actor::Type::Jogger, 400ms, clock_, {}, 0, false, 0});
     if (chance(0.2)) {
       shutdown_at_ = clock_ + std::chrono::milliseconds(pick(300, 2700));
@@ -245,10 +263,13 @@ class World {
   void operator_stop(const Actor& a) {
     const uint8_t id = static_cast<uint8_t>(pick(1, static_cast<int>(devices_.size())));
     if (chance(0.5)) {
-      submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::RESET), modbus::kCoilOn}, a.hangs_up);
-      submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::RESET), modbus::kCoilOff}, a.hangs_up);
+      submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::RESET), modbus::kCoilOn},
+                 a.hangs_up);
+      submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::RESET), modbus::kCoilOff},
+                 a.hangs_up);
     } else {
-      submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::HOLD), modbus::kCoilOn}, a.hangs_up);
+      submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::HOLD), modbus::kCoilOn},
+                 a.hangs_up);
     }
   }
 
@@ -257,9 +278,11 @@ class World {
     for (auto& [id, d] : devices_) {
       if (d.kind != Kind::Clean || d.driven_by_plc || !chance(0.3)) continue;
       const bool on = chance(0.6);
-      if (on) submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::HOLD), modbus::kCoilOff}, false);
-      submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::JOG_PLUS),
-                                              on ? modbus::kCoilOn : modbus::kCoilOff},
+      if (on)
+        submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::HOLD), modbus::kCoilOff}, false);
+      submit_tcp(id,
+                 modbus::WriteCoilRequest{lec::address(Coil::JOG_PLUS),
+                                          on ? modbus::kCoilOn : modbus::kCoilOff},
                  false);
     }
   }
@@ -287,11 +310,16 @@ class World {
     if (stop) ++queued_stops_[id], ++run_.stops;
     ++run_.jobs;
     const JobId jid = s_->submit(std::move(job), clock_);
-    note(1, key, [&] { return fmt::format("submit #{} job {} to ID {}{}", key, jid, id, stop ? " STOP" : ""); });
+    note(1, key, [&] {
+      return fmt::format("submit #{} job {} to ID {}{}", key, jid, id, stop ? " STOP" : "");
+    });
     if (hangs_up && chance(0.5)) {
       const bool cancelled = s_->cancel(jid, clock_);
-      if (cancelled && stop) violation(fmt::format("stop #{} to ID {} was cancelled by a hang-up", key, id));
-      note(2, key * 2 + cancelled, [&] { return fmt::format("hang-up #{}: {}", key, cancelled ? "cancelled" : "not cancelled"); });
+      if (cancelled && stop)
+        violation(fmt::format("stop #{} to ID {} was cancelled by a hang-up", key, id));
+      note(2, key * 2 + cancelled, [&] {
+        return fmt::format("hang-up #{}: {}", key, cancelled ? "cancelled" : "not cancelled");
+      });
     }
     deliver();
   }
@@ -301,7 +329,8 @@ class World {
     if (++t.answers > 1) violation(fmt::format("job #{} answered twice", key));
     t.result = r;
     if (t.stop && queued_stops_[t.id] > 0) --queued_stops_[t.id];
-    note(3, key * 8 + static_cast<uint64_t>(r.failure), [&] { return fmt::format("answer #{}: {}", key, failure_name(r.failure)); });
+    note(3, key * 8 + static_cast<uint64_t>(r.failure),
+         [&] { return fmt::format("answer #{}: {}", key, failure_name(r.failure)); });
     if (t.write && r.failure == Failure::None) devices_[t.id].last_write_key = key;
     if (t.stop) {
       if (r.failure == Failure::Cancelled)
@@ -315,9 +344,10 @@ class World {
         run_.stop_wait_ms.push_back(ms(wait));
         const Duration bound = stop_bound(t);
         if (wait > bound)
-          violation(fmt::format("stop #{} to answering ID {} waited {:.1f} ms for the wire (bound "
-                                "{:.1f} ms)",
-                                key, t.id, ms(wait), ms(bound)));
+          violation(
+              fmt::format("stop #{} to answering ID {} waited {:.1f} ms for the wire (bound "
+                          "{:.1f} ms)",
+                          key, t.id, ms(wait), ms(bound)));
         if (t.hold_on) holds_.push_back({t.id, clock_, key});
       }
     }
@@ -355,12 +385,17 @@ class World {
     ++run_.exchanges;
     Device& dev = devices_[d.frame.id];
     const TimePoint start = clock_;
-    const bool flap_dead = dev.kind == Kind::Flapping && clock_ >= dev.dead_from && clock_ < dev.dead_until;
-    const bool lost = dev.kind == Kind::Dead || flap_dead || (dev.kind == Kind::Noisy && chance(dev.fail));
-    note(4, d.id * 2 + lost, [&] { return fmt::format("wire job {} to ID {} {}", d.id, d.frame.id, lost ? "lost" : "answered"); });
+    const bool flap_dead =
+        dev.kind == Kind::Flapping && clock_ >= dev.dead_from && clock_ < dev.dead_until;
+    const bool lost =
+        dev.kind == Kind::Dead || flap_dead || (dev.kind == Kind::Noisy && chance(dev.fail));
+    note(4, d.id * 2 + lost, [&] {
+      return fmt::format("wire job {} to ID {} {}", d.id, d.frame.id, lost ? "lost" : "answered");
+    });
     if (lost) {
       clock_ += timing_.wire_time(12) + kTimeout;
-      if (dev.twin && dev.kind == Kind::Noisy) dev.twin->handle(d.frame.pdu, start);  // heard, reply lost
+      if (dev.twin && dev.kind == Kind::Noisy)
+        dev.twin->handle(d.frame.pdu, start);  // heard, reply lost
       s_->failed(kNoReply, start, clock_);
       return;
     }

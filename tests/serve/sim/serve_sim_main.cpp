@@ -35,9 +35,10 @@ int main(int argc, char** argv) {
     } else if (a == "--trace") {
       trace = true;
     } else {
-      fmt::print(stderr,
-                 "usage: serve_sim [--seeds FIRST:LAST | --seed N [--trace]]\n"
-                 "  the deterministic line simulation of lec serve (tests/serve/sim/line_sim.hpp)\n");
+      fmt::print(
+          stderr,
+          "usage: serve_sim [--seeds FIRST:LAST | --seed N [--trace]]\n"
+          "  the deterministic line simulation of lec serve (tests/serve/sim/line_sim.hpp)\n");
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -58,11 +59,14 @@ int main(int argc, char** argv) {
   }
   std::sort(waits.begin(), waits.end());
   const auto at = [&](double q) {
-    return waits.empty() ? 0.0 : waits[std::min(waits.size() - 1, static_cast<std::size_t>(q * waits.size()))];
+    return waits.empty()
+               ? 0.0
+               : waits[std::min(waits.size() - 1, static_cast<std::size_t>(q * waits.size()))];
   };
-  fmt::print("{} passed, {} failed; {} jobs, {} stops; stop to the wire (answering controllers, "
-             "{} stops): p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms\n",
-             last - first - failed, failed, jobs, stops, waits.size(), at(0.5), at(0.99),
-             waits.empty() ? 0.0 : waits.back());
+  fmt::print(
+      "{} passed, {} failed; {} jobs, {} stops; stop to the wire (answering controllers, "
+      "{} stops): p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms\n",
+      last - first - failed, failed, jobs, stops, waits.size(), at(0.5), at(0.99),
+      waits.empty() ? 0.0 : waits.back());
   return failed == 0 ? 0 : 1;
 }
