@@ -30,9 +30,9 @@ struct ServeArgs {
   std::string state_dir;  // the move history (docs/history.md)
   bool check = false;
   std::string sparkplug;  // issue 35: broker URL of the Sparkplug B edge node (docs/sparkplug.md)
-  std::string sparkplug_group = "lec6";
-  std::string sparkplug_node;  // default: the host name
-  std::string sparkplug_host;  // the primary host application to wait for
+  std::string sparkplug_group;  // default: the file's, else lec6
+  std::string sparkplug_node;   // default: the host name
+  std::string sparkplug_host;   // the primary host application to wait for
 };
 
 // --sparkplug BROKER: the edge node with its defaults, with or without --config.
@@ -45,13 +45,13 @@ void apply_sparkplug(const ServeArgs& a, serve::ServeConfig& c) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(fmt::format("--sparkplug: {}", e.what()));
   }
-  s.group_id = a.sparkplug_group;
+  if (!a.sparkplug_group.empty()) s.group_id = a.sparkplug_group;
   if (!a.sparkplug_node.empty()) s.edge_node_id = a.sparkplug_node;
   if (!a.sparkplug_host.empty()) s.primary_host_id = a.sparkplug_host;
   for (auto [flag, id] : {std::pair{"--sparkplug-group", &s.group_id},
                           {"--sparkplug-node", &s.edge_node_id},
                           {"--sparkplug-host", &s.primary_host_id}}) {
-    if (id->empty() && std::string_view(flag) != "--sparkplug-group") continue;
+    if (id->empty()) continue;
     if (const auto why = serve::check_sparkplug_id(*id)) {
       throw UsageError(fmt::format("{}: {}", flag, *why));
     }

@@ -7,9 +7,10 @@
 //
 // Prints "N passed, M failed" and exits non-zero on any failure.
 
+import { spawn, spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
-import { Checks, Host, http, serveYaml, sleep, startBroker, startServe, tmpdir } from './lib.mjs';
+import { Checks, Host, LEC, http, serveYaml, sleep, startBroker, startServe, tmpdir } from './lib.mjs';
 
 const GROUP = 'plant';
 const NODE = 'box7';
@@ -278,6 +279,20 @@ async function main() {
   await sleep(300);
   ck.check('tck-id-operational-behavior-edge-node-intentional-disconnect-packet', host.since(mark, is('NDEATH')).length === 1,
     'one NDEATH: the broker did not publish the will too (DISCONNECT was sent)');
+
+  // ---- the one command line of docs/sparkplug.md (flags, no config file) -------------
+  mark = host.mark();
+  const flags = ['serve', '--port', 'sim', '--ids', '1-2', '--sim-timing', 'fast', '--http', '', '--modbus-tcp', '',
+    '--sparkplug', broker.url, '--sparkplug-group', GROUP, '--sparkplug-node', 'cell9'];
+  const bad = spawnSync(LEC, [...flags.slice(0, -1), 'a/b'], { encoding: 'utf8', timeout: 10000 });
+  ck.check('tck-id-topic-structure-namespace-valid-edge-node-id', bad.status !== 0 && bad.stderr.includes('--sparkplug-node'),
+    'an edge node id with a / is refused', bad.stderr.trim());
+  const byFlags = spawn(LEC, flags, { stdio: 'ignore' });
+  procs.push(byFlags);
+  const nbf = await host.waitFor((m) => m.topic === `spBv1.0/${GROUP}/NBIRTH/cell9`, 10000, 'NBIRTH of the flags-only node', mark);
+  await host.waitFor((m) => m.topic === `spBv1.0/${GROUP}/DBIRTH/cell9/axis2`, 10000, 'its DBIRTH axis2', mark);
+  ck.check('lec6-command-line', metric(nbf, 'bdSeq')?.value === 0, '--sparkplug BROKER --sparkplug-group --sparkplug-node: NBIRTH and DBIRTHs');
+  byFlags.kill('SIGTERM');
 
   ck.check('sparkplug-payload decodes every message', host.undecodable.length === 0,
     `Tahu's codec decoded all ${host.messages.length} messages`, host.undecodable.slice(0, 3));

@@ -97,9 +97,16 @@ export async function startServe(dir, yaml, name = 'serve') {
   fs.writeFileSync(config, yaml);
   const err = fs.openSync(path.join(dir, `${name}.err`), 'a');
   const proc = spawn(LEC, ['serve', '--config', config], { stdio: ['ignore', 'pipe', err] });
+  const errText = () => {
+    try {
+      return fs.readFileSync(path.join(dir, `${name}.err`), 'utf8');
+    } catch {
+      return '';
+    }
+  };
   await new Promise((resolve, reject) => {
     let out = '';
-    const t = setTimeout(() => reject(new Error(`lec serve not ready: ${fs.readFileSync(path.join(dir, `${name}.err`), 'utf8')}`)), 20000);
+    const t = setTimeout(() => reject(new Error(`lec serve not ready: ${errText()}`)), 20000);
     proc.stdout.on('data', (d) => {
       out += d;
       if (out.includes('ready')) {
@@ -107,7 +114,7 @@ export async function startServe(dir, yaml, name = 'serve') {
         resolve();
       }
     });
-    proc.on('exit', (code) => reject(new Error(`lec serve exited ${code}: ${fs.readFileSync(path.join(dir, `${name}.err`), 'utf8')}`)));
+    proc.on('exit', (code) => reject(new Error(`lec serve exited ${code}: ${errText()}`)));
   });
   return proc;
 }
