@@ -102,10 +102,12 @@ async function main() {
   await host.connect();
   const view = new NodeView(host);
   const httpPort = await (await import('./lib.mjs')).freePort();
-  const bdseqFile = path.join(dir, 'bdseq');
+  // With the move history on: its odometer and health are metrics, and bdSeq is kept beside it.
+  const stateDir = path.join(dir, 'state');
   const yaml = serveYaml({
     broker: broker.url, httpPort,
-    sparkplug: { group_id: GROUP, edge_node_id: NODE, primary_host_id: HOST_ID, telemetry_hz: 50, keepalive_s: 5, bdseq_file: bdseqFile },
+    sparkplug: { group_id: GROUP, edge_node_id: NODE, primary_host_id: HOST_ID, telemetry_hz: 50, keepalive_s: 5 },
+    extra: `history: {state_dir: "${stateDir}"}\n`,
   });
 
   // ---- births wait for the primary host ------------------------------------------
@@ -140,7 +142,7 @@ async function main() {
   ck.check('tck-id-payloads-alias-birth-requirement',
     births.every((m) => m.p.metrics.every((x) => x.name && x.type && (x.alias !== undefined || x.name === 'bdSeq' || x.name === 'Node Control/Rebirth'))),
     'births carry names, datatypes and aliases');
-  for (const want of ['Position mm', 'Flags/BUSY', 'Alarms/Meaning', 'Operation/Last Result', 'Command/Outcome', 'Command/Stop']) {
+  for (const want of ['Position mm', 'Flags/BUSY', 'Alarms/Meaning', 'Operation/Last Result', 'History/Odometer m', 'History/Health', 'Command/Outcome', 'Command/Stop']) {
     ck.check('tck-id-operational-behavior-data-publish-dbirth', metric(d1, want) !== undefined, `DBIRTH has ${want}`);
   }
   ck.check('lec6-node-metrics', metric(nbirth, 'Properties/Version') && metric(nbirth, 'Lines/line1/State')?.value === 'up',
@@ -268,6 +270,10 @@ async function main() {
   procs.push(serve);
   const nb3 = await host.waitFor(is('NBIRTH'), 10000, 'NBIRTH after the restart', mark);
   ck.check('tck-id-topics-nbirth-bdseq-increment', metric(nb3, 'bdSeq')?.value === 2, 'the restart births with bdSeq 2', metric(nb3, 'bdSeq'));
+  ck.check('lec6-bdseq-file', fs.readFileSync(path.join(stateDir, 'sparkplug-bdseq'), 'utf8').trim() === '2',
+    'bdSeq kept in the history\'s state_dir');
+  const odo = metric(await host.waitFor(is('DBIRTH', 'axis1'), 5000, 'DBIRTH axis1 after the restart', mark), 'History/Odometer m');
+  ck.check('lec6-history-metrics', odo && odo.value > 0.05, `the odometer survives the restart (${odo?.value} m)`);
 
   // ---- a clean stop: NDEATH, then DISCONNECT -----------------------------------------
   mark = host.mark();

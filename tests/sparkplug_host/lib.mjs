@@ -72,7 +72,7 @@ export async function startBroker(dir) {
   throw new Error('mosquitto did not listen');
 }
 
-export function serveYaml({ broker, httpPort, axes = 2, axisHz = 20, sparkplug = {} }) {
+export function serveYaml({ broker, httpPort, axes = 2, axisHz = 20, sparkplug = {}, extra = '' }) {
   const ids = Array.from({ length: axes }, (_, i) => `{id: ${i + 1}, name: axis${i + 1}, telemetry_hz: ${axisHz}}`);
   const lines = [
     'lines:',
@@ -88,7 +88,7 @@ export function serveYaml({ broker, httpPort, axes = 2, axisHz = 20, sparkplug =
     `  broker: "${broker}"`,
   ];
   for (const [k, v] of Object.entries(sparkplug)) lines.push(`  ${k}: ${JSON.stringify(v)}`);
-  return lines.join('\n') + '\n';
+  return lines.join('\n') + '\n' + extra;
 }
 
 // `lec serve --config` in the background; resolves on its ready line.
