@@ -300,6 +300,32 @@ async function main() {
   ck.check('lec6-command-line', metric(nbf, 'bdSeq')?.value === 0, '--sparkplug BROKER --sparkplug-group --sparkplug-node: NBIRTH and DBIRTHs');
   byFlags.kill('SIGTERM');
 
+  // ---- a flag change is published at once, not at the next comparison ---------------
+  // The node compares values every 5 s here: SVRE must still reach the broker at once.
+  mark = host.mark();
+  const slowHttp = await (await import('./lib.mjs')).freePort();
+  const slow = await startServe(dir, serveYaml({ broker: broker.url, httpPort: slowHttp,
+    sparkplug: { group_id: GROUP, edge_node_id: 'slow', telemetry_hz: 0.2 } }), 'slow');
+  procs.push(slow);
+  const slowBirth = await host.waitFor((m) => m.topic === `spBv1.0/${GROUP}/DBIRTH/slow/axis1`, 10000, 'DBIRTH of the slow node', mark);
+  const svre = metric(slowBirth, 'Flags/SVRE').alias;
+  await http(slowHttp, 'POST', '/api/axes/axis1/serial', { on: true });
+  // Three changes, each within 1 s: by chance, a 5 s comparison lands in all three 1 s windows
+  // less than once in a hundred runs.
+  const lags = [];
+  for (const on of [true, false, true]) {
+    await sleep(200);
+    const sent = Date.now();
+    mark = host.mark();
+    await http(slowHttp, 'POST', '/api/axes/axis1/servo', { on });
+    const flagMsg = await host.waitFor((m) => m.topic === `spBv1.0/${GROUP}/DDATA/slow/axis1` &&
+      m.p.metrics.some((x) => x.alias === svre && x.value === on), 8000, `SVRE=${on} on the broker`, mark);
+    lags.push(flagMsg.t - sent);
+  }
+  ck.check('lec6-flag-change-at-once', lags.every((l) => l < 1000),
+    `flag changes reach the broker at once (${lags.join(', ')} ms; the node compares every 5 s)`);
+  slow.kill('SIGTERM');
+
   ck.check('sparkplug-payload decodes every message', host.undecodable.length === 0,
     `Tahu's codec decoded all ${host.messages.length} messages`, host.undecodable.slice(0, 3));
   await host.close();

@@ -52,7 +52,7 @@ struct MqttClientOptions {
   // Sparkplug B (src/serve/sparkplug/): its NDEATH will and its last message
   // are not retained; the will's payload changes before every CONNECT (a new
   // bdSeq: will_update, called on the client's thread); and STATE, a retained
-  // message, must be delivered on subscribe.
+  // message, must be delivered on subscribe (integration.sparkplug_host).
   bool will_retain = true;
   std::function<std::string()> will_update;
   bool last_retain = true;  // stop()'s last messages

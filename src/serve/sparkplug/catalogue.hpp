@@ -7,6 +7,8 @@
 // the writable command metrics of dcmd.hpp). The values come from the same
 // JSON the HTTP API and the MQTT bridge serve (ops/views.hpp).
 //
+// integration.sparkplug_host checks the births carry them (history ones included).
+//
 // Thread safety: pure functions.
 
 #include <optional>

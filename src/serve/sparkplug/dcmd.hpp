@@ -19,6 +19,9 @@
 // Execute without a position) refuses the whole DCMD: no setting is kept,
 // nothing runs, and Command/Outcome = "refused" with Command/Message why.
 //
+// Tests: tests/serve/sparkplug/dcmd_test.cpp (SparkplugDcmd.*), and over the
+// broker integration.sparkplug_host (a stop stops a moving axis, bad DCMDs refused).
+//
 // Thread safety: pure functions.
 
 #include <optional>

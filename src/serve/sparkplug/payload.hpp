@@ -3,6 +3,9 @@
 // and their protobuf encoding (sparkplug_b.proto, Debian's libprotobuf-lite):
 // nothing else in lec serve sees protobuf.
 //
+// Tests: SparkplugPayload.RoundTripsEveryTypeItWrites, and Eclipse Tahu's JS
+// codec decoding every message of integration.sparkplug_host.
+//
 // Thread safety: pure functions and values.
 
 #include <cstdint>
