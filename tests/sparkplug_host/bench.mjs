@@ -22,44 +22,22 @@ function pct(sorted, p) {
   return sorted[Math.min(sorted.length - 1, Math.floor(p * sorted.length))];
 }
 
-// One lec serve with 8 axes moving back and forth for SECONDS: its CPU per
-// second, and the DDATA per second the host saw (with the edge node on).
-async function load(broker, host, sparkplug) {
+// One lec serve with 8 axes on a twin line, ready to move (with or without the edge node).
+async function start(broker, host, sparkplug) {
   const httpPort = await freePort();
   let yaml = serveYaml({ broker: broker.url, httpPort, axes: AXES, axisHz: 10,
     sparkplug: { group_id: 'bench', edge_node_id: 'box', telemetry_hz: 10 } }).replace('baud: 115200', 'baud: 230400');
   if (!sparkplug) yaml = yaml.slice(0, yaml.indexOf('sparkplug:'));
   const serve = await startServe(dir, yaml, sparkplug ? 'with' : 'without');
   procs.push(serve);
-  const names = Array.from({ length: AXES }, (_, i) => `axis${i + 1}`);
-  if (sparkplug) await host.waitFor((m) => m.verb === 'DBIRTH' && m.device === names.at(-1), 10000, 'the last DBIRTH');
-  for (const a of names) {
+  if (sparkplug) await host.waitFor((m) => m.verb === 'DBIRTH' && m.device === `axis${AXES}`, 10000, 'the last DBIRTH');
+  for (let i = 1; i <= AXES; i++) {
     for (const [op, body] of [['serial', { on: true }], ['servo', { on: true }], ['home', {}]]) {
-      const [status, r] = await http(httpPort, 'POST', `/api/axes/${a}/${op}`, body);
-      if (status !== 200) throw new Error(`${a} ${op}: ${JSON.stringify(r)}`);
+      const [status, r] = await http(httpPort, 'POST', `/api/axes/axis${i}/${op}`, body);
+      if (status !== 200) throw new Error(`axis${i} ${op}: ${JSON.stringify(r)}`);
     }
   }
-  let running = true;
-  const mover = async (a, i) => {
-    let far = true;
-    while (running) {
-      await http(httpPort, 'POST', `/api/axes/${a}/move`, { position_mm: far ? 300 + i : 50 + i, speed_mm_s: 200 });
-      far = !far;
-    }
-  };
-  const movers = names.map(mover);
-  await sleep(1000);
-  const c0 = cpuSeconds(serve.pid);
-  const m0 = host.mark();
-  const t0 = Date.now();
-  await sleep(SECONDS * 1000);
-  const s = (Date.now() - t0) / 1000;
-  const cpu = (cpuSeconds(serve.pid) - c0) / s;
-  const ddata = host.since(m0, (m) => m.verb === 'DDATA');
-  running = false;
-  await Promise.all(movers);
-  return { serve, httpPort, s, cpu, perS: ddata.length / s,
-    metrics: ddata.reduce((n, m) => n + m.p.metrics.length, 0) / Math.max(1, ddata.length) };
+  return { serve, httpPort };
 }
 
 async function main() {
@@ -67,9 +45,33 @@ async function main() {
   procs.push(broker.proc);
   const host = new Host(broker.url, 'bench', 'none');
   await host.connect();
-  const without = await load(broker, host, false);
+  // Both at once, the same moves: the machine's other load weighs on both alike.
+  const without = await start(broker, host, false);
+  const run = await start(broker, host, true);
+  let running = true;
+  const mover = async (port, i) => {
+    let far = true;
+    while (running) {
+      await http(port, 'POST', `/api/axes/axis${i + 1}/move`, { position_mm: far ? 300 + i : 50 + i, speed_mm_s: 200 });
+      far = !far;
+    }
+  };
+  const movers = [];
+  for (let i = 0; i < AXES; i++) movers.push(mover(run.httpPort, i), mover(without.httpPort, i));
+  await sleep(1000);
+  const c0 = [cpuSeconds(run.serve.pid), cpuSeconds(without.serve.pid)];
+  const m0 = host.mark();
+  const t0 = Date.now();
+  await sleep(SECONDS * 1000);
+  const s = (Date.now() - t0) / 1000;
+  const cpu = (cpuSeconds(run.serve.pid) - c0[0]) / s;
+  const cpuWithout = (cpuSeconds(without.serve.pid) - c0[1]) / s;
+  const ddata = host.since(m0, (m) => m.verb === 'DDATA');
+  const perS = ddata.length / s;
+  const metrics = ddata.reduce((n, m) => n + m.p.metrics.length, 0) / Math.max(1, ddata.length);
+  running = false;
+  await Promise.all(movers);
   without.serve.kill('SIGTERM');
-  const run = await load(broker, host, true);
   // Flag change on the twin -> DDATA on the broker.
   const lat = [];
   let on = false;
@@ -85,10 +87,10 @@ async function main() {
     await sleep(100);
   }
   lat.sort((a, b) => a - b);
-  console.log(`${AXES} axes moving (HTTP moves back and forth), axis telemetry 10 Hz, sparkplug telemetry_hz 10, ${run.s.toFixed(1)} s each`);
-  console.log(`DDATA: ${run.perS.toFixed(1)}/s on the broker (${run.metrics.toFixed(1)} metrics each)`);
-  console.log(`lec serve CPU: ${(run.cpu * 100).toFixed(1)} % with the edge node, ${(without.cpu * 100).toFixed(1)} % without (same moves)`);
-  console.log(`CPU per DDATA: ${((run.cpu - without.cpu) / run.perS * 1e6).toFixed(0)} µs (the difference / DDATA per s)`);
+  console.log(`${AXES} axes moving (HTTP moves back and forth), axis telemetry 10 Hz, sparkplug telemetry_hz 10, ${s.toFixed(1)} s`);
+  console.log(`DDATA: ${perS.toFixed(1)}/s on the broker (${metrics.toFixed(1)} metrics each)`);
+  console.log(`lec serve CPU: ${(cpu * 100).toFixed(1)} % with the edge node, ${(cpuWithout * 100).toFixed(1)} % without (same moves, same time)`);
+  console.log(`CPU per DDATA: ${((cpu - cpuWithout) / perS * 1e6).toFixed(0)} µs (the difference / DDATA per s)`);
   console.log(`servo command sent over HTTP -> DDATA with the new SVRE on the broker: median ${pct(lat, 0.5)} ms, p95 ${pct(lat, 0.95)} ms, max ${lat.at(-1)} ms (n=${lat.length})`);
   await host.close();
 }
