@@ -3,8 +3,6 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include <asio.hpp>
-
 #include <atomic>
 #include <chrono>
 #include <fstream>
@@ -19,6 +17,7 @@
 #include "ops/views.hpp"
 #include "sparkplug/catalogue.hpp"
 #include "sparkplug/dcmd.hpp"
+#include "sparkplug/edge_node_core.hpp"
 #include "sparkplug/session.hpp"
 
 namespace lec6::serve {
@@ -57,6 +56,10 @@ void write_bdseq(const std::filesystem::path& file, uint8_t v) {
 
 }  // namespace
 
+uint64_t sparkplug_unix_ms() {
+  return unix_ms();
+}
+
 std::string sparkplug_edge_node_id(const SparkplugConfig& config) {
   if (!config.edge_node_id.empty()) return config.edge_node_id;
   char host[256] = {};
@@ -67,44 +70,6 @@ std::string sparkplug_edge_node_id(const SparkplugConfig& config) {
   }
   return id;
 }
-
-struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
-  Core(asio::io_context& io, const AxisDirectory& directory, Operations& ops,
-       const SparkplugConfig& config, Log log);
-
-  void start();
-  void stop();
-  void tick();
-  void wake(std::size_t axis);
-  // Under `mutex`:
-  void sample_axis(std::size_t axis, uint64_t now_ms);
-  void sample_node(uint64_t now_ms);
-  void publish(const std::vector<Message>& out);
-  void on_connected();
-  void on_message(const MqttMessage& m);
-  void command(const DeviceCommand& c);
-  void refuse(std::size_t axis, const std::string& why);
-  void finished(std::size_t axis, int64_t count, const OpResult& r);
-
-  asio::io_context& io;
-  const AxisDirectory& directory;
-  Operations& ops;
-  SparkplugConfig config;
-  Log log;
-  std::vector<AxisRef> axes;
-  bool history_on = false;
-  std::size_t command_offset = 0;  // where command_metrics() start in an axis' metrics
-  std::unique_ptr<MqttClient> client;
-  asio::steady_timer timer;
-  std::chrono::steady_clock::time_point next_tick{}, next_node{};
-  std::vector<std::unique_ptr<std::atomic<bool>>> woken;
-  std::atomic<bool> stopped{false};
-
-  std::mutex mutex;  // the session, the command states, the caches; held while publishing
-  std::unique_ptr<EdgeSession> session;
-  std::vector<CommandState> commands;
-  std::vector<std::optional<json>> health;  // per axis, refreshed with the node's metrics
-};
 
 SparkplugNode::Core::Core(asio::io_context& io_context, const AxisDirectory& d, Operations& o,
                           const SparkplugConfig& c, Log l)
@@ -299,80 +264,6 @@ void SparkplugNode::Core::on_message(const MqttMessage& m) {
   if (reconnect) client->reconnect();
   if (refused) refuse(refused->device, refused->why);
   if (cmd) command(*cmd);
-}
-
-void SparkplugNode::Core::command(const DeviceCommand& c) {
-  const std::size_t i = c.device;
-  std::vector<Write> writes;
-  for (const Write& w : c.writes) {
-    if (w.metric < command_offset) return refuse(i, "only Command/... metrics are writable");
-    writes.push_back({w.metric - command_offset, w.value});
-  }
-  std::optional<Plan> plan_ok;
-  std::string why;
-  {
-    std::lock_guard lock(mutex);
-    auto p = plan(writes, commands[i].move);
-    if (p) {
-      plan_ok = std::move(*p);
-    } else {
-      why = p.error();
-    }
-  }
-  if (!plan_ok) return refuse(i, why);
-  Plan& p = *plan_ok;
-  // A stop runs before anything is published or logged.
-  int64_t count = 0;
-  if (p.command) {
-    std::lock_guard lock(mutex);
-    CommandState& s = commands[i];
-    count = ++s.count;
-    s.outcome = "running";
-    s.message = std::string(op_name(p.command->op)) + (p.note.empty() ? "" : ": " + p.note);
-    s.status = 0;
-  }
-  if (p.command) {
-    ops.run(axes[i], *p.command, "sparkplug DCMD", [weak = weak_from_this(), i, count](OpResult r) {
-      if (auto self = weak.lock()) self->finished(i, count, r);
-    });
-  }
-  log(LogLevel::Info, fmt::format("sparkplug: DCMD for {}: {}{}", axes[i].name,
-                                  p.command ? op_name(p.command->op) : "move settings",
-                                  p.note.empty() ? "" : " (" + p.note + ")"));
-  std::lock_guard lock(mutex);
-  CommandState& s = commands[i];
-  s.move = p.move;
-  if (!p.command) {
-    ++s.count;
-    s.outcome = "set";
-    s.message = "move settings kept";
-    s.status = 200;
-  }
-  sample_axis(i, unix_ms());
-}
-
-void SparkplugNode::Core::refuse(std::size_t i, const std::string& why) {
-  log(LogLevel::Warning, fmt::format("sparkplug: DCMD for {} refused: {}", axes[i].name, why));
-  std::lock_guard lock(mutex);
-  CommandState& s = commands[i];
-  ++s.count;
-  s.outcome = "refused";
-  s.message = why;
-  s.status = 400;
-  sample_axis(i, unix_ms());
-}
-
-// From an operation's thread: the result as metrics, unless a later DCMD has
-// taken the device's command state since.
-void SparkplugNode::Core::finished(std::size_t i, int64_t count, const OpResult& r) {
-  if (stopped) return;
-  std::lock_guard lock(mutex);
-  CommandState& s = commands[i];
-  if (s.count != count) return;
-  s.outcome = r.status == 200 ? "done" : "failed";
-  s.status = r.status;
-  s.message = r.body.value("message", r.body.value("error", std::string()));
-  sample_axis(i, unix_ms());
 }
 
 // ---- the node ---------------------------------------------------------------------
