@@ -190,7 +190,7 @@ async function main() {
   mark = host.mark();
   for (const ax of ['axis1', 'axis2']) {
     await host.command('DCMD', NODE, ax, writes(view, ax, {
-      'Command/Move/Position mm': ['Double', 390], 'Command/Move/Speed mm/s': ['Int32', 40], 'Command/Move/Execute': ['Boolean', true],
+      'Command/Move/Position mm': ['Double', 390], 'Command/Move/Speed mm/s': ['Int32', 25], 'Command/Move/Execute': ['Boolean', true],
     }));
   }
   await waitValue(host, view, 'axis1', 'Flags/BUSY', (v) => v === true, 5000, 'axis1 moving', mark);
