@@ -26,10 +26,45 @@ struct ServeArgs {
   std::string sim_timing = "real";
   std::string mqtt;  // broker URL: the bridge with its defaults (docs/mqtt.md)
   std::string mqtt_prefix = "lec6";
-  std::string record;  // --record FILE (also the global --record)
+  std::string record;     // --record FILE (also the global --record)
   std::string state_dir;  // the move history (docs/history.md)
   bool check = false;
+  std::string sparkplug;  // issue 35: broker URL of the Sparkplug B edge node (docs/sparkplug.md)
+  std::string sparkplug_group;  // default: the file's, else lec6
+  std::string sparkplug_node;   // default: the host name
+  std::string sparkplug_host;   // the primary host application to wait for
 };
+
+// --sparkplug BROKER: the edge node with its defaults, with or without --config.
+void apply_sparkplug(const ServeArgs& a, serve::ServeConfig& c) {
+  if (a.sparkplug.empty()) return;
+  serve::SparkplugConfig s = c.sparkplug.value_or(serve::SparkplugConfig{});
+  s.broker = a.sparkplug;
+  try {
+    (void)s.url();
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(fmt::format("--sparkplug: {}", e.what()));
+  }
+  if (!a.sparkplug_group.empty()) s.group_id = a.sparkplug_group;
+  if (!a.sparkplug_node.empty()) s.edge_node_id = a.sparkplug_node;
+  if (!a.sparkplug_host.empty()) s.primary_host_id = a.sparkplug_host;
+  for (auto [flag, id] : {std::pair{"--sparkplug-group", &s.group_id},
+                          {"--sparkplug-node", &s.edge_node_id},
+                          {"--sparkplug-host", &s.primary_host_id}}) {
+    if (id->empty()) continue;
+    if (const auto why = serve::check_sparkplug_id(*id)) {
+      throw UsageError(fmt::format("{}: {}", flag, *why));
+    }
+  }
+  for (const auto& l : c.lines) {
+    for (const auto& ax : l.axes) {
+      if (const auto why = serve::check_sparkplug_id(ax.name)) {
+        throw UsageError(fmt::format("--sparkplug: axis {} as a device id: {}", ax.name, *why));
+      }
+    }
+  }
+  c.sparkplug = s;
+}
 
 void log_line(serve::LogLevel level, std::string_view text) {
   static std::mutex m;
@@ -52,6 +87,7 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
       if (!c.history) c.history = serve::HistoryConfig{};
       c.history->state_dir = a.state_dir;
     }
+    apply_sparkplug(a, c);
     return c;
   }
   serve::FlagConfig f;
@@ -83,6 +119,7 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
     }
     c.mqtt = m;
   }
+  apply_sparkplug(a, c);
   auto& line = c.lines.front();
   line.silent_interval = g.silent_interval_k;
   line.delay_ms = to_ms(g.delay_td);
@@ -165,6 +202,20 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
                   "config's mqtt: section has every setting, docs/mqtt.md)");
   cmd->add_option("--mqtt-prefix", args->mqtt_prefix, "Topic prefix of the bridge (with --mqtt)")
       ->capture_default_str();
+  cmd->add_option(
+         "--sparkplug", args->sparkplug,
+         "Be a Sparkplug B edge node on this MQTT broker, e.g. mqtt://127.0.0.1:1883: each "
+         "axis a device (the config's sparkplug: section has every setting, "
+         "docs/sparkplug.md)")
+      ->type_name("BROKER");
+  cmd->add_option("--sparkplug-group", args->sparkplug_group,
+                  "Sparkplug group id (with --sparkplug)")
+      ->capture_default_str();
+  cmd->add_option("--sparkplug-node", args->sparkplug_node,
+                  "Sparkplug edge node id (with --sparkplug; default: the host name)");
+  cmd->add_option(
+      "--sparkplug-host", args->sparkplug_host,
+      "Primary host application id: births wait for its STATE online (with --sparkplug)");
   cmd->add_option("--state-dir", args->state_dir,
                   "Keep the move history, odometer and drift warnings in DIR/history.db "
                   "(docs/history.md; the config's history: section has every setting)")

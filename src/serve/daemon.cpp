@@ -14,6 +14,7 @@
 #include "mqtt/mqtt_bridge.hpp"
 #include "ops/axis_directory.hpp"
 #include "ops/operations.hpp"
+#include "sparkplug/edge_node.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -61,10 +62,18 @@ Daemon::Daemon(ServeConfig config, Log log)
     mqtt_ = std::make_unique<MqttBridge>(io_, *directory_, *ops_, *config_.mqtt, log_);
     mqtt_->start();
   }
+  if (config_.sparkplug) {  // issue 35: bdSeq kept beside the history when there is one
+    SparkplugConfig sp = *config_.sparkplug;
+    if (sp.bdseq_file.empty() && config_.history)
+      sp.bdseq_file = config_.history->state_dir / "sparkplug-bdseq";
+    sparkplug_ = std::make_unique<SparkplugNode>(io_, *directory_, *ops_, sp, log_);
+    sparkplug_->start();
+  }
 }
 
 Daemon::~Daemon() {
   if (mqtt_) mqtt_->stop();
+  if (sparkplug_) sparkplug_->stop();
   if (http_) http_->stop();
   for (auto& s : modbus_) s->stop();
   if (ops_) ops_->shutdown();
@@ -179,6 +188,7 @@ std::vector<std::string> Daemon::endpoints() const {
   for (const auto& s : modbus_) out.push_back(s->url());
   if (http_) out.push_back("http://" + http_->address());
   if (mqtt_) out.push_back(mqtt_->describe());
+  if (sparkplug_) out.push_back(sparkplug_->describe());
   return out;
 }
 
@@ -235,6 +245,7 @@ void Daemon::finish_stop() {
   log_(LogLevel::Info, "stopping: finishing the transactions on the wire");
   for (auto& s : modbus_) s->shutdown();
   if (mqtt_) mqtt_->stop();                        // "offline" goes out; the will is for a crash
+  if (sparkplug_) sparkplug_->stop();              // NDEATH, then DISCONNECT
   for (auto& [name, line] : lines_) line->stop();  // the stops still queued go out first
   ops_->shutdown();  // operations end on "shutting down"; their HTTP answers go out
   if (http_) http_->stop();

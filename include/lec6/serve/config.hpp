@@ -160,12 +160,35 @@ struct HistoryConfig {
   std::vector<Service> services;
 };
 
+// lec serve as a Sparkplug B edge node (docs/sparkplug.md): the node is the
+// daemon, each axis a device. Beside the MQTT bridge or instead of it.
+struct SparkplugConfig {
+  std::string broker = "mqtt://127.0.0.1:1883";
+  std::string group_id = "lec6";
+  std::string edge_node_id;     // default: the host name
+  std::string client_id;        // default: lec6-sparkplug-<edge node id>
+  std::string primary_host_id;  // births wait for this host's STATE online; empty: none
+  std::string username, password;
+  std::filesystem::path ca_file, cert_file, key_file;  // TLS (mqtts://)
+  double telemetry_hz = 10;  // values compared per second (report by exception)
+  unsigned keepalive_s = 30;
+  unsigned reconnect_max_s = 30;
+  // Where bdSeq is kept across restarts; default: sparkplug-bdseq in the
+  // history's state_dir when the history is on, else none (bdSeq starts at 0).
+  std::filesystem::path bdseq_file;
+
+  BrokerUrl url() const { return parse_broker_url(broker); }
+};
+// nullopt when `id` may be a Sparkplug group, edge node or device id; else why not.
+std::optional<std::string> check_sparkplug_id(const std::string& id);
+
 struct ServeConfig {
   std::string source;  // the file read, or "command line"
   std::vector<LineConfig> lines;
   std::optional<HttpConfig> http;
   std::optional<MqttConfig> mqtt;
-  std::optional<HistoryConfig> history;  // issue 26
+  std::optional<HistoryConfig> history;      // issue 26
+  std::optional<SparkplugConfig> sparkplug;  // issue 35
 
   // The axis called `name`, with its line; nullopt when there is none.
   struct Found {

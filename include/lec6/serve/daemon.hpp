@@ -35,6 +35,7 @@ class ModbusTcpServer;
 class HttpServer;
 class HttpApi;
 class MqttBridge;
+class SparkplugNode;  // issue 35
 class Operations;
 namespace history {
 class History;
@@ -92,6 +93,7 @@ class Daemon {
   std::unique_ptr<HttpApi> api_;
   std::unique_ptr<HttpServer> http_;
   std::unique_ptr<MqttBridge> mqtt_;
+  std::unique_ptr<SparkplugNode> sparkplug_;  // issue 35
   asio::steady_timer stats_timer_;
   // Shutting down: the grace in which stops are still taken (finish_stop()).
   asio::steady_timer stop_timer_;

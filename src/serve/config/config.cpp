@@ -251,6 +251,58 @@ std::optional<MqttConfig> read_mqtt(const Reader& r, const YAML::Node& n) {
   return m;
 }
 
+// issue 35: the sparkplug: section (docs/sparkplug.md).
+std::optional<SparkplugConfig> read_sparkplug(const Reader& r, const YAML::Node& n) {
+  if (!n) return std::nullopt;
+  if (n.IsScalar() && !n.as<bool>(true)) return std::nullopt;
+  if (n.IsScalar()) return SparkplugConfig{};
+  r.keys(n, "sparkplug",
+         {"broker", "group_id", "edge_node_id", "client_id", "primary_host_id", "username",
+          "password", "ca_file", "cert_file", "key_file", "telemetry_hz", "keepalive_s",
+          "reconnect_max_s", "bdseq_file"});
+  SparkplugConfig s;
+  s.broker = r.get<std::string>(n["broker"], "sparkplug.broker", s.broker);
+  BrokerUrl url;
+  try {
+    url = parse_broker_url(s.broker);
+  } catch (const std::invalid_argument& e) {
+    r.fail(n["broker"], "sparkplug.broker", e.what());
+  }
+  for (auto [key, out] : {std::pair{"group_id", &s.group_id},
+                          {"edge_node_id", &s.edge_node_id},
+                          {"primary_host_id", &s.primary_host_id}}) {
+    *out = r.get<std::string>(n[key], std::string("sparkplug.") + key, *out);
+    if (!n[key]) continue;
+    if (const auto why = check_sparkplug_id(*out))
+      r.fail(n[key], std::string("sparkplug.") + key, *why);
+  }
+  s.client_id = r.get<std::string>(n["client_id"], "sparkplug.client_id", "");
+  s.username = r.get<std::string>(n["username"], "sparkplug.username", "");
+  s.password = r.get<std::string>(n["password"], "sparkplug.password", "");
+  if (!s.password.empty() && s.username.empty()) {
+    r.fail(n["password"], "sparkplug.password", "a password needs a username");
+  }
+  for (auto [key, out] :
+       {std::pair{"ca_file", &s.ca_file}, {"cert_file", &s.cert_file}, {"key_file", &s.key_file}}) {
+    *out = r.get<std::string>(n[key], std::string("sparkplug.") + key, "");
+    if (out->empty()) continue;
+    if (!url.tls)
+      r.fail(n[key], std::string("sparkplug.") + key, "TLS files need an mqtts:// broker");
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(*out, ec)) {
+      r.fail(n[key], std::string("sparkplug.") + key,
+             fmt::format("cannot read '{}': no such file", out->string()));
+    }
+  }
+  s.telemetry_hz = r.number(n["telemetry_hz"], "sparkplug.telemetry_hz", 10, 0.1, 1000);
+  s.keepalive_s = static_cast<unsigned>(
+      r.integer(n["keepalive_s"], "sparkplug.keepalive_s", 30, 5, 65535, "5 to 65535 s"));
+  s.reconnect_max_s = static_cast<unsigned>(
+      r.integer(n["reconnect_max_s"], "sparkplug.reconnect_max_s", 30, 1, 3600, "1 to 3600 s"));
+  s.bdseq_file = r.get<std::string>(n["bdseq_file"], "sparkplug.bdseq_file", "");
+  return s;
+}
+
 // Names are unique across the whole daemon: /api/axes/{name} and MQTT
 // topics address axes by name alone.
 void check_unique_names(const Reader& r, const YAML::Node& root, const ServeConfig& c) {
@@ -273,7 +325,7 @@ void check_unique_names(const Reader& r, const YAML::Node& root, const ServeConf
 
 ServeConfig read_root(const Reader& r, const YAML::Node& root) {
   if (!root.IsMap()) r.fail(root, "", "expected a map with lines: (and http:, mqtt:)");
-  r.keys(root, "", {"lines", "http", "mqtt", "history"});
+  r.keys(root, "", {"lines", "http", "mqtt", "history", "sparkplug"});
   ServeConfig c;
   c.source = r.source();
   const auto lines = root["lines"];
@@ -289,10 +341,29 @@ ServeConfig read_root(const Reader& r, const YAML::Node& root) {
   c.http = read_http(r, root["http"]);
   c.mqtt = read_mqtt(r, root["mqtt"]);
   c.history = history::read_history(r, root["history"]);
+  c.sparkplug = read_sparkplug(r, root["sparkplug"]);
+  if (c.sparkplug) {
+    for (std::size_t i = 0; i < c.lines.size(); ++i) {
+      for (std::size_t j = 0; j < c.lines[i].axes.size(); ++j) {
+        if (const auto why = check_sparkplug_id(c.lines[i].axes[j].name)) {
+          r.fail(root["lines"][i]["axes"][j], fmt::format("lines[{}].axes[{}].name", i, j),
+                 "a Sparkplug device id: " + *why);
+        }
+      }
+    }
+  }
   return c;
 }
 
 }  // namespace
+
+std::optional<std::string> check_sparkplug_id(const std::string& id) {
+  if (id.empty()) return "empty";
+  if (id.find_first_of("/+#") != std::string::npos) {
+    return fmt::format("'{}' has a '/', '+' or '#' (Sparkplug ids are one topic level)", id);
+  }
+  return std::nullopt;
+}
 
 bool Endpoint::loopback() const {
   in_addr v4{};

@@ -69,6 +69,7 @@ struct MqttClient::Impl {
   bool stopped = false;
   bool connected = false;
   bool failing = false;      // the last attempt failed (report failures once)
+  bool redial = false;       // reconnect() under way: connect again at once
   std::size_t reserved = 0;  // publishes between the bound check and their id
   PendingWindow window;
   std::unordered_set<int> awaited;  // stop()'s last messages
@@ -105,7 +106,7 @@ void MqttClient::Impl::setup() {
   };
   if (!o.will_topic.empty()) {
     check(mosquitto_will_set_v5(mosq, o.will_topic.c_str(), static_cast<int>(o.will_payload.size()),
-                                o.will_payload.data(), 1, true, nullptr),
+                                o.will_payload.data(), 1, o.will_retain, nullptr),
           "the last will");
   }
   if (!o.username.empty()) {
@@ -151,6 +152,11 @@ void MqttClient::Impl::run() {
       if (closing || stop_now) return;
       connects_before = stats.connects;
     }
+    if (o.will_update) {
+      const std::string will = o.will_update();
+      mosquitto_will_set_v5(mosq, o.will_topic.c_str(), static_cast<int>(will.size()), will.data(),
+                            1, o.will_retain, nullptr);
+    }
     int rc = first ? mosquitto_connect_bind_async(mosq, o.url.host.c_str(), o.url.port,
                                                   static_cast<int>(o.keepalive_s), nullptr)
                    : mosquitto_reconnect_async(mosq);
@@ -168,6 +174,10 @@ void MqttClient::Impl::run() {
       std::lock_guard lock(mutex);
       if (closing || stop_now) return;
       if (stats.connects != connects_before) backoff = std::chrono::seconds(1);
+      if (redial) {
+        redial = false;
+        continue;
+      }
     }
     report_failure(fmt::format("cannot reach the broker {}:{}: {}", o.url.host, o.url.port,
                                error_text(rc, saved_errno)));
@@ -309,7 +319,9 @@ void MqttClient::subscribe(const std::vector<std::string>& filters) {
   // Retain-as-published: a retained command is seen as one. Never the
   // retained messages already stored: a stale command must not arrive.
   mosquitto_subscribe_multiple(impl_->mosq, nullptr, static_cast<int>(subs.size()), subs.data(), 1,
-                               MQTT_SUB_OPT_RETAIN_AS_PUBLISHED | MQTT_SUB_OPT_SEND_RETAIN_NEVER,
+                               MQTT_SUB_OPT_RETAIN_AS_PUBLISHED |
+                                   (impl_->o.subscribe_retained ? MQTT_SUB_OPT_SEND_RETAIN_ALWAYS
+                                                                : MQTT_SUB_OPT_SEND_RETAIN_NEVER),
                                nullptr);
 }
 
@@ -327,7 +339,7 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
     for (const auto& [topic, payload] : last) {
       int mid = 0;
       if (mosquitto_publish_v5(s.mosq, &mid, topic.c_str(), static_cast<int>(payload.size()),
-                               payload.data(), 1, true, nullptr) == MOSQ_ERR_SUCCESS) {
+                               payload.data(), 1, s.o.last_retain, nullptr) == MOSQ_ERR_SUCCESS) {
         std::lock_guard lock(s.mutex);
         if (s.window.sent(mid)) s.awaited.insert(mid);
       }
@@ -348,6 +360,15 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
   }
   s.cv.notify_all();
   if (s.thread.joinable()) s.thread.join();
+}
+
+void MqttClient::reconnect() {
+  {
+    std::lock_guard lock(impl_->mutex);
+    if (!impl_->connected || impl_->stopped) return;
+    impl_->redial = true;
+  }
+  mosquitto_disconnect_v5(impl_->mosq, MQTT_RC_NORMAL_DISCONNECTION, nullptr);
 }
 
 bool MqttClient::connected() const {

@@ -49,6 +49,14 @@ struct MqttClientOptions {
   unsigned reconnect_max_s = 30;
   std::string will_topic, will_payload;  // retained, QoS 1
   std::size_t max_pending = 8192;
+  // Sparkplug B (src/serve/sparkplug/): its NDEATH will and its last message
+  // are not retained; the will's payload changes before every CONNECT (a new
+  // bdSeq: will_update, called on the client's thread); and STATE, a retained
+  // message, must be delivered on subscribe (integration.sparkplug_host).
+  bool will_retain = true;
+  std::function<std::string()> will_update;
+  bool last_retain = true;  // stop()'s last messages
+  bool subscribe_retained = false;
 };
 
 struct MqttClientHandlers {
@@ -106,6 +114,9 @@ class MqttClient final : public MqttSession {
 
   bool connected() const override;
   MqttClientStats stats() const;
+  // Ends this connection (DISCONNECT) and connects again at once, with a
+  // fresh will (Sparkplug: the primary host went offline).
+  void reconnect();
 
  private:
   struct Impl;

@@ -1,0 +1,292 @@
+#include "sparkplug/edge_node.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <mutex>
+
+#include "history/history.hpp"
+#include "line/line.hpp"
+#include "mqtt/mqtt_client.hpp"
+#include "ops/axis_directory.hpp"
+#include "ops/operations.hpp"
+#include "ops/views.hpp"
+#include "sparkplug/catalogue.hpp"
+#include "sparkplug/dcmd.hpp"
+#include "sparkplug/edge_node_core.hpp"
+#include "sparkplug/session.hpp"
+
+namespace lec6::serve {
+
+using namespace sparkplug;
+using nlohmann::json;
+
+namespace {
+
+constexpr Duration kStopGrace = std::chrono::seconds(2);
+
+uint64_t unix_ms() {
+  return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                   std::chrono::system_clock::now().time_since_epoch())
+                                   .count());
+}
+
+std::optional<uint8_t> read_bdseq(const std::filesystem::path& file) {
+  if (file.empty()) return std::nullopt;
+  std::ifstream in(file);
+  int v = -1;
+  if (!(in >> v) || v < 0 || v > 255) return std::nullopt;
+  return static_cast<uint8_t>(v);
+}
+
+void write_bdseq(const std::filesystem::path& file, uint8_t v) {
+  if (file.empty()) return;
+  const auto tmp = file.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << static_cast<int>(v) << "\n";
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, file, ec);
+}
+
+}  // namespace
+
+uint64_t sparkplug_unix_ms() {
+  return unix_ms();
+}
+
+std::string sparkplug_edge_node_id(const SparkplugConfig& config) {
+  if (!config.edge_node_id.empty()) return config.edge_node_id;
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  std::string id = host[0] ? host : "lec6";
+  for (char& c : id) {
+    if (c == '/' || c == '+' || c == '#') c = '-';
+  }
+  return id;
+}
+
+SparkplugNode::Core::Core(asio::io_context& io_context, const AxisDirectory& d, Operations& o,
+                          const SparkplugConfig& c, Log l)
+    : io(io_context),
+      directory(d),
+      ops(o),
+      config(c),
+      log(std::move(l)),
+      axes(d.axes()),
+      history_on(d.history() != nullptr),
+      timer(io_context),
+      commands(axes.size()),
+      health(axes.size()) {
+  SessionConfig s;
+  s.group_id = config.group_id;
+  s.edge_node_id = sparkplug_edge_node_id(config);
+  s.primary_host_id = config.primary_host_id;
+  s.node_metrics = node_metrics(d.lines());
+  for (const AxisRef& a : axes) {
+    s.devices.push_back({a.name, axis_metrics(history_on)});
+    woken.push_back(std::make_unique<std::atomic<bool>>(false));
+  }
+  command_offset = axis_metrics(history_on).size() - command_metrics().size();
+  session = std::make_unique<EdgeSession>(std::move(s), read_bdseq(config.bdseq_file));
+}
+
+void SparkplugNode::Core::publish(const std::vector<Message>& out) {
+  for (const Message& m : out) client->publish(m.topic, m.payload, m.qos, m.retain);
+}
+
+void SparkplugNode::Core::start() {
+  const std::weak_ptr<Core> weak = weak_from_this();
+  MqttClientOptions o;
+  o.url = config.url();
+  o.client_id = config.client_id.empty() ? "lec6-sparkplug-" + session->config().edge_node_id
+                                         : config.client_id;
+  o.username = config.username;
+  o.password = config.password;
+  o.ca_file = config.ca_file.string();
+  o.cert_file = config.cert_file.string();
+  o.key_file = config.key_file.string();
+  o.keepalive_s = config.keepalive_s;
+  o.reconnect_max_s = config.reconnect_max_s;
+  o.will_topic = session->topic("NDEATH");
+  o.will_retain = false;
+  o.last_retain = false;
+  o.subscribe_retained = true;  // the primary host's STATE is retained
+  o.will_update = [weak] {
+    auto c = weak.lock();
+    if (!c) return std::string();
+    std::lock_guard lock(c->mutex);
+    Message will = c->session->will();  // a new bdSeq for this CONNECT
+    write_bdseq(c->config.bdseq_file, c->session->bdseq());
+    return will.payload;
+  };
+  MqttClientHandlers h;
+  h.connected = [weak] {
+    if (auto c = weak.lock()) c->on_connected();
+  };
+  h.disconnected = [weak](const std::string& why) {
+    auto c = weak.lock();
+    if (!c) return;
+    {
+      std::lock_guard lock(c->mutex);
+      c->session->disconnected();
+    }
+    c->log(LogLevel::Warning, fmt::format("sparkplug: {}; retrying with back-off", why));
+  };
+  h.message = [weak](const MqttMessage& m) {
+    if (auto c = weak.lock()) c->on_message(m);
+  };
+  client = std::make_unique<MqttClient>(std::move(o), std::move(h));
+
+  // A flag, health or alarm change is sampled at once, not at the next tick.
+  std::map<Line*, std::map<uint8_t, std::size_t>> lines;
+  for (std::size_t i = 0; i < axes.size(); ++i) lines[axes[i].line][axes[i].id] = i;
+  for (auto& entry : lines) {
+    const std::map<uint8_t, std::size_t> ids = entry.second;
+    entry.first->add_observer([weak, ids](const TelemetryEvent& e, const AxisSnapshot&) {
+      if (!e.flags_changed && !e.online_changed && e.block != Block::Alarms) return;
+      const auto it = ids.find(e.id);
+      if (it == ids.end()) return;
+      if (auto c = weak.lock()) c->wake(it->second);
+    });
+  }
+  next_tick = next_node = std::chrono::steady_clock::now();
+  tick();  // values first: the first NBIRTH has them
+  client->start();
+}
+
+void SparkplugNode::Core::stop() {
+  if (stopped.exchange(true)) return;
+  timer.cancel();
+  if (!client) return;
+  Message bye;
+  {
+    std::lock_guard lock(mutex);
+    bye = session->goodbye(unix_ms());
+  }
+  client->stop({{bye.topic, bye.payload}}, kStopGrace);
+  log(LogLevel::Info, "sparkplug: NDEATH published, disconnected");
+}
+
+void SparkplugNode::Core::sample_axis(std::size_t i, uint64_t now_ms) {
+  const AxisRef& a = axes[i];
+  AxisNow now;
+  now.telemetry = telemetry_json(a, a.line->snapshot(a.id));
+  if (const auto r = ops.running(a)) now.running = r->op;
+  now.last = ops.last_result(a.name);
+  now.health = health[i];
+  now.command = &commands[i];
+  const bool online = now.telemetry.value("online", false) && now.telemetry.contains("flags");
+  publish(session->device_values(i, online, axis_values(now, history_on), now_ms));
+}
+
+void SparkplugNode::Core::sample_node(uint64_t now_ms) {
+  std::vector<LineNow> lines;
+  for (const LineConfig& lc : directory.lines()) {
+    Line* line = directory.line(lc.name);
+    if (!line) continue;
+    lines.push_back({line->is_down() ? "down: " + line->down_reason() : "up", line->stats()});
+  }
+  if (history::History* h = directory.history()) {
+    for (std::size_t i = 0; i < axes.size(); ++i) health[i] = h->health(axes[i].name);
+  }
+  publish(session->node_values(node_values(lines), now_ms));
+}
+
+// Every axis at the configured rate, the node's own metrics once a second.
+void SparkplugNode::Core::tick() {
+  const auto now = std::chrono::steady_clock::now();
+  {
+    std::lock_guard lock(mutex);
+    const uint64_t ms = unix_ms();
+    if (now >= next_node) {
+      sample_node(ms);
+      next_node = now + std::chrono::seconds(1);
+    }
+    for (std::size_t i = 0; i < axes.size(); ++i) sample_axis(i, ms);
+  }
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(1.0 / config.telemetry_hz));
+  next_tick += period;
+  if (next_tick < now) next_tick = now + period;
+  timer.expires_at(next_tick);
+  timer.async_wait([weak = weak_from_this()](const asio::error_code& ec) {
+    if (ec) return;
+    if (auto c = weak.lock(); c && !c->stopped) c->tick();
+  });
+}
+
+void SparkplugNode::Core::wake(std::size_t i) {
+  if (stopped || woken[i]->exchange(true)) return;
+  asio::post(io, [weak = weak_from_this(), i] {
+    auto c = weak.lock();
+    if (!c) return;
+    c->woken[i]->store(false);
+    if (c->stopped) return;
+    std::lock_guard lock(c->mutex);
+    c->sample_axis(i, unix_ms());
+  });
+}
+
+// On the client's thread: subscriptions first, then the births (or the wait
+// for the primary host's STATE).
+void SparkplugNode::Core::on_connected() {
+  if (stopped) return;
+  std::lock_guard lock(mutex);
+  client->subscribe(session->subscriptions());
+  publish(session->connected(unix_ms()));
+  log(LogLevel::Info,
+      fmt::format(
+          "sparkplug: connected to {}: {} with bdSeq {}{}", config.broker, session->topic("NBIRTH"),
+          session->bdseq(),
+          session->born() ? "" : fmt::format(", waiting for host {}", config.primary_host_id)));
+}
+
+void SparkplugNode::Core::on_message(const MqttMessage& m) {
+  if (stopped) return;
+  std::optional<DeviceCommand> cmd;
+  std::optional<Refusal> refused;
+  bool reconnect = false;
+  {
+    std::lock_guard lock(mutex);
+    auto r = session->received(m.topic, m.payload, m.retain, unix_ms());
+    publish(r.out);
+    if (!r.note.empty()) log(LogLevel::Info, "sparkplug: " + r.note);
+    cmd = std::move(r.command);
+    refused = std::move(r.refused);
+    reconnect = r.reconnect;
+  }
+  if (reconnect) client->reconnect();
+  if (refused) refuse(refused->device, refused->why);
+  if (cmd) command(*cmd);
+}
+
+// ---- the node ---------------------------------------------------------------------
+
+SparkplugNode::SparkplugNode(asio::io_context& io, const AxisDirectory& directory, Operations& ops,
+                             const SparkplugConfig& config, Log log)
+    : core_(std::make_shared<Core>(io, directory, ops, config, std::move(log))) {}
+
+SparkplugNode::~SparkplugNode() {
+  core_->stop();
+}
+
+void SparkplugNode::start() {
+  core_->start();
+}
+
+void SparkplugNode::stop() {
+  core_->stop();
+}
+
+std::string SparkplugNode::describe() const {
+  return fmt::format("sparkplug {} ({}/{}/{})", core_->config.broker, kNamespace,
+                     core_->config.group_id, core_->session->config().edge_node_id);
+}
+
+}  // namespace lec6::serve

@@ -1,0 +1,71 @@
+#pragma once
+// The edge node's insides (private to serve/): session, values and MQTT in
+// edge_node.cpp, DCMDs in edge_node_commands.cpp.
+
+#include <asio.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mqtt/mqtt_client.hpp"
+#include "ops/axis_directory.hpp"
+#include "ops/operations.hpp"
+#include "sparkplug/dcmd.hpp"
+#include "sparkplug/edge_node.hpp"
+#include "sparkplug/session.hpp"
+
+namespace lec6::serve {
+
+using sparkplug::CommandState;
+using sparkplug::DeviceCommand;
+using sparkplug::EdgeSession;
+using sparkplug::Message;
+
+struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
+  Core(asio::io_context& io, const AxisDirectory& directory, Operations& ops,
+       const SparkplugConfig& config, Log log);
+
+  void start();
+  void stop();
+  void tick();
+  void wake(std::size_t axis);
+  // Under `mutex`:
+  void sample_axis(std::size_t axis, uint64_t now_ms);
+  void sample_node(uint64_t now_ms);
+  void publish(const std::vector<Message>& out);
+  void on_connected();
+  void on_message(const MqttMessage& m);
+  void command(const DeviceCommand& c);
+  void refuse(std::size_t axis, const std::string& why);
+  void finished(std::size_t axis, int64_t count, const OpResult& r);
+
+  asio::io_context& io;
+  const AxisDirectory& directory;
+  Operations& ops;
+  SparkplugConfig config;
+  Log log;
+  std::vector<AxisRef> axes;
+  bool history_on = false;
+  std::size_t command_offset = 0;  // where command_metrics() start in an axis' metrics
+  std::unique_ptr<MqttClient> client;
+  asio::steady_timer timer;
+  std::chrono::steady_clock::time_point next_tick{}, next_node{};
+  std::vector<std::unique_ptr<std::atomic<bool>>> woken;
+  std::atomic<bool> stopped{false};
+
+  std::mutex mutex;  // the session, the command states, the caches; held while publishing
+  std::unique_ptr<EdgeSession> session;
+  std::vector<CommandState> commands;
+  std::vector<std::optional<nlohmann::json>> health;  // per axis, refreshed with the node's metrics
+};
+
+uint64_t sparkplug_unix_ms();
+
+}  // namespace lec6::serve
