@@ -58,7 +58,7 @@ check "no link before the twin starts" [ ! -L "$PORT" ]
 if start_twin link --pty "$PORT"; then
   check "the link exists when the ready line is out" [ -L "$PORT" ]
   check_sh "it points at a pseudo-terminal slave ($(readlink "$PORT"))" '[[ $(readlink "$PORT") == /dev/pts/* ]]'
-  check_sh "the ready line names it: $READY" '[[ $READY == "lec sim: ready on $PORT (ids 1, timing real, 38400 baud)" ]]'
+  check_sh "the ready line names it and the default twin: $READY" '[[ $READY == "lec sim: ready on $PORT (ids 1, timing real, 38400 baud, profile default, busy-delay 20ms, busy-min 60ms, homing 50 mm/s, SETON cleared on re-home)" ]]'
   stop_twin "$TWIN_PID" TERM
   check "SIGTERM: exit status 0" [ "$STATUS" = 0 ]
   check "SIGTERM: link removed" [ ! -L "$PORT" ]
