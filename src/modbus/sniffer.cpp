@@ -38,8 +38,8 @@ std::size_t reply_length_for(std::span<const uint8_t> q) {
       return 5;
     case 0x16:
       return 10;
-    case 0x17:
-      return 5 + 2u * word_at(q, 6);
+    case 0x17:  // read/write multiple registers: the read count (issue 33)
+      return 5 + 2u * word_at(q, 4);
     case 0x0C:
     case 0x11:
       return 0;  // variable: any length the reply's byte count gives

@@ -275,5 +275,22 @@ TEST(Sniffer, FramesFunctionsTheLecDoesNotHave) {
   EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
 }
 
+// FC17 (read/write multiple registers, a SCADA's): its reply is sized from the
+// read count (bytes 4-5), not the write start (issue 33). Read 2 registers,
+// write 1 at 0x0100: the reply carries 4 bytes.
+TEST(Sniffer, SizesAnFc17ReplyFromTheReadCount) {
+  Line l;
+  const Bytes fc17 =
+      frame({0x01, 0x17, 0x90, 0x00, 0x00, 0x02, 0x01, 0x00, 0x00, 0x01, 0x02, 0x12, 0x34});
+  const Bytes reply = frame({0x01, 0x17, 0x04, 0x00, 0x01, 0x00, 0x02});
+  l.at(t0 + 1ms, cat({fc17, reply, kRead, kReadReply}));
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[1].bytes, reply);
+  EXPECT_EQ(e[1].query, fc17);
+  EXPECT_EQ(e[3].query, kRead);
+  EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
+}
+
 }  // namespace
 }  // namespace lec6::modbus
