@@ -139,6 +139,22 @@ bool Sniffer::matches_pending(std::span<const uint8_t> frame) const {
   return frame[1] == fc && (pending_->reply_length == 0 || frame.size() == pending_->reply_length);
 }
 
+// FC05/FC06/FC08 replies equal their queries, so a master's resend of such a
+// query after no answer looks like the first one's reply. Decided by timing: a
+// frame equal to the waiting query, delivered in chunks of its own, that
+// began after the controller's response time (Tx + tolerance) had passed is
+// the query sent again, not a reply (a reply that late would be flagged late
+// anyway; untimed frames keep the reply reading).
+bool Sniffer::resent_query(std::size_t length) const {
+  if (!pending_ || !pending_->timed || !timed_frame(head_, length)) return false;
+  if (!std::equal(pending_->query.begin(), pending_->query.end(), buf_.begin() + head_,
+                  buf_.begin() + static_cast<std::ptrdiff_t>(head_ + length)) ||
+      pending_->query.size() != length)
+    return false;
+  const TimePoint start = times_[head_ + length - 1] - options_.timing.wire_time(length);
+  return start > pending_->end + options_.timing.response_time(length) + options_.tolerance;
+}
+
 bool Sniffer::timed_frame(std::size_t first, std::size_t length) const {
   return options_.check_timing && !lumpy_now_ && (marks_[first] & kChunkFirst) &&
          (marks_[first + length - 1] & kChunkLast);
@@ -274,6 +290,10 @@ void Sniffer::scan(bool settle) {
         (head.size() < 2 || (head[1] & ~kExceptionFlag) == pending_->query[1]);
     if (pending_) {
       if (r == Reading::Confirmed && matches_pending(head.first(rlen))) {
+        if (resent_query(rlen)) {  // the same query again after no answer (issue 33)
+          emit_query(rlen);
+          continue;
+        }
         emit_reply(rlen, true);
         continue;
       }

@@ -275,6 +275,24 @@ TEST(Sniffer, FramesFunctionsTheLecDoesNotHave) {
   EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
 }
 
+// A master resends an FC05 after no answer (Tx passed): the resend is a
+// query of its own, the first one timed out, and the echo that follows pairs
+// with the resend (issue 33). An echo within Tx still pairs with its query.
+TEST(Sniffer, AResentQueryIsNotTheFirstOnesEcho) {
+  Line l;
+  l.at(t0 + 1ms, kSvon);
+  l.at(t0 + 60ms, kSvon);  // Tx at 115200 is ~10 ms: no answer, sent again
+  l.at(t0 + 70ms, kSvon);  // the echo
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[0].kind, SniffKind::Query);
+  EXPECT_EQ(e[1].kind, SniffKind::NoReply);
+  EXPECT_EQ(e[2].kind, SniffKind::Query);
+  EXPECT_EQ(e[3].kind, SniffKind::Reply);
+  EXPECT_EQ(e[3].query_number, e[2].query_number);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 1u);
+}
+
 // FC17 (read/write multiple registers, a SCADA's): its reply is sized from the
 // read count (bytes 4-5), not the write start (issue 33). Read 2 registers,
 // write 1 at 0x0100: the reply carries 4 bytes.
