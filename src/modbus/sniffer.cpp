@@ -140,11 +140,10 @@ bool Sniffer::matches_pending(std::span<const uint8_t> frame) const {
 }
 
 // FC05/FC06/FC08 replies equal their queries, so a master's resend of such a
-// query after no answer looks like the first one's reply. Decided by timing: a
+// query after no answer looks like the first one's reply. A candidate: a
 // frame equal to the waiting query, delivered in chunks of its own, that
-// began after the controller's response time (Tx + tolerance) had passed is
-// the query sent again, not a reply (a reply that late would be flagged late
-// anyway; untimed frames keep the reply reading).
+// began after the controller's response time (Tx + tolerance); scan() then
+// decides by what follows (untimed frames keep the reply reading).
 bool Sniffer::resent_query(std::size_t length) const {
   if (!pending_ || !pending_->timed || !timed_frame(head_, length)) return false;
   if (!std::equal(pending_->query.begin(), pending_->query.end(), buf_.begin() + head_,
@@ -290,9 +289,20 @@ void Sniffer::scan(bool settle) {
         (head.size() < 2 || (head[1] & ~kExceptionFlag) == pending_->query[1]);
     if (pending_) {
       if (r == Reading::Confirmed && matches_pending(head.first(rlen))) {
-        if (resent_query(rlen)) {  // the same query again after no answer (issue 33)
-          emit_query(rlen);
-          continue;
+        if (resent_query(rlen)) {
+          // Late and equal to the query: a resend if the same frame follows
+          // (its own echo), else the late reply. Decided when the next bytes
+          // are in, or at the silence that settles them (issue 33).
+          const auto rest = head.subspan(rlen);
+          std::size_t nlen = 0;
+          const Reading next = rest.empty() ? Reading::Incomplete : try_reply(rest, nlen);
+          if (next == Reading::Incomplete && !settle) return;
+          if (next == Reading::Confirmed && nlen == rlen &&
+              std::equal(rest.begin(), rest.begin() + static_cast<std::ptrdiff_t>(rlen),
+                         head.begin())) {
+            emit_query(rlen);
+            continue;
+          }
         }
         emit_reply(rlen, true);
         continue;

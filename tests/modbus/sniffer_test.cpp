@@ -293,6 +293,25 @@ TEST(Sniffer, AResentQueryIsNotTheFirstOnesEcho) {
   EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 1u);
 }
 
+// A late echo (after Tx) followed by another query, or by silence, is the
+// reply all the same: only the same frame again makes it a resend.
+TEST(Sniffer, ALateEchoIsStillTheReply) {
+  Line l;
+  l.at(t0 + 1ms, kSvon);
+  l.at(t0 + 40ms, kSvon);  // late
+  l.at(t0 + 60ms, kRead);
+  l.at(t0 + 70ms, kReadReply);
+  l.at(t0 + 100ms, kSvon);
+  l.at(t0 + 150ms, kSvon);  // late, then silence
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 6u);
+  EXPECT_EQ(e[1].kind, SniffKind::Reply);
+  EXPECT_TRUE(e[1].has(kSniffLate));
+  EXPECT_EQ(e[3].kind, SniffKind::Reply);
+  EXPECT_EQ(e[5].kind, SniffKind::Reply);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 0u);
+}
+
 // FC17 (read/write multiple registers, a SCADA's): its reply is sized from the
 // read count (bytes 4-5), not the write start (issue 33). Read 2 registers,
 // write 1 at 0x0100: the reply carries 4 bytes.
