@@ -65,8 +65,9 @@ struct GlobalOptions {
   unsigned silent_interval_k = 1;
   Duration delay_td = std::chrono::milliseconds(5);
   bool no_silence_wait = false;  // skip the Ts gap before queries (fast twins, benchmarks only)
-  std::string record;  // --record FILE: every frame on the line into a capture file
+  std::string record;            // --record FILE: every frame on the line into a capture file
   std::string soft_limits;       // --soft-limits MIN:MAX (mm); empty: none
+  std::string alarm_polarity = "active-high";  // --alarm-polarity (lec/alarm_check.hpp)
 };
 
 // --soft-limits MIN:MAX (mm) → limits; empty → none. UsageError when malformed.
@@ -124,9 +125,10 @@ void add_step_commands(CLI::App& app, Session& session);  // step list/get/set/b
 void add_sim_command(CLI::App& app, const GlobalOptions& globals);    // sim (the twin program)
 void add_serve_command(CLI::App& app, const GlobalOptions& globals);  // serve (the bus owner)
 void add_follow_command(CLI::App& app, Session& session);  // follow (streaming setpoints)
-void add_sniff_command(CLI::App& app, const GlobalOptions& globals);  // sniff (listen-only)
+void add_sniff_command(CLI::App& app, const GlobalOptions& globals);   // sniff (listen-only)
 void add_replay_command(CLI::App& app, const GlobalOptions& globals);  // replay (a capture)
-void add_doctor_command(CLI::App& app, Session& session);  // doctor (diagnose the line)
-void add_history_commands(CLI::App& app, const GlobalOptions& globals);  // history, health (lec serve)
+void add_doctor_command(CLI::App& app, Session& session);              // doctor (diagnose the line)
+void add_history_commands(CLI::App& app,
+                          const GlobalOptions& globals);  // history, health (lec serve)
 
 }  // namespace lec6::cli

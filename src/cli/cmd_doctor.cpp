@@ -13,6 +13,7 @@
 #include "cli/sim_args.hpp"
 #include "lec6/client/doctor.hpp"
 #include "lec6/client/errors.hpp"
+#include "lec6/lec/alarm_check.hpp"
 #include "lec6/lec/alarms.hpp"
 
 namespace lec6::cli {
@@ -304,6 +305,7 @@ bool echo_fix_works(const transport::PortSpec& spec, const GlobalOptions& g, uin
 // 8. Each controller's state, read only (--fix: serial mode on, alarms reset).
 dx::ControllerState read_controller(client::Client& c, client::Actuator& axis, uint8_t id,
                                     const Fix& fix) {
+  // ALARM is never decided from X4F alone (issue 33): checked against the code below.
   dx::ControllerState st;
   st.id = id;
   c.set_id(id);
@@ -330,7 +332,10 @@ dx::ControllerState read_controller(client::Client& c, client::Actuator& axis, u
     st.svre = flags.svre();
     st.homed = flags.seton();
     st.estop = flags.estop();
-    st.alarms = alarms;
+    const auto judged =
+        lec::judge_alarm(flags, c.read_alarms().groups[0], c.options().alarm_polarity);
+    st.alarms = judged.codes;
+    st.alarm_check = judged.disagreement;
     try {
       st.name = c.read_name().text;
     } catch (const client::TransportError&) {
@@ -345,10 +350,16 @@ dx::ControllerState read_controller(client::Client& c, client::Actuator& axis, u
 }
 
 void read_controllers(const transport::PortSpec& spec, const twin::PortOptions& po,
-                      const std::vector<uint8_t>& ids, const Fix& fix, dx::Observations& obs) {
+                      const std::vector<uint8_t>& ids, const Fix& fix, dx::Observations& obs,
+                      const GlobalOptions& g) {
   auto port = twin::open_port(spec, po);
-  client::Client c(port->master(),
-                   {.id = ids.front(), .retries = 2, .timeout_margin = po.timeout_margin});
+  client::Client c(
+      port->master(),
+      {.id = ids.front(),
+       .retries = 2,
+       .alarm_polarity =
+           lec::parse_alarm_polarity(g.alarm_polarity).value_or(lec::AlarmPolarity::ActiveHigh),
+       .timeout_margin = po.timeout_margin});
   client::Actuator axis(c);
   for (uint8_t id : ids) {
     if (g_interrupted) break;
@@ -376,7 +387,7 @@ void through_gateway(const transport::PortSpec& spec, const GlobalOptions& g,
     }
   }
   obs.bauds.push_back(bp);
-  if (!bp.answering.empty()) read_controllers(spec, po, bp.answering, fix, obs);
+  if (!bp.answering.empty()) read_controllers(spec, po, bp.answering, fix, obs, g);
 }
 
 nlohmann::json to_json(const dx::Observations& obs, const dx::Report& r) {
@@ -494,8 +505,8 @@ void run_doctor(Session& s, const DoctorArgs& a) {
           if (a.fix && t->ms > 1) obs.latency_fixed = doctor_line::set_latency_timer_1ms(*t);
         }
       }
-      read_controllers(spec, port_options(g, *obs.found_baud, obs.echo_seen || g.echo), found, fix,
-                       obs);
+      read_controllers(spec, port_options(g, *obs.found_baud, obs.echo_seen || g.echo), found,
+                       fix, obs, g);
     }
   }
   const dx::Report r = dx::diagnose(obs);

@@ -26,6 +26,7 @@ struct ReplayArgs {
   std::string against = "sim";
   std::string timing = "as-captured";
   std::string profile;
+  bool ideal = false;  // --ideal: against the manual's ideal twin instead of the default
   std::string report;
   double position_tolerance_mm = twin::ReplayTolerance{}.position_mm;
   double response_tolerance_pct = twin::ReplayTolerance{}.response_ratio * 100.0;
@@ -42,7 +43,7 @@ std::set<uint8_t> ids_in(const std::vector<twin::Exchange>& exchanges) {
 std::vector<twin::Exchange> replay_on_twin(const ReplayArgs& a, const modbus::Capture& capture,
                                            const std::vector<twin::Exchange>& captured,
                                            twin::ReplayTiming timing) {
-  twin::FieldProfile p = profile_option(a.profile);
+  twin::FieldProfile p = profile_option(a.profile, a.ideal);
   // The twin times its replies at the captured line's speed.
   p.line.line.baud = capture.header.line.baud;
   p.line.timing = sim::Timing::Real;
@@ -135,6 +136,9 @@ void add_replay_command(CLI::App& app, const GlobalOptions& globals) {
                   "exchange is over")
       ->check(CLI::IsMember({"as-captured", "fast"}))
       ->capture_default_str();
+  cmd->add_flag("--ideal", a->ideal,
+                "With --against sim: the manual's ideal twin (lec sim --ideal) instead of the "
+                "default twin; a --profile is read over it");
   cmd->add_option("--profile", a->profile,
                   "With --against sim: the twin's field profile (e.g. from lec sim --calibrate)")
       ->type_name("FILE");

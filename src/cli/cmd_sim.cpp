@@ -73,7 +73,9 @@ struct SimArgs {
   std::string tap;
   Duration tap_latency{};
   bool echo_adapter = false;  // lec doctor's faults: see add_sim_command
-  bool strict_baud = false;
+  bool strict_baud = false;   // --strict-baud: the default since issue 33, still accepted
+  bool any_baud = false;      // --any-baud: answer a pty master at any rate
+  bool ideal = false;         // --ideal: the manual's ideal twin instead of the default
   std::string duplicate_ids;
   double other_master_hz = 0.0;
   std::set<std::string> given;  // options on the command line: they override the profile
@@ -118,7 +120,7 @@ void inherit(const CLI::App& parent, const CLI::App& sim, const std::string& nam
 // The twin's settings: the profile's (or the defaults), then every option
 // given on the command line.
 twin::FieldProfile settings(const SimArgs& a) {
-  twin::FieldProfile p = profile_option(a.profile);
+  twin::FieldProfile p = profile_option(a.profile, a.ideal);
   sim::ActuatorConfig& config = p.actuator;
   if (a.has("--stroke")) {
     const auto colon = a.stroke.find(':');
@@ -192,6 +194,17 @@ std::string unusual_settings(const twin::FieldProfile& p) {
   if (p.actuator.busy_min > Duration::zero())
     out += ", busy-min " + format_duration(p.actuator.busy_min);
   if (p.actuator.target_update_late) out += ", target-update-late";
+  // The assumptions of issue 33 (docs/twin-fidelity.md, section A) that differ from the ideal.
+  const sim::ActuatorConfig ideal = sim::ideal_config();
+  if (p.actuator.origin_speed_mm_s != ideal.origin_speed_mm_s)
+    out += fmt::format(", homing {:g} mm/s", p.actuator.origin_speed_mm_s);
+  if (p.actuator.homing_direction != ideal.homing_direction) out += ", homing to the max end";
+  if (p.actuator.seton_on_rehome != ideal.seton_on_rehome) out += ", SETON cleared on re-home";
+  if (!p.actuator.reset_cancels_homing) out += ", RESET does not cancel homing";
+  if (p.actuator.retarget != ideal.retarget) out += ", retarget stops first";
+  if (p.actuator.alarm_polarity != ideal.alarm_polarity) out += ", ALARM active-low";
+  if (p.actuator.setup_left_high != ideal.setup_left_high)
+    out += ", SETUP left high refuses starts";
   if (p.actuator.wear_pct_per_m > 0)
     out += fmt::format(", wear {:g} %/m", p.actuator.wear_pct_per_m);
   if (p.faults.noise_rate > 0) out += fmt::format(", noise {}/s", p.faults.noise_rate);
@@ -208,7 +221,7 @@ std::string adapter_settings(const SimArgs& a) {
   if (!a.tap.empty() && a.tap_latency > Duration::zero())
     out += ", tap-latency " + format_duration(a.tap_latency);
   if (a.echo_adapter) out += ", echo adapter";
-  if (a.strict_baud) out += ", strict baud";
+  if (a.any_baud) out += ", any baud";
   if (a.other_master_hz > 0) out += fmt::format(", other master {}/s", a.other_master_hz);
   return out;
 }
@@ -259,7 +272,7 @@ void run_sim(const SimArgs& a) {
   if (a.trace) so.trace = [](const std::string& l) { print_line(stderr, "lec sim: " + l); };
   so.warn = [](const std::string& l) { print_line(stderr, "lec sim: warning: " + l); };
   so.echo_adapter = a.echo_adapter;
-  so.strict_baud = a.strict_baud;
+  so.strict_baud = !a.any_baud;  // issue 33: a real line answers only its own baud
   if (a.other_master_hz > 0) {
     so.other_master_period = Duration(static_cast<int64_t>(1e9 / a.other_master_hz));
     so.other_master_id = ids.front();
@@ -289,8 +302,12 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
       "sim",
       "Run the digital twin (controllers on one RS485 line) on a pseudo-terminal and/or TCP");
   sim->footer(
-      "Masters open the --pty path as a serial port (any baud setting works: the twin times "
-      "the line at --baud), or connect to --tcp and send RTU frames.\n"
+      "Masters open the --pty path as a serial port set to --baud (a master at another rate is "
+      "heard as garbage and hears garbage, as on a real line; --any-baud answers any rate), or "
+      "connect to --tcp and send RTU frames.\n"
+      "The default twin follows the field's evidence (BUSY 20 ms late, shortest BUSY pulse "
+      "60 ms, homing at 50 mm/s, SETON cleared during a re-home: docs/twin-fidelity.md); "
+      "--ideal is the manual's ideal controller.\n"
       "Real timing: a reply is complete at end of query + Ts + 4 ms + Td + reply wire time "
       "(digest §1); fast timing: at once.\n"
       "Prints 'lec sim: ready on ...' once it answers; SIGINT/SIGTERM end it (state saved, link "
@@ -391,8 +408,16 @@ void add_sim_command(CLI::App& app, const GlobalOptions& globals) {
   sim->add_flag("--echo-adapter", a->echo_adapter,
                 "Line fault (pty): a 2-wire adapter that echoes every byte the master sends");
   sim->add_flag("--strict-baud", a->strict_baud,
-                "Line fault (pty): answer only a master whose port is set to --baud; at other "
-                "rates its bytes arrive as garbage, as on a real line");
+                "(The default) answer only a pty master whose port is set to --baud")
+      ->group("");
+  sim->add_flag("--any-baud", a->any_baud,
+                "Answer a pty master whatever rate its port is set to (for tools that cannot set "
+                "a baud). A pty carries no bit timing: the rate is read from the port's settings "
+                "(termios), which the master side shares");
+  sim->add_flag("--ideal", a->ideal,
+                "The manual's ideal controller (no BUSY delay, homing at 20 mm/s, SETON kept on "
+                "re-home) instead of the default twin, which follows the field's evidence "
+                "(docs/twin-fidelity.md); a --profile is read over it");
   sim->add_option("--duplicate-ids", a->duplicate_ids,
                   "Line fault: these IDs are each set on two controllers; both answer and half "
                   "of the replies collide (garbled, the ID intact)")

@@ -6,6 +6,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -69,6 +70,14 @@ transport::UniqueFd open_listen_only(const std::string& path, uint32_t baud) {
     throw CommandFailed(kTransport,
                         fmt::format("cannot configure {}: {}", path, std::strerror(errno)));
   }
+  // Listen-only (issue 33): RTS and DTR low, so an RS485 adapter whose driver
+  // enable follows RTS (or DTR) never drives the bus. The kernel raises both
+  // on open; HUPCL off keeps a later close from toggling them. A pty has no
+  // modem lines: the ioctl fails there and nothing is lost.
+  tio.c_cflag &= ~static_cast<tcflag_t>(HUPCL);
+  (void)::tcsetattr(fd.get(), TCSANOW, &tio);
+  int lines = TIOCM_RTS | TIOCM_DTR;
+  (void)::ioctl(fd.get(), TIOCMBIC, &lines);
   // What the driver (or a pty: the twin's tap) held before we listened is no
   // part of this session: its times are lost, and it would be shown as now.
   ::tcflush(fd.get(), TCIFLUSH);

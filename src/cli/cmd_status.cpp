@@ -10,6 +10,7 @@
 #include "cli/app.hpp"
 #include "cli/duration_option.hpp"
 #include "cli/views.hpp"
+#include "lec6/lec/alarm_check.hpp"
 #include "lec6/lec/units.hpp"
 
 namespace lec6::cli {
@@ -17,13 +18,16 @@ namespace {
 
 void run_status(Session& s) {
   auto& c = s.client();
-  auto& axis = s.axis();
   const auto state = c.read_state();
   const auto flags = c.read_flags();
   const auto controls = c.read_controls();
-  const auto alarms = axis.active_alarms(flags);
+  // Never from X4F alone (issue 33): X4F against the alarm code and BUSY.
+  const auto judged =
+      lec::judge_alarm(flags, c.read_alarms().groups[0], c.options().alarm_polarity);
+  const auto& alarms = judged.codes;
   if (s.json()) {
     auto j = state_json(state, flags, alarms);
+    if (!judged.disagreement.empty()) j["alarm_check"] = judged.disagreement;
     j["serial_mode"] = controls.serial_mode;
     j["servo_on"] = controls.test(lec::Coil::SVON);
     j["id"] = s.options().id;
@@ -45,6 +49,7 @@ void run_status(Session& s) {
   } else {
     for (uint8_t a : alarms) fmt::print("  Alarm      {}: {}\n", a, lec::alarm_meaning(a));
   }
+  if (!judged.disagreement.empty()) fmt::print("  Check      {}\n", judged.disagreement);
 }
 
 struct WatchOptions {

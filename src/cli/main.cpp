@@ -73,6 +73,13 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
                  "MIN:MAX in mm, e.g. 0:400: moves and steps to a target outside are refused "
                  "before anything is written (the stroke is not in the memory map)")
       ->envname("LEC_SOFT_LIMITS");
+  app.add_option("--alarm-polarity", o.alarm_polarity,
+                 "How the controller reports X4F ALARM: active-high (the manual: 1 = alarm) or "
+                 "active-low (inverted, as some controllers do); lec status and lec doctor say "
+                 "when X4F and the alarm code disagree")
+      ->envname("LEC_ALARM_POLARITY")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"active-high", "active-low"}));
   using std::chrono::milliseconds;
   using std::chrono::seconds;
   cli::add_duration_option(&app, "--reply-margin", o.reply_margin,
@@ -157,8 +164,7 @@ int main(int argc, char** argv) {
     // A mistyped command: name the nearest one rather than CLI11's generic words.
     if (auto m = cli::unknown_command_message(app, argc, argv)) return fail(cli::kUsage, *m);
     // Every usage error starts with `lec:`, CLI11's own too (issue 27).
-    return fail(cli::kUsage,
-                fmt::format("{}\nRun with --help for more information.", e.what()));
+    return fail(cli::kUsage, fmt::format("{}\nRun with --help for more information.", e.what()));
   } catch (const cli::UsageError& e) {
     return fail(cli::kUsage, e.what());
   } catch (const client::InvalidRequest& e) {

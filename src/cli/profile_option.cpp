@@ -6,10 +6,11 @@
 
 namespace lec6::cli {
 
-twin::FieldProfile profile_option(const std::string& file) {
-  if (file.empty()) return {};
+twin::FieldProfile profile_option(const std::string& file, bool ideal) {
+  const twin::FieldProfile base = ideal ? twin::ideal_profile() : twin::default_profile();
+  if (file.empty()) return base;
   try {
-    return twin::load_field_profile(file);
+    return twin::load_field_profile(file, base);
   } catch (const twin::ProfileError& e) {
     throw UsageError(fmt::format("--profile: {}", e.what()));
   }

@@ -1,7 +1,8 @@
 #pragma once
-// `--profile FILE` of `lec sim` and `lec replay`: the field profile in FILE,
-// or the defaults when none is given; a file that does not load is a usage
-// error naming the option and what is wrong.
+// `--profile FILE` of `lec sim` and `lec replay`: the field profile in FILE
+// over the default twin (twin::default_profile(): the field's evidence), or over
+// the manual's ideal with `--ideal` (twin::ideal_profile()); a file that does
+// not load is a usage error naming the option and what is wrong.
 
 #include <string>
 
@@ -9,6 +10,6 @@
 
 namespace lec6::cli {
 
-twin::FieldProfile profile_option(const std::string& file);
+twin::FieldProfile profile_option(const std::string& file, bool ideal = false);
 
 }  // namespace lec6::cli

@@ -47,8 +47,8 @@ std::optional<client::SoftLimits> parse_soft_limits(const std::string& text) {
   if (text.empty()) return std::nullopt;
   const auto colon = text.find(':');
   const auto usage = [&](const std::string& why) {
-    return UsageError(fmt::format("--soft-limits '{}': {}; expected MIN:MAX in mm, e.g. 0:400",
-                                  text, why));
+    return UsageError(
+        fmt::format("--soft-limits '{}': {}; expected MIN:MAX in mm, e.g. 0:400", text, why));
   };
   if (colon == std::string::npos) throw usage("no ':'");
   const auto end = [&](const std::string& part) {
@@ -89,8 +89,8 @@ client::Client& Session::client(std::string_view default_port) {
   const auto spec = transport::parse_port_spec(text);
   if (!options_.record.empty() && spec.kind != transport::PortKind::Tcp) {
     static const SteadyClock steady;  // every link but a --timing fast twin's runs on it
-    impl->recorder = std::make_unique<twin::LineRecorder>(options_.record, "record",
-                                                          options_.baud, text, steady);
+    impl->recorder = std::make_unique<twin::LineRecorder>(options_.record, "record", options_.baud,
+                                                          text, steady);
     po.record = impl->recorder->tap();
   } else if (!options_.record.empty()) {
     po.record = [](transport::LineChunk&&) {};  // open_port refuses Modbus TCP with a reason
@@ -100,6 +100,8 @@ client::Client& Session::client(std::string_view default_port) {
   client::ClientOptions co;
   co.id = static_cast<uint8_t>(options_.id);
   co.retries = options_.retries;
+  co.alarm_polarity =
+      lec::parse_alarm_polarity(options_.alarm_polarity).value_or(lec::AlarmPolarity::ActiveHigh);
   impl->client = std::make_unique<client::Client>(impl->port->master(), co);
   impl->axis = std::make_unique<client::Actuator>(*impl->client);
   impl->axis->set_soft_limits(parse_soft_limits(options_.soft_limits));

@@ -2,6 +2,9 @@
 
 #include <unistd.h>
 
+#include <optional>
+#include <string>
+
 #include <fmt/color.h>
 
 #include "cli/app.hpp"
@@ -13,14 +16,48 @@ namespace {
 using modbus::SniffEvent;
 using modbus::SniffKind;
 
-double ms(Duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
+double ms(Duration d) {
+  return std::chrono::duration<double, std::milli>(d).count();
+}
 
-int64_t us(Duration d) { return std::chrono::duration_cast<std::chrono::microseconds>(d).count(); }
+int64_t us(Duration d) {
+  return std::chrono::duration_cast<std::chrono::microseconds>(d).count();
+}
+
+// Standard Modbus functions a master sends that the LEC does not have (it
+// answers exception 01), named with what they ask (issue 33: mbpoll, HMIs and a
+// field driver write one register with FC06). nullopt: not one of these.
+std::optional<std::string> foreign_function(const modbus::Bytes& b, bool reply) {
+  if (b.size() != 8) return std::nullopt;
+  const unsigned address = static_cast<unsigned>(b[2] << 8 | b[3]);
+  const unsigned word = static_cast<unsigned>(b[4] << 8 | b[5]);
+  switch (b[1]) {
+    case 0x06:
+      return reply ? fmt::format(
+                         "ID {} write single register (06h) echo: D{:04X} = {:04X}h ({}) "
+                         "(a gateway's or another device's reply: the LEC has no FC06)",
+                         b[0], address, word, word)
+                   : fmt::format(
+                         "ID {} write single register (06h) D{:04X} <- {:04X}h ({}): not "
+                         "a function of the LEC (it answers exception 01; lec serve's "
+                         "gateway writes it as FC10)",
+                         b[0], address, word, word);
+    case 0x04:
+      if (reply) return std::nullopt;
+      return fmt::format(
+          "ID {} read input registers (04h) {:04X}h x{}: not a function of the LEC "
+          "(it answers exception 01)",
+          b[0], address, word);
+    default:
+      return std::nullopt;
+  }
+}
 
 std::string explain(const SniffEvent& e) {
   switch (e.kind) {
     case SniffKind::Query: {
       if (const auto q = modbus::decode_request(e.bytes)) return lec::explain_request(*q);
+      if (auto named = foreign_function(e.bytes, false)) return *named;
       // A sound frame the LEC would refuse (a function it does not have, a bad count).
       return fmt::format("ID {} function {:02X}h: {}", e.bytes[0], e.bytes[1],
                          lec::explain_bytes(e.bytes, lec::FrameRole::Request));
@@ -30,6 +67,7 @@ std::string explain(const SniffEvent& e) {
       const auto query = modbus::decode_request(e.query);
       if (reply && query) return lec::explain_response(*reply, &*query);
       if (reply) return lec::explain_response(*reply);
+      if (auto named = foreign_function(e.bytes, true)) return *named;
       return fmt::format("ID {} function {:02X}h: {}", e.bytes[0], e.bytes[1],
                          lec::explain_bytes(e.bytes, lec::FrameRole::Reply));
     }
@@ -44,10 +82,14 @@ std::string explain(const SniffEvent& e) {
 
 std::string_view kind_name(SniffKind k) {
   switch (k) {
-    case SniffKind::Query: return "query";
-    case SniffKind::Reply: return "reply";
-    case SniffKind::Noise: return "noise";
-    case SniffKind::NoReply: return "no_reply";
+    case SniffKind::Query:
+      return "query";
+    case SniffKind::Reply:
+      return "reply";
+    case SniffKind::Noise:
+      return "noise";
+    case SniffKind::NoReply:
+      return "no_reply";
   }
   return "noise";
 }
@@ -66,7 +108,9 @@ Subject subject_of(const SniffEvent& e) {
   s.function = e.bytes.size() > 1 ? (e.bytes[1] & 0x7Fu) : 0u;
   if (q.size() >= 6 && q[1] != 0x08) {
     const unsigned start = static_cast<unsigned>(q[2] << 8 | q[3]);
-    const unsigned count = q[1] == 0x05 ? 1u : static_cast<unsigned>(q[4] << 8 | q[5]);
+    // FC05 and FC06 carry a value where the others carry a count: one address.
+    const unsigned count =
+        q[1] == 0x05 || q[1] == 0x06 ? 1u : static_cast<unsigned>(q[4] << 8 | q[5]);
     if (e.kind != SniffKind::Reply || !e.query.empty())
       s.addresses = std::pair{start, start + (count ? count : 1) - 1};
   }
@@ -96,7 +140,8 @@ std::pair<unsigned, unsigned> parse_range(const std::string& term, const std::st
   }
   const unsigned lo = parse_number(term, text.substr(0, dash), base);
   const unsigned hi = parse_number(term, text.substr(dash + 1), base);
-  if (lo > hi) throw UsageError(fmt::format("--filter: range '{}' in '{}' runs backwards", text, term));
+  if (lo > hi)
+    throw UsageError(fmt::format("--filter: range '{}' in '{}' runs backwards", text, term));
   return {lo, hi};
 }
 
@@ -145,11 +190,13 @@ SniffFilter SniffFilter::parse(const std::string& text) {
       continue;
     }
     if (key != "id" && key != "fn")
-      throw UsageError(fmt::format("--filter: unknown key '{}' in '{}' (id=, fn= or addr=)", key, term));
+      throw UsageError(
+          fmt::format("--filter: unknown key '{}' in '{}' (id=, fn= or addr=)", key, term));
     std::size_t p = 0;
     while (p <= value.size()) {
       const std::size_t comma = std::min(value.find(',', p), value.size());
-      (key == "id" ? f.ids_ : f.functions_).push_back(parse_range(term, value.substr(p, comma - p), 0));
+      (key == "id" ? f.ids_ : f.functions_)
+          .push_back(parse_range(term, value.substr(p, comma - p), 0));
       p = comma + 1;
     }
   }
@@ -168,7 +215,10 @@ bool SniffFilter::passes(const SniffEvent& e) const {
 }
 
 SniffPrinter::SniffPrinter(bool json, TimePoint origin, const modbus::LineTiming& timing)
-    : json_(json), colour_(!json && ::isatty(STDOUT_FILENO) == 1), origin_(origin), timing_(timing) {}
+    : json_(json),
+      colour_(!json && ::isatty(STDOUT_FILENO) == 1),
+      origin_(origin),
+      timing_(timing) {}
 
 void SniffPrinter::notice(const std::string& text) {
   fmt::print(stderr, "lec sniff: {}\n", text);
@@ -190,10 +240,12 @@ void SniffPrinter::event(const SniffEvent& e) {
     if (e.response) j["response_ms"] = ms(*e.response);
     if (e.kind == SniffKind::Reply && !e.query.empty()) j["tx_ms"] = ms(e.limit);
     nlohmann::json f = nlohmann::json::array();
-    for (const auto& [flag, name] :
-         {std::pair{modbus::kSniffShortSilence, "short_silence"}, {modbus::kSniffLate, "late"},
-          {modbus::kSniffUnsolicited, "unsolicited"}, {modbus::kSniffSecondMaster, "second_master"},
-          {modbus::kSniffBadCrc, "bad_crc"}, {modbus::kSniffBroadcast, "broadcast"}}) {
+    for (const auto& [flag, name] : {std::pair{modbus::kSniffShortSilence, "short_silence"},
+                                     {modbus::kSniffLate, "late"},
+                                     {modbus::kSniffUnsolicited, "unsolicited"},
+                                     {modbus::kSniffSecondMaster, "second_master"},
+                                     {modbus::kSniffBadCrc, "bad_crc"},
+                                     {modbus::kSniffBroadcast, "broadcast"}}) {
       if (e.has(flag)) f.push_back(name);
     }
     j["flags"] = f;
@@ -203,18 +255,20 @@ void SniffPrinter::event(const SniffEvent& e) {
   }
   static constexpr const char* kArrow[] = {"->", "<-", "~~", "!!"};
   std::string timing;
-  if (e.silence) timing = fmt::format("  [silence {:.2f} ms, Ts {:.2f}]", ms(*e.silence), ms(e.limit));
+  if (e.silence)
+    timing = fmt::format("  [silence {:.2f} ms, Ts {:.2f}]", ms(*e.silence), ms(e.limit));
   if (e.response) timing = fmt::format("  [{:.2f} ms, Tx {:.2f}]", ms(*e.response), ms(e.limit));
   const std::string number = e.query_number ? fmt::format("#{:<5}", e.query_number) : "      ";
-  std::string line = fmt::format("{:12.6f} {} {} {}  | {}{}", ms(e.first_byte - origin_) / 1000.0,
-                                 kArrow[static_cast<int>(e.kind)], number,
-                                 modbus::to_hex(e.bytes), text, timing);
+  std::string line =
+      fmt::format("{:12.6f} {} {} {}  | {}{}", ms(e.first_byte - origin_) / 1000.0,
+                  kArrow[static_cast<int>(e.kind)], number, modbus::to_hex(e.bytes), text, timing);
   if (colour_) {
     const fmt::terminal_color c = e.kind == SniffKind::Query   ? fmt::terminal_color::cyan
                                   : e.kind == SniffKind::Reply ? fmt::terminal_color::green
                                                                : fmt::terminal_color::yellow;
     fmt::print("{}", fmt::styled(line, fmt::fg(c)));
-    if (!flags.empty()) fmt::print("{}", fmt::styled("  !! " + flags, fmt::fg(fmt::terminal_color::red)));
+    if (!flags.empty())
+      fmt::print("{}", fmt::styled("  !! " + flags, fmt::fg(fmt::terminal_color::red)));
   } else {
     fmt::print("{}{}", line, flags.empty() ? "" : "  !! " + flags);
   }
@@ -262,16 +316,18 @@ void SniffPrinter::stats(const modbus::SniffStats& s, const modbus::SnifferOptio
     std::fflush(stdout);
     return;
   }
-  fmt::print("statistics: {} frames, {} noise bursts ({} bytes), {} queries without Ts, {} over "
-             "another master's transaction\n",
-             s.frames, s.noise_bursts, s.noise_bytes, s.short_silences, s.second_master);
+  fmt::print(
+      "statistics: {} frames, {} noise bursts ({} bytes), {} queries without Ts, {} over "
+      "another master's transaction\n",
+      s.frames, s.noise_bursts, s.noise_bytes, s.short_silences, s.second_master);
   if (s.lumpy)
-    fmt::print("timing: partly not judged, the adapter delivered frames in lumps (set its latency "
-               "timer to 1 ms)\n");
+    fmt::print(
+        "timing: partly not judged, the adapter delivered frames in lumps (set its latency "
+        "timer to 1 ms)\n");
   if (!options.check_timing) fmt::print("timing: not judged (--no-timing)\n");
   fmt::print("{:>4} {:>9} {:>9} {:>10} {:>8} {:>10} {:>6} {:>11} {:>8} {:>8}\n", "ID", "queries",
-             "exchanges", "exceptions", "timeouts", "CRC errors", "late", "unsolicited",
-             "p50 ms", "p99 ms");
+             "exchanges", "exceptions", "timeouts", "CRC errors", "late", "unsolicited", "p50 ms",
+             "p99 ms");
   for (const auto& [id, v] : s.ids) {
     fmt::print("{:>4} {:>9} {:>9} {:>10} {:>8} {:>10} {:>6} {:>11} {:>8.2f} {:>8.2f}\n", id,
                v.queries, v.exchanges, v.exceptions, v.timeouts, v.crc_errors, v.late,

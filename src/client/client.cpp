@@ -155,7 +155,9 @@ lec::StateData Client::read_state() {
 lec::StatusFlags Client::read_flags() {
   const auto reply = transact(
       ReadBitsRequest{FunctionCode::ReadInputs, lec::kStatusInputs, lec::kStatusInputCount});
-  return lec::StatusFlags::from_packed(expect_reply<ReadBitsResponse>(reply, "read flags").packed);
+  return lec::normalise_alarm(
+      lec::StatusFlags::from_packed(expect_reply<ReadBitsResponse>(reply, "read flags").packed),
+      options_.alarm_polarity);
 }
 
 lec::ControlFlags Client::read_controls() {

@@ -418,6 +418,14 @@ void Builder::controllers() {
                      : lec::alarm_clear_hint(c.alarms),
           c.id);
     }
+    if (!c.alarm_check.empty()) {
+      add("controller", Severity::Warning, fmt::format("{}: {}", who, c.alarm_check),
+          "X4F ALARM alone decides nothing: lec6 checks it against the alarm code (D0380) and "
+          "motion, and they disagree",
+          "give lec the polarity the message names: lec --alarm-polarity VALUE … (or "
+          "LEC_ALARM_POLARITY=VALUE)",
+          c.id);
+    }
     std::vector<std::string> steps;
     std::vector<std::string> state;
     state.push_back(c.serial_mode ? "serial mode (Y30 = 1)" : "parallel mode (Y30 = 0)");

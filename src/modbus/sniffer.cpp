@@ -38,8 +38,8 @@ std::size_t reply_length_for(std::span<const uint8_t> q) {
       return 5;
     case 0x16:
       return 10;
-    case 0x17:
-      return 5 + 2u * word_at(q, 6);
+    case 0x17:  // read/write multiple registers: the read count (issue 33)
+      return 5 + 2u * word_at(q, 4);
     case 0x0C:
     case 0x11:
       return 0;  // variable: any length the reply's byte count gives
@@ -137,6 +137,21 @@ bool Sniffer::matches_pending(std::span<const uint8_t> frame) const {
   const uint8_t fc = pending_->query[1];
   if (frame[1] == (fc | kExceptionFlag)) return true;
   return frame[1] == fc && (pending_->reply_length == 0 || frame.size() == pending_->reply_length);
+}
+
+// FC05/FC06/FC08 replies equal their queries, so a master's resend of such a
+// query after no answer looks like the first one's reply. A candidate: a
+// frame equal to the waiting query, delivered in chunks of its own, that
+// began after the controller's response time (Tx + tolerance); scan() then
+// decides by what follows (untimed frames keep the reply reading).
+bool Sniffer::resent_query(std::size_t length) const {
+  if (!pending_ || !pending_->timed || !timed_frame(head_, length)) return false;
+  if (!std::equal(pending_->query.begin(), pending_->query.end(), buf_.begin() + head_,
+                  buf_.begin() + static_cast<std::ptrdiff_t>(head_ + length)) ||
+      pending_->query.size() != length)
+    return false;
+  const TimePoint start = times_[head_ + length - 1] - options_.timing.wire_time(length);
+  return start > pending_->end + options_.timing.response_time(length) + options_.tolerance;
 }
 
 bool Sniffer::timed_frame(std::size_t first, std::size_t length) const {
@@ -274,6 +289,21 @@ void Sniffer::scan(bool settle) {
         (head.size() < 2 || (head[1] & ~kExceptionFlag) == pending_->query[1]);
     if (pending_) {
       if (r == Reading::Confirmed && matches_pending(head.first(rlen))) {
+        if (resent_query(rlen)) {
+          // Late and equal to the query: a resend if the same frame follows
+          // (its own echo), else the late reply. Decided when the next bytes
+          // are in, or at the silence that settles them (issue 33).
+          const auto rest = head.subspan(rlen);
+          std::size_t nlen = 0;
+          const Reading next = rest.empty() ? Reading::Incomplete : try_reply(rest, nlen);
+          if (next == Reading::Incomplete && !settle) return;
+          if (next == Reading::Confirmed && nlen == rlen &&
+              std::equal(rest.begin(), rest.begin() + static_cast<std::ptrdiff_t>(rlen),
+                         head.begin())) {
+            emit_query(rlen);
+            continue;
+          }
+        }
         emit_reply(rlen, true);
         continue;
       }

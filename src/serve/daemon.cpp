@@ -7,6 +7,7 @@
 #include "history/history.hpp"
 #include "http/api/http_api.hpp"
 #include "http/http_server.hpp"
+#include "lec6/transport/capture_file.hpp"
 #include "lec6/twin/line_recorder.hpp"
 #include "line/line.hpp"
 #include "line/wire.hpp"
@@ -90,6 +91,10 @@ void Daemon::start_lines() {
     // --record: one capture per line for the daemon's life (reopens append to it).
     transport::LineTap record;
     if (!lc.record.empty()) {
+      // An earlier capture is kept, never truncated (issue 33).
+      if (const auto kept = transport::keep_earlier_capture(lc.record))
+        log_(LogLevel::Info,
+             fmt::format("line {}: kept the earlier capture {} as {}", lc.name, lc.record, *kept));
       auto rec = std::make_shared<twin::LineRecorder>(lc.record, "serve", lc.baud, lc.port, kClock);
       record = [rec, tap = rec->tap()](transport::LineChunk&& c) { tap(std::move(c)); };
       log_(LogLevel::Info, fmt::format("line {}: recording every frame to {}", lc.name, lc.record));

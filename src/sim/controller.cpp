@@ -222,7 +222,7 @@ void Controller::fire(const Event& e) {
   // PhaseEnd: the current profile has ended at its target.
   switch (op_.kind) {
     case OpKind::Homing:
-      if (op_.homing_phase == 0 && config_.stroke_min_mm < -kEps) {
+      if (op_.homing_phase == 0 && std::abs(homing_end()) > kEps) {
         op_.homing_phase = 1;
         plan_phase();
         return;
@@ -236,6 +236,11 @@ void Controller::fire(const Event& e) {
       complete(true);
       return;
     case OpKind::Move:
+      if (op_.stop_first) {  // at rest after a StopThenStart retarget: now the new move
+        op_.stop_first = false;
+        plan_phase();
+        return;
+      }
       if (op_.phase == MovePhase::Approach && op_.move.pushing) {
         op_.phase = MovePhase::Push;
         plan_phase();
@@ -275,9 +280,9 @@ double Controller::thrust_pct(TimePoint t) {
   if (op_.kind == OpKind::Stalled) return op_.stall_thrust;
   const Kinematics k = kin();
   if (std::abs(k.velocity) < kEps && std::abs(k.acceleration) < kEps) return 0.0;
-  const double raw = wear_factor() * (config_.friction_thrust_pct +
-                                      config_.accel_thrust_pct * std::abs(k.acceleration) /
-                                          config_.max_accel_mm_s2);
+  const double raw = wear_factor() * (config_.friction_thrust_pct + config_.accel_thrust_pct *
+                                                                        std::abs(k.acceleration) /
+                                                                        config_.max_accel_mm_s2);
   double cap = behaviour::kJogThrustPct;
   if (op_.kind == OpKind::Move) {
     cap = op_.phase == MovePhase::Push ? op_.move.pushing_force : op_.move.moving_force;
@@ -299,7 +304,9 @@ lec::StatusFlags Controller::status(TimePoint t) {
   f.set(lec::StatusFlags::Area, area_mm_ && area_mm_->contains(pos));
   f.set(lec::StatusFlags::Warea, config_.warea_mm && config_.warea_mm->contains(pos));
   f.set(lec::StatusFlags::Estop, estop_);
-  f.set(lec::StatusFlags::Alarm, alarm_.has_value());
+  // R-FLAG-ALARM-POLARITY: X4F as the manual says (1 = alarm), or inverted.
+  f.set(lec::StatusFlags::Alarm,
+        alarm_.has_value() != (config_.alarm_polarity == ActuatorConfig::AlarmPolarity::ActiveLow));
   return f;
 }
 

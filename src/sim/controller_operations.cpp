@@ -38,11 +38,15 @@ void Controller::plan_phase() {
     profile_ = MotionProfile::stop(now_, k.position, k.velocity, current_decel());
     return;
   }
+  if (op_.stop_first) {  // retarget: StopThenStart (R-MOTION-RETARGET)
+    profile_ = MotionProfile::stop(now_, k.position, k.velocity, current_decel());
+    return;
+  }
   double target = k.position;
   MoveLimits limits;
   switch (op_.kind) {
     case OpKind::Homing:
-      target = op_.homing_phase == 0 ? config_.stroke_min_mm : 0.0;
+      target = op_.homing_phase == 0 ? homing_end() : 0.0;
       limits = {config_.origin_speed_mm_s, config_.origin_accel_mm_s2, config_.origin_accel_mm_s2};
       break;
     case OpKind::Move:
@@ -110,6 +114,8 @@ void Controller::reset() {
     if (lec::alarm_resettable(*alarm_) || !svre_) alarm_.reset();
     return;
   }
+  // R-FLAG-RESET-HOMING: a controller whose RESET does not cancel homing.
+  if (op_.kind == OpKind::Homing && !config_.reset_cancels_homing) return;
   cancel_pending();
   if (op_.kind != OpKind::None) {
     cancel_op(current_decel());
@@ -149,6 +155,8 @@ void Controller::start_homing() {
   op_ = Op{};
   op_.kind = OpKind::Homing;
   op_.held = control_.test(Coil::HOLD);
+  // R-FLAG-SETON-REHOME: SETON falls while a re-home runs, or is kept.
+  if (config_.seton_on_rehome == ActuatorConfig::SetonOnRehome::Clear) seton_ = false;
   begin_busy();
   inp_ = false;
   pressing_ = false;
@@ -206,10 +214,14 @@ void Controller::start_record(const lec::StepData& data, bool is_step, uint8_t s
     m.trigger_level = data.trigger_level_pct;
   }
 
+  // R-MOTION-RETARGET: a start while the carriage moves re-plans from the
+  // current state, or (StopThenStart) first decelerates to rest.
+  const bool moving = profile_.moving(now_);
   op_ = Op{};
   op_.kind = OpKind::Move;
   op_.phase = MovePhase::Approach;
   op_.move = m;
+  op_.stop_first = moving && config_.retarget == ActuatorConfig::Retarget::StopThenStart;
   op_.held = control_.test(Coil::HOLD);
   begin_busy();
   inp_ = false;
@@ -270,7 +282,7 @@ void Controller::write_control(const ControlWrite& write) {
   if (rose(Coil::HOLD)) hold_on();
   if (fell(Coil::HOLD)) hold_off();
   if (rose(Coil::SETUP)) take_start(PendingStart{true, {}, false, 0, target_001mm_, {}});
-  if (rose(Coil::DRIVE)) {
+  if (rose(Coil::DRIVE) && !setup_blocks_starts()) {
     const uint8_t n = control_.selected_step();
     take_start(PendingStart{false, eeprom_.steps[n], true, n, target_001mm_, {}});
   }
@@ -295,7 +307,14 @@ void Controller::write_direct_data(std::size_t index, uint16_t value) {
   if (index < direct_.size()) direct_[index] = value;
 }
 
+// R-FLAG-SETUP-HIGH: SETUP left at 1 after a return to origin.
+bool Controller::setup_blocks_starts() const {
+  return config_.setup_left_high == ActuatorConfig::SetupLeftHigh::RefusesStarts &&
+         control_.test(Coil::SETUP);
+}
+
 void Controller::start_direct() {
+  if (setup_blocks_starts()) return;
   take_start(PendingStart{false,
                           lec::StepData::from_registers(std::span<const uint16_t>(direct_)),
                           false,

@@ -4,9 +4,11 @@
 #include "lec6/transport/capture_file.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 #include <fmt/format.h>
@@ -19,6 +21,21 @@ modbus::Capture read_capture_file(const std::string& path) {
   auto text = read_file(path);
   if (!text) throw InvalidArgument(text.error());
   return modbus::parse_capture(*text, path);
+}
+
+std::optional<std::string> keep_earlier_capture(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || st.st_size == 0) return std::nullopt;
+  for (unsigned n = 1;; ++n) {
+    const std::string kept = fmt::format("{}.{}", path, n);
+    struct stat other {};
+    if (::stat(kept.c_str(), &other) == 0) continue;
+    if (::rename(path.c_str(), kept.c_str()) != 0) {
+      throw InvalidArgument(fmt::format("cannot keep the earlier capture {} as {}: {}", path, kept,
+                                        std::strerror(errno)));
+    }
+    return kept;
+  }
 }
 
 CaptureWriter::CaptureWriter(const std::string& path, const modbus::CaptureHeader& header,

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 
+#include "lec6/modbus/crc.hpp"
+#include "lec6/modbus/length.hpp"
+
 namespace lec6::transport {
 
 RecordingLink::RecordingLink(client::Link& inner, LineTap tap)
@@ -16,11 +19,44 @@ RecordingLink::~RecordingLink() {
   }
 }
 
+namespace {
+
+// Bytes that begin a reply frame and need more to complete it.
+bool incomplete_frame(const modbus::Bytes& b) {
+  const auto len = modbus::response_length(b);
+  return len.status == modbus::FrameLength::Status::NeedMore ||
+         (len.status == modbus::FrameLength::Status::Known && b.size() < len.bytes);
+}
+
+}  // namespace
+
 void RecordingLink::flush() {
+  for (auto& p : pieces_) tap_(std::move(p));  // never completed: as they arrived
+  pieces_.clear();
   if (pending_.bytes.empty()) return;
   LineChunk out = std::move(pending_);
   pending_ = LineChunk{};
   tap_(std::move(out));
+}
+
+// The held pieces and the pending group: one sound frame → one group; more
+// bytes than the frame, or a failed CRC → the pieces go as they arrived.
+void RecordingLink::settle_pieces() {
+  if (pieces_.empty()) return;
+  modbus::Bytes all;
+  for (const auto& p : pieces_) all.insert(all.end(), p.bytes.begin(), p.bytes.end());
+  all.insert(all.end(), pending_.bytes.begin(), pending_.bytes.end());
+  if (incomplete_frame(all)) return;  // wait for the rest
+  const auto len = modbus::response_length(all);
+  if (len.status == modbus::FrameLength::Status::Known && all.size() == len.bytes &&
+      modbus::crc_ok(all)) {
+    pending_.start = pieces_.front().start;
+    pending_.bytes = std::move(all);
+    pieces_.clear();
+    return;
+  }
+  for (auto& p : pieces_) tap_(std::move(p));
+  pieces_.clear();
 }
 
 // A line carries one frame at a time, so records follow each other: a frame
@@ -46,10 +82,21 @@ void RecordingLink::received(std::span<const uint8_t> bytes) {
   const TimePoint start = std::max(inner_.clock().now() - wire, line_free_);
   const TimePoint end = start + wire;
   line_free_ = end;
-  if (!pending_.bytes.empty() && start - pending_.end > timing_.silent_interval()) flush();
+  if (!pending_.bytes.empty() && start - pending_.end > timing_.silent_interval()) {
+    modbus::Bytes so_far;
+    for (const auto& p : pieces_) so_far.insert(so_far.end(), p.bytes.begin(), p.bytes.end());
+    so_far.insert(so_far.end(), pending_.bytes.begin(), pending_.bytes.end());
+    if (incomplete_frame(so_far)) {  // a reply cut by the adapter: hold it (issue 33)
+      pieces_.push_back(std::move(pending_));
+      pending_ = LineChunk{};
+    } else {
+      flush();
+    }
+  }
   if (pending_.bytes.empty()) pending_.start = start;
   pending_.end = end;
   pending_.bytes.insert(pending_.bytes.end(), bytes.begin(), bytes.end());
+  settle_pieces();
 }
 
 std::size_t RecordingLink::read_some(std::span<uint8_t> buffer, TimePoint deadline) {

@@ -13,6 +13,7 @@
 #include <variant>
 
 #include "calibrate_fit.hpp"
+#include "calibrate_session.hpp"
 #include "lec6/lec/flags.hpp"
 #include "lec6/sim/behaviour.hpp"
 #include "lec6/sim/motion_profile.hpp"
@@ -22,121 +23,8 @@ namespace {
 
 using modbus::FunctionCode;
 
-constexpr uint16_t kBusyInput = 0x48;
-constexpr uint16_t kSetonInput = 0x4A;
-constexpr uint16_t kDriveCoil = 0x1A;
-constexpr uint16_t kSetupCoil = 0x1C;
-
 int64_t us(Duration d) {
   return std::chrono::duration_cast<std::chrono::microseconds>(d).count();
-}
-
-enum class StartKind { Direct, Step, Home };
-
-struct Start {
-  StartKind kind = StartKind::Direct;
-  int64_t act_us = 0;  // the controller acted on the start: end of query + Ts
-  std::size_t line = 0;
-  std::optional<double> speed, accel, decel;  // commanded (direct moves)
-};
-
-template <typename T>
-struct Sampled {
-  int64_t t_us = 0;
-  T value{};
-};
-
-// What the master learnt from the line, dated as the twin samples (query end + Ts).
-struct Session {
-  std::vector<Start> starts;
-  std::vector<Sampled<int32_t>> positions;  // D9000, 0.01 mm
-  std::vector<Sampled<int>> speeds;         // D9002, mm/s
-  std::vector<Sampled<int>> thrusts;        // D9003, %
-  std::vector<Sampled<bool>> busy;          // X48
-  std::vector<Sampled<bool>> seton;         // X4A
-};
-
-Session read_session(std::span<const Exchange> exchanges, int64_t ts_us) {
-  Session s;
-  std::array<uint16_t, 16> direct{};  // D9102–D9111 as written
-  bool drive = false, setup = false;
-  for (const auto& e : exchanges) {
-    if (!e.reply) continue;
-    auto q = modbus::decode_request(e.query);
-    auto r = modbus::decode_response(*e.reply);
-    if (!q || !r || std::holds_alternative<modbus::ExceptionResponse>(r->pdu)) continue;
-    const int64_t at = e.query_end_us + ts_us;
-    auto coil = [&](uint16_t address, bool on) {
-      bool& level = address == kDriveCoil ? drive : setup;
-      if (on && !level) {
-        s.starts.push_back({address == kDriveCoil ? StartKind::Step : StartKind::Home, at, e.line,
-                            std::nullopt, std::nullopt, std::nullopt});
-      }
-      level = on;
-    };
-    std::visit(
-        [&](const auto& req) {
-          using T = std::decay_t<decltype(req)>;
-          if constexpr (std::is_same_v<T, modbus::ReadBitsRequest>) {
-            auto* rb = std::get_if<modbus::ReadBitsResponse>(&r->pdu);
-            if (!rb || req.function != FunctionCode::ReadInputs) return;
-            for (uint16_t i = 0; i < req.count; ++i) {
-              const unsigned a = req.start + i;
-              if (a == kBusyInput) s.busy.push_back({at, rb->bit(i)});
-              if (a == kSetonInput) s.seton.push_back({at, rb->bit(i)});
-            }
-          } else if constexpr (std::is_same_v<T, modbus::ReadRegistersRequest>) {
-            auto* rr = std::get_if<modbus::ReadRegistersResponse>(&r->pdu);
-            if (!rr) return;
-            for (std::size_t i = 0; i < rr->values.size(); ++i) {
-              const unsigned a = req.start + static_cast<unsigned>(i);
-              if (a == 0x9000 && i + 1 < rr->values.size()) {
-                s.positions.push_back({at, static_cast<int32_t>((uint32_t{rr->values[i]} << 16) |
-                                                                rr->values[i + 1])});
-              }
-              if (a == 0x9002) s.speeds.push_back({at, rr->values[i]});
-              if (a == 0x9003) s.thrusts.push_back({at, rr->values[i]});
-            }
-          } else if constexpr (std::is_same_v<T, modbus::WriteCoilRequest>) {
-            if (req.coil == kDriveCoil || req.coil == kSetupCoil) coil(req.coil, req.on());
-          } else if constexpr (std::is_same_v<T, modbus::WriteCoilsRequest>) {
-            for (uint16_t i = 0; i < req.count; ++i) {
-              const uint16_t a = static_cast<uint16_t>(req.start + i);
-              if (a == kDriveCoil || a == kSetupCoil) coil(a, req.bit(i));
-            }
-          } else if constexpr (std::is_same_v<T, modbus::WriteRegistersRequest>) {
-            const auto values = req.values();
-            bool start = false;
-            for (std::size_t i = 0; i < values.size(); ++i) {
-              const unsigned a = req.start + static_cast<unsigned>(i);
-              if (a >= 0x9102 && a <= 0x9111) direct[a - 0x9102] = values[i];
-              if (a == 0x9100 && values[i] != 0) start = true;
-            }
-            if (start) {
-              s.starts.push_back({StartKind::Direct, at, e.line, double(direct[1]),
-                                  double(direct[4]), double(direct[5])});
-            }
-          }
-        },
-        q->pdu);
-  }
-  return s;
-}
-
-template <typename T>
-std::vector<Sampled<T>> between(const std::vector<Sampled<T>>& v, int64_t from, int64_t to) {
-  std::vector<Sampled<T>> out;
-  for (const auto& x : v)
-    if (x.t_us >= from && x.t_us < to) out.push_back(x);
-  return out;
-}
-
-template <typename T>
-std::optional<Sampled<T>> last_before(const std::vector<Sampled<T>>& v, int64_t t) {
-  std::optional<Sampled<T>> out;
-  for (const auto& x : v)
-    if (x.t_us < t) out = x;
-  return out;
 }
 
 TimePoint at_us(double t_us) {
@@ -433,6 +321,9 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
               "its target (shorter than the poll interval, or 0)");
   }
 
+  // ---- homing and retargets as sequences (issue 33): calibrate_sequences.cpp ----
+  fit_sequences(s, c);
+
   // ---- homing ----
   if (!homing_ms.empty()) {
     c.fitted.push_back({"homing.time_ms", fit::median(homing_ms), fit::stddev(homing_ms),
@@ -445,10 +336,10 @@ Calibration calibrate(std::span<const Exchange> exchanges, const modbus::LineTim
     c.fitted.push_back({"actuator.origin_speed_mm_s", fit::median(origin_speed),
                         fit::stddev(origin_speed), origin_speed.size(), "mm/s",
                         "top speed (D9002) read during return to origin"});
-  } else {
+  } else if (!c.find("actuator.origin_speed_mm_s")) {
     c.undetermined.push_back(
-        "origin speed (actuator.origin_speed_mm_s): no speed reads (D9002) during return to "
-        "origin");
+        "origin speed (actuator.origin_speed_mm_s): no speed (D9002) or position (D9000) reads "
+        "during return to origin");
   }
   return c;
 }
@@ -469,6 +360,11 @@ std::string Calibration::profile_yaml(const std::string& name, const std::string
       body += fmt::format("  {}: {}  # ±{} {}, {} samples\n", f.key.substr(f.key.find('.') + 1),
                           format_value(f.value), format_value(f.spread), f.unit, f.samples);
     }
+    for (const auto& b : chosen) {
+      if (b.key.rfind(std::string(section) + ".", 0) != 0) continue;
+      body += fmt::format("  {}: {}  # {} sequences: {}\n", b.key.substr(b.key.find('.') + 1),
+                          b.value, b.samples, b.note);
+    }
     if (!body.empty()) out += fmt::format("{}:\n{}", section, body);
   }
   return out;
@@ -480,6 +376,8 @@ std::string Calibration::summary() const {
     out += fmt::format("  {} = {} ±{} {} ({} samples; {})\n", f.key, format_value(f.value),
                        format_value(f.spread), f.unit, f.samples, f.note);
   }
+  for (const auto& b : chosen)
+    out += fmt::format("  {} = {} ({} sequences; {})\n", b.key, b.value, b.samples, b.note);
   if (!moves.empty()) out += "moves (motion fit to the position reads):\n";
   for (const auto& m : moves) {
     out += fmt::format(

@@ -6,9 +6,11 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <sstream>
 #include <vector>
 
@@ -69,6 +71,40 @@ const std::vector<Key>& keys() {
        [](P& p, const N& n) { p.actuator.busy_min = ms_of(n); }},
       {"actuator", "target_update_late", Key::Flag, 0, 0, "",
        [](P& p, const N& n) { p.actuator.target_update_late = n.as<bool>(); }},
+      {"actuator", "origin_accel_mm_s2", Key::Number, 1, 65535, "mm/s²",
+       [](P& p, const N& n) { p.actuator.origin_accel_mm_s2 = number_of(n); }},
+      {"actuator", "homing_direction", Key::Text, 0, 0, "",
+       [](P& p, const N& n) {
+         p.actuator.homing_direction = n.as<std::string>() == "max_end"
+                                           ? sim::ActuatorConfig::HomingDirection::MaxEnd
+                                           : sim::ActuatorConfig::HomingDirection::MinEnd;
+       }},
+      {"actuator", "seton_on_rehome", Key::Text, 0, 0, "",
+       [](P& p, const N& n) {
+         p.actuator.seton_on_rehome = n.as<std::string>() == "clear"
+                                          ? sim::ActuatorConfig::SetonOnRehome::Clear
+                                          : sim::ActuatorConfig::SetonOnRehome::Keep;
+       }},
+      {"actuator", "reset_cancels_homing", Key::Flag, 0, 0, "",
+       [](P& p, const N& n) { p.actuator.reset_cancels_homing = n.as<bool>(); }},
+      {"actuator", "retarget", Key::Text, 0, 0, "",
+       [](P& p, const N& n) {
+         p.actuator.retarget = n.as<std::string>() == "stop_then_start"
+                                   ? sim::ActuatorConfig::Retarget::StopThenStart
+                                   : sim::ActuatorConfig::Retarget::Replan;
+       }},
+      {"actuator", "alarm_polarity", Key::Text, 0, 0, "",
+       [](P& p, const N& n) {
+         p.actuator.alarm_polarity = n.as<std::string>() == "active-low"
+                                         ? sim::ActuatorConfig::AlarmPolarity::ActiveLow
+                                         : sim::ActuatorConfig::AlarmPolarity::ActiveHigh;
+       }},
+      {"actuator", "setup_left_high", Key::Text, 0, 0, "",
+       [](P& p, const N& n) {
+         p.actuator.setup_left_high = n.as<std::string>() == "refuses_starts"
+                                          ? sim::ActuatorConfig::SetupLeftHigh::RefusesStarts
+                                          : sim::ActuatorConfig::SetupLeftHigh::Ignored;
+       }},
       {"actuator", "wear_pct_per_m", Key::Number, 0, 1000, "% per metre",
        [](P& p, const N& n) { p.actuator.wear_pct_per_m = number_of(n); }},
       {"actuator", "friction_thrust_pct", Key::Number, 0, 300, "%",
@@ -103,6 +139,20 @@ const std::vector<Key>& keys() {
   return k;
 }
 
+// The values a text key takes (none listed: any text the key checks itself).
+const std::vector<std::string>* choices(std::string_view key) {
+  static const std::map<std::string, std::vector<std::string>, std::less<>> c = {
+      {"timing", {"real", "fast"}},
+      {"homing_direction", {"min_end", "max_end"}},
+      {"seton_on_rehome", {"keep", "clear"}},
+      {"retarget", {"replan", "stop_then_start"}},
+      {"alarm_polarity", {"active-high", "active-low"}},
+      {"setup_left_high", {"ignored", "refuses_starts"}},
+  };
+  const auto it = c.find(key);
+  return it == c.end() ? nullptr : &it->second;
+}
+
 class Reader {
  public:
   explicit Reader(std::string source) : source_(std::move(source)) {}
@@ -128,8 +178,12 @@ class Reader {
         }
         return;
       case Key::Text:
-        if (std::string_view(k.name) == "timing" && text != "real" && text != "fast")
-          fail(n, path, fmt::format("'{}' is not real or fast", text));
+        if (const auto* allowed = choices(k.name);
+            allowed && std::find(allowed->begin(), allowed->end(), text) == allowed->end()) {
+          std::string list;
+          for (const auto& c : *allowed) list += (list.empty() ? "" : " or ") + c;
+          fail(n, path, fmt::format("'{}' is not {}", text, list));
+        }
         if (std::string_view(k.name) == "equipment_name") {
           if (auto name = lec::EquipmentName::make(text); !name) fail(n, path, name.error());
         }
@@ -195,6 +249,20 @@ void read_section(const Reader& r, const YAML::Node& map, const std::string& sec
 
 }  // namespace
 
+FieldProfile default_profile() {
+  FieldProfile p;
+  p.name = "default";
+  p.actuator = sim::default_config();
+  return p;
+}
+
+FieldProfile ideal_profile() {
+  FieldProfile p;
+  p.name = "ideal";
+  p.actuator = sim::ideal_config();
+  return p;
+}
+
 std::string field_profile_keys() {
   return fmt::format("actuator: {}\nline: {}\nfaults: {}", known_in("actuator"), known_in("line"),
                      known_in("faults"));
@@ -211,6 +279,8 @@ FieldProfile parse_field_profile(std::string_view text, const std::string& sourc
   }
   FieldProfile p = defaults;
   p.given.clear();
+  p.name.clear();  // the file's (or its stem), not the base's
+  p.description.clear();
   if (!root.IsDefined() || root.IsNull()) return p;  // an empty profile changes nothing
   if (!root.IsMap())
     r.fail(root, "", "expected a map with name, description, actuator, line, faults");

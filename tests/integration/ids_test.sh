@@ -8,7 +8,7 @@ need --module pymodbus.client
 
 PORT=$TMP/lec0
 if start_twin ids --pty "$PORT" --ids 1-16; then
-  check_sh "ready line names the IDs: $READY" '[[ $READY == *"(ids 1-16, timing real, 38400 baud)"* ]]'
+  check_sh "ready line names the IDs: $READY" '[[ $READY == *"(ids 1-16, timing real, 38400 baud"* ]]'
   run_peer "pymodbus: IDs 1-16 answer, 17 is silent" pymodbus "$PORT" ids 16
   stop_twin "$TWIN_PID"
   check "twin ends with status 0 on SIGTERM" [ "$STATUS" = 0 ]

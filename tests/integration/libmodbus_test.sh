@@ -10,7 +10,8 @@ PEER=$LEC6_BUILD_DIR/peers/libmodbus_peer
 check "the libmodbus peer was built ($PEER)" [ -x "$PEER" ]
 
 PORT=$TMP/lec0
-if start_twin libmodbus --pty "$PORT"; then
+# The manual's examples reply by reply: the manual's ideal twin (--ideal).
+if start_twin libmodbus --pty "$PORT" --ideal; then
   run_peer "libmodbus: examples 1-4, exceptions, echo" timeout 120 "$PEER" "$PORT"
   stop_twin "$TWIN_PID"
   check "twin ends with status 0 on SIGTERM" [ "$STATUS" = 0 ]

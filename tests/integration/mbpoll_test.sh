@@ -8,7 +8,8 @@ source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
 need --program mbpoll
 
 PORT=$TMP/lec0
-start_twin mbpoll --pty "$PORT" --trace || {
+# The manual's replies exactly, right after each write: the manual's ideal twin.
+start_twin mbpoll --pty "$PORT" --trace --ideal || {
   fail "twin did not start"
   finish
   exit 1

@@ -58,7 +58,7 @@ check "no link before the twin starts" [ ! -L "$PORT" ]
 if start_twin link --pty "$PORT"; then
   check "the link exists when the ready line is out" [ -L "$PORT" ]
   check_sh "it points at a pseudo-terminal slave ($(readlink "$PORT"))" '[[ $(readlink "$PORT") == /dev/pts/* ]]'
-  check_sh "the ready line names it: $READY" '[[ $READY == "lec sim: ready on $PORT (ids 1, timing real, 38400 baud)" ]]'
+  check_sh "the ready line names it and the default twin: $READY" '[[ $READY == "lec sim: ready on $PORT (ids 1, timing real, 38400 baud, profile default, busy-delay 20ms, busy-min 60ms, homing 50 mm/s, SETON cleared on re-home)" ]]'
   stop_twin "$TWIN_PID" TERM
   check "SIGTERM: exit status 0" [ "$STATUS" = 0 ]
   check "SIGTERM: link removed" [ ! -L "$PORT" ]
@@ -157,7 +157,7 @@ check "  and the state file is complete (ends with 'end')" [ "$(tail -n 1 "$KSTA
 # After traffic and a finished move, a waiting twin blocks: CPU time over ~2 s
 # of idling must stay under 5 % of the wall time (a ratio; usually 0 ticks).
 cpu_ticks() { awk '{print $14 + $15}' "/proc/$1/stat"; }
-if start_twin idle --pty "$PORT" --ids 1-16; then
+if start_twin idle --pty "$PORT" --ids 1-16 --ideal; then  # the manual's examples: the ideal twin
   run_peer "traffic before idling (the examples, with motion)" pymodbus "$PORT" examples
   tck=$(getconf CLK_TCK)
   c0=$(cpu_ticks "$TWIN_PID")
@@ -186,7 +186,7 @@ if start_twin timing --pty "$PORT"; then
   stop_twin "$TWIN_PID"
 fi
 if start_twin timing2 --pty "$PORT" --baud 9600 --silent-interval 3 --td 12ms; then
-  check_sh "the ready line names Td: $READY" '[[ $READY == *", Td 12ms)" ]]'
+  check_sh "the ready line names Td: $READY" '[[ $READY == *", Td 12ms, "* ]]'
   run_peer "real timing at 9600, k 3, Td 12 ms" pymodbus "$PORT" timing 9600 3 12 25 1.0 1.5
   stop_twin "$TWIN_PID"
 fi
@@ -202,7 +202,7 @@ fi
 if start_twin oldnames --pty "$PORT" --delay-ms 7 --busy-delay-ms 15 --busy-min-ms 60 \
   --extra-delay-ms 2 --delay-rate 0; then
   check_sh "old option names apply: $READY" \
-    '[[ $READY == *", Td 7ms, busy-delay 15ms, busy-min 60ms)" ]]'
+    '[[ $READY == *", Td 7ms, busy-delay 15ms, busy-min 60ms, "* ]]'
   check_sh "each old name gets a hint" \
     '[[ $(grep -c "is deprecated; write --" "$TMP/oldnames.err") == 4 ]]'
   check_sh "the hint names the new spelling" \

@@ -354,6 +354,7 @@ def timing(peer, c, baud, k, td_ms, n, min_ratio, max_ratio):
     limit_ms = len(query) * char_ms + k * 3.5 * char_ms + 4.0 + td_ms + reply_len * char_ms
     s = peer.client.socket
     s.timeout = 1.0
+    s.baudrate = baud  # the twin answers only at its own baud, as a real line does
     ratios = []
     for _ in range(n):
         s.reset_input_buffer()

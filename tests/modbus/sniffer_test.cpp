@@ -275,5 +275,59 @@ TEST(Sniffer, FramesFunctionsTheLecDoesNotHave) {
   EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
 }
 
+// A master resends an FC05 after no answer (Tx passed): the resend is a
+// query of its own, the first one timed out, and the echo that follows pairs
+// with the resend (issue 33). An echo within Tx still pairs with its query.
+TEST(Sniffer, AResentQueryIsNotTheFirstOnesEcho) {
+  Line l;
+  l.at(t0 + 1ms, kSvon);
+  l.at(t0 + 60ms, kSvon);  // Tx at 115200 is ~10 ms: no answer, sent again
+  l.at(t0 + 70ms, kSvon);  // the echo
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[0].kind, SniffKind::Query);
+  EXPECT_EQ(e[1].kind, SniffKind::NoReply);
+  EXPECT_EQ(e[2].kind, SniffKind::Query);
+  EXPECT_EQ(e[3].kind, SniffKind::Reply);
+  EXPECT_EQ(e[3].query_number, e[2].query_number);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 1u);
+}
+
+// A late echo (after Tx) followed by another query, or by silence, is the
+// reply all the same: only the same frame again makes it a resend.
+TEST(Sniffer, ALateEchoIsStillTheReply) {
+  Line l;
+  l.at(t0 + 1ms, kSvon);
+  l.at(t0 + 40ms, kSvon);  // late
+  l.at(t0 + 60ms, kRead);
+  l.at(t0 + 70ms, kReadReply);
+  l.at(t0 + 100ms, kSvon);
+  l.at(t0 + 150ms, kSvon);  // late, then silence
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 6u);
+  EXPECT_EQ(e[1].kind, SniffKind::Reply);
+  EXPECT_TRUE(e[1].has(kSniffLate));
+  EXPECT_EQ(e[3].kind, SniffKind::Reply);
+  EXPECT_EQ(e[5].kind, SniffKind::Reply);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 0u);
+}
+
+// FC17 (read/write multiple registers, a SCADA's): its reply is sized from the
+// read count (bytes 4-5), not the write start (issue 33). Read 2 registers,
+// write 1 at 0x0100: the reply carries 4 bytes.
+TEST(Sniffer, SizesAnFc17ReplyFromTheReadCount) {
+  Line l;
+  const Bytes fc17 =
+      frame({0x01, 0x17, 0x90, 0x00, 0x00, 0x02, 0x01, 0x00, 0x00, 0x01, 0x02, 0x12, 0x34});
+  const Bytes reply = frame({0x01, 0x17, 0x04, 0x00, 0x01, 0x00, 0x02});
+  l.at(t0 + 1ms, cat({fc17, reply, kRead, kReadReply}));
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[1].bytes, reply);
+  EXPECT_EQ(e[1].query, fc17);
+  EXPECT_EQ(e[3].query, kRead);
+  EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
+}
+
 }  // namespace
 }  // namespace lec6::modbus

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "lec6/modbus/crc.hpp"
+
 #include <algorithm>
 #include <array>
 
@@ -113,6 +115,30 @@ TEST(RecordingLink, GroupsReceivedBytesAsRtuDelimitsFrames) {
   EXPECT_EQ(seen[0].bytes, (modbus::Bytes{1, 3, 4, 0, 0, 0x3A, 0x98}));
   EXPECT_EQ(seen[1].bytes, (modbus::Bytes{0xFF, 0xFF}));
   EXPECT_EQ(us(seen[1].start - seen[0].end), 2000);
+}
+
+// A reply in two USB chunks 5 ms apart (a latency timer's tick) is one
+// record, so replay and calibrate see it (issue 33); a cut frame followed by
+// bytes that do not complete it stays as it arrived.
+TEST(RecordingLink, AReplyInTwoChunksWithAGapIsOneRecord) {
+  VirtualClock clock{TimePoint{} + std::chrono::seconds(1)};
+  const modbus::LineTiming line;
+  const modbus::Bytes reply = {0x01, 0x03, 0x04, 0x00, 0x00, 0x3A, 0x98, 0xE9, 0x39};
+  ASSERT_TRUE(modbus::crc_ok(reply)) << "fix the test's CRC";
+  Chunks inner(clock, {{line.wire_time(4), {reply.begin(), reply.begin() + 4}},
+                       {std::chrono::milliseconds(5), {reply.begin() + 4, reply.end()}},
+                       {std::chrono::milliseconds(5), {0x01, 0x03}},
+                       {std::chrono::milliseconds(5), {0xFF, 0xFF, 0xFF}}});
+  std::vector<LineChunk> seen;
+  {
+    RecordingLink rec(inner, [&](LineChunk&& c) { seen.push_back(std::move(c)); });
+    std::array<uint8_t, 16> buf{};
+    for (int i = 0; i < 4; ++i) rec.read_some(buf, clock.now() + std::chrono::seconds(1));
+  }
+  ASSERT_EQ(seen.size(), 3u);
+  EXPECT_EQ(seen[0].bytes, reply);
+  EXPECT_EQ(seen[1].bytes, (modbus::Bytes{0x01, 0x03}));
+  EXPECT_EQ(seen[2].bytes, (modbus::Bytes{0xFF, 0xFF, 0xFF}));
 }
 
 }  // namespace

@@ -27,6 +27,7 @@
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
 #include "lec6/client/master.hpp"
+#include "lec6/lec/alarm_check.hpp"
 #include "lec6/lec/alarms.hpp"
 #include "lec6/lec/equipment_name.hpp"
 #include "lec6/lec/flags.hpp"
@@ -46,6 +47,10 @@ enum class Retry {
 struct ClientOptions {
   uint8_t id = 1;
   int retries = 2;  // for Retry::Safe requests
+  // How this controller reports X4F ALARM (lec/alarm_check.hpp): read_flags()
+  // turns an active-low controller's X4F into the manual's meaning, so every
+  // caller (moves, status, doctor) sees 1 = alarm. Not a line setting: also on a Master.
+  lec::AlarmPolarity alarm_polarity = lec::AlarmPolarity::ActiveHigh;
   // For a Client made on a Link (Modbus RTU) only: the line and the
   // controller's settings, see RtuOptions. A Client given a Master refuses them
   // (InvalidArgument, naming them) when they differ from these defaults: the
@@ -91,7 +96,7 @@ class Client {
 
   // ---- typed reads ----------------------------------------------------------
   lec::StateData read_state();
-  lec::StatusFlags read_flags();
+  lec::StatusFlags read_flags();  // X4F in the manual's meaning (ClientOptions::alarm_polarity)
   lec::ControlFlags read_controls();
   lec::StepData read_step(unsigned step);
   std::array<lec::StepData, lec::kStepCount> read_all_steps();

@@ -89,8 +89,10 @@ struct ControllerState {
   bool svre = false;         // servo ready
   bool homed = false;        // SETON
   bool estop = false;
-  std::vector<uint8_t> alarms;  // active
-  std::string name;             // equipment name D000E
+  std::vector<uint8_t> alarms;  // active (X4F and the alarm code agree, lec/alarm_check.hpp)
+  // X4F and the alarm code (or BUSY) disagree: what, and the setting that fixes it.
+  std::string alarm_check;
+  std::string name;  // equipment name D000E
   // What --fix did: "serial mode on (Y30)", "alarm 62 cleared (RESET)".
   std::vector<std::string> fixed;
 };

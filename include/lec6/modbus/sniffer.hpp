@@ -143,6 +143,7 @@ class Sniffer {
   };
 
   void scan(bool settle);
+  bool resent_query(std::size_t length) const;
   Reading try_query(std::span<const uint8_t> head, std::size_t& length) const;
   Reading try_reply(std::span<const uint8_t> head, std::size_t& length) const;
   bool matches_pending(std::span<const uint8_t> frame) const;

@@ -99,7 +99,45 @@ struct ActuatorConfig {
   // when the start is taken, so a master cannot lean on the target register
   // alone. Only matters with a busy_delay.
   bool target_update_late = false;
+
+  // ---- Assumptions the manual leaves open (issue 33) ----------------------
+  // Each is a profile key (docs/twin-fidelity.md names its row, its source and
+  // the capture that settles it). The defaults here are the manual's ideal
+  // (ideal_config()); the default twin of `lec sim` is default_config().
+  //
+  // Return to origin seeks this stroke end first (then drives to the origin 0
+  // when it is not there): the time a cold start's homing takes.
+  enum class HomingDirection { MinEnd, MaxEnd };
+  HomingDirection homing_direction = HomingDirection::MinEnd;
+  // SETON while a later return to origin runs: kept (1 throughout) or
+  // cleared when BUSY rises and set again at its end.
+  enum class SetonOnRehome { Keep, Clear };
+  SetonOnRehome seton_on_rehome = SetonOnRehome::Keep;
+  // RESET (no alarm) cancels a return to origin under way; false: RESET is
+  // ignored while homing (the homing runs to its end).
+  bool reset_cancels_homing = true;
+  // A start while a move runs: re-plan smoothly from the current state, or
+  // decelerate to rest first, then start toward the new target.
+  enum class Retarget { Replan, StopThenStart };
+  Retarget retarget = Retarget::Replan;
+  // X4F ALARM: 1 = alarm present (the manual's "positive logic", §10.3), or
+  // inverted (0 = alarm present), as two field drivers read it.
+  enum class AlarmPolarity { ActiveHigh, ActiveLow };
+  AlarmPolarity alarm_polarity = AlarmPolarity::ActiveHigh;
+  // SETUP left at 1 after a return to origin: ignored (only its rising edge
+  // acts), or DRIVE / D9100 starts are ignored until SETUP ← 0.
+  enum class SetupLeftHigh { Ignored, RefusesStarts };
+  SetupLeftHigh setup_left_high = SetupLeftHigh::Ignored;
 };
+
+// The manual's ideal controller (every quirk off, the digest's behaviour):
+// `lec sim --ideal`. Equal to ActuatorConfig{}.
+ActuatorConfig ideal_config();
+// The default twin: the manual's ideal changed where the field evidence is
+// strong enough (docs/protocol-decisions.md, "The default twin"): BUSY rises
+// 20 ms late, shortest BUSY pulse 60 ms, homing at 50 mm/s, SETON cleared
+// while a re-home runs. Tested in tests/sim/assumptions_test.cpp.
+ActuatorConfig default_config();
 
 enum class Timing {
   Real,  // reply ends at end of query + Ts + 4 ms + Td + wire time (digest §1)

@@ -159,8 +159,9 @@ class Controller {
 
   struct Op {
     OpKind kind = OpKind::None;
-    bool held = false;     // HOLD: decelerated and suspended
-    int homing_phase = 0;  // 0: toward the min end, 1: to the origin
+    bool held = false;        // HOLD: decelerated and suspended
+    int homing_phase = 0;     // 0: toward the homing end, 1: to the origin
+    bool stop_first = false;  // a retarget decelerating to rest first (Retarget::StopThenStart)
     MovePhase phase = MovePhase::Approach;
     MoveSpec move;
     int jog_dir = 0;
@@ -201,6 +202,12 @@ class Controller {
   void take_start(PendingStart start);
   void begin(const PendingStart& start);
   void start_homing();
+  double homing_end() const {
+    return config_.homing_direction == ActuatorConfig::HomingDirection::MaxEnd
+               ? config_.stroke_max_mm
+               : config_.stroke_min_mm;
+  }
+  bool setup_blocks_starts() const;
   void start_record(const lec::StepData& data, bool is_step, uint8_t step_no, int64_t base_target);
   std::optional<uint8_t> refusal(const lec::StepData& data, bool is_step, int64_t target) const;
   void begin_busy();

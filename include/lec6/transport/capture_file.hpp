@@ -8,6 +8,7 @@
 
 #include <condition_variable>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -19,6 +20,13 @@ namespace lec6::transport {
 // lec6::InvalidArgument ("cannot read capture.jsonl: No such file or
 // directory"); a malformed one modbus::CaptureError (file, line, byte offset).
 modbus::Capture read_capture_file(const std::string& path);
+
+// Keeps an earlier capture at `path` (issue 33: `lec serve --record` never
+// truncates one): a non-empty file there is renamed to the first free
+// `path.1`, `path.2`, …, and that name returned; nothing there (or an empty
+// file): nullopt. Throws lec6::InvalidArgument naming both paths when the
+// rename fails. Tested in tests/transport/capture_rotate_test.cpp.
+std::optional<std::string> keep_earlier_capture(const std::string& path);
 
 // Writes a capture as it happens: the header at construction, then one line
 // per write(). write() only appends to a buffer in memory (no system call,

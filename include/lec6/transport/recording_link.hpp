@@ -8,7 +8,12 @@
 // within the silent interval (3.5 characters) are one group, handed to the
 // tap when the next write starts, when a silence longer than that follows, or
 // at flush()/destruction. A received chunk's first byte is dated back by its
-// wire time from when read_some returned it. No frame starts before the one
+// wire time from when read_some returned it. A reply whose bytes arrive in
+// two (or more) USB chunks with a longer silence between them is still one
+// group when together they make exactly one sound frame (its length from its
+// head, its CRC): the pieces are held until the frame is complete, and handed
+// over as they arrived when they are not one frame (issue 33; tested in
+// tests/twin/recording_link_test.cpp). No frame starts before the one
 // before it ended (a port no wire paces gets a line time stretched to the
 // wire times: see recording_link.cpp).
 //
@@ -18,6 +23,7 @@
 // Thread safety: as the wrapped Link (one thread at a time).
 
 #include <functional>
+#include <vector>
 
 #include "lec6/client/link.hpp"
 #include "lec6/modbus/pdu.hpp"
@@ -59,6 +65,9 @@ class RecordingLink final : public client::Link {
   modbus::LineTiming timing_;
   TimePoint line_free_{};  // where the last frame's wire time ended
   LineChunk pending_;      // received, not yet handed over
+  // Earlier groups the pending one may complete as one frame (see above).
+  std::vector<LineChunk> pieces_;
+  void settle_pieces();
 };
 
 }  // namespace lec6::transport

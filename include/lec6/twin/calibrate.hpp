@@ -13,7 +13,11 @@
 //     deceleration fitted (least squares, Nelder-Mead) to the sampled
 //     positions; a direct move whose fitted value is clearly below what was
 //     commanded shows the actuator's limit (max speed / max acceleration);
-//   - homing: time from SETUP to the end, and the origin speed (D9002);
+//   - homing: time from SETUP to the end, and the origin speed (D9002, else
+//     the position reads D9000), the homing direction, and whether SETON
+//     falls while a re-home runs (issue 33);
+//   - retargets: whether a start while a move runs re-plans smoothly or
+//     stops the carriage first (speed D9002 or positions, issue 33);
 //   - the thrust scale: D9003 read while moving against the fitted profile's
 //     acceleration (a line: friction share + acceleration share);
 // and says what it could not determine from this capture. Samples are dated
@@ -34,18 +38,18 @@ namespace lec6::twin {
 
 // One fitted parameter, named by its key in a field profile.
 struct FittedParameter {
-  std::string key;    // "actuator.busy_delay_ms", "line.delay_ms", …
+  std::string key;  // "actuator.busy_delay_ms", "line.delay_ms", …
   double value = 0;
   double spread = 0;  // ± (half the interval, or the standard deviation of the estimates)
   std::size_t samples = 0;
   std::string unit;
-  std::string note;   // how it was found
+  std::string note;  // how it was found
 };
 
 // The motion fit of one move.
 struct MoveFit {
-  std::size_t line = 0;    // the start query's line in the capture
-  std::string operation;   // "direct move", "step move", "return to origin"
+  std::size_t line = 0;   // the start query's line in the capture
+  std::string operation;  // "direct move", "step move", "return to origin"
   double from_mm = 0, to_mm = 0;
   std::optional<double> commanded_speed_mm_s, commanded_accel_mm_s2, commanded_decel_mm_s2;
   double start_delay_ms = 0;  // carriage start − controller acted on the start
@@ -54,9 +58,19 @@ struct MoveFit {
   std::size_t samples = 0;
 };
 
+// One behaviour chosen from a capture (a profile key with a word value, e.g.
+// actuator.retarget: stop_then_start), with the evidence.
+struct ChosenBehaviour {
+  std::string key;
+  std::string value;
+  std::size_t samples = 0;  // sequences that showed it
+  std::string note;
+};
+
 struct Calibration {
   modbus::LineTiming line;  // baud and k as given; delay_td as fitted (else given)
   std::vector<FittedParameter> fitted;
+  std::vector<ChosenBehaviour> chosen;
   std::vector<MoveFit> moves;
   std::vector<std::string> undetermined;  // "thrust scale: no D9003 reads during a move"
 

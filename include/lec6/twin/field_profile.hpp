@@ -53,6 +53,13 @@ class ProfileError : public InvalidArgument {
   using InvalidArgument::InvalidArgument;
 };
 
+// The default twin (sim::default_config(): the field's evidence where it is
+// strong enough, docs/protocol-decisions.md "The default twin"), named
+// "default"; and the manual's ideal (sim::ideal_config(), `lec sim --ideal`),
+// named "ideal". A profile file is read over one of them.
+FieldProfile default_profile();
+FieldProfile ideal_profile();
+
 // Reads and checks a profile file. Throws ProfileError.
 FieldProfile load_field_profile(const std::filesystem::path& path,
                                 const FieldProfile& defaults = {});
