@@ -20,35 +20,42 @@ SIM_SOAK_SEEDS ?= 1000000
 # CMAKE_FLAGS=-DCMAKE_BUILD_TYPE=RelWithDebInfo.
 RELEASE_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo '-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG' '-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG'
 CMAKE_FLAGS ?= $(RELEASE_FLAGS)
+# Ninja (tools/deps.txt: ninja-build) builds the trees: it starts faster than
+# make, keeps both cores busy across targets, and its .ninja_log tells where a
+# build's time went (tools/ninja-slowest BUILD_DIR). A tree configured before
+# with another generator must be removed first (make clean).
+GENERATOR ?= -G Ninja
+# Each phase of `make test` prints its wall time in the log (tools/phase), and
+# the end of the run lists them all.
+PHASE = LEC6_PHASE_LOG=$(abspath $(BUILD))/phases.log tools/phase
 
 # Tests whose passing output the CI log must show (the soak's counts, the
 # number of fuzz regression inputs replayed, the dependency check): run apart, verbose.
 SHOWN_TESTS ?= ^Soak\.|KeptRegressionInputsPass|^deps\.
 
-.PHONY: all deps check-deps build demo test test-fast test-asan test-fuzz fuzz-build bench fuzz soak deb format clean
+.PHONY: all deps check-deps build demo test phases-begin test-fast test-asan test-fuzz fuzz-build bench fuzz soak deb format clean
 
 all: build
 
 deps:
-	@tools/install-deps.sh
+	@$(PHASE) deps tools/install-deps.sh
 
 # Everything the build and the tests use must come from tools/deps.txt (or a
 # hard Depends of it): see tools/check-deps. Run first by `make test`.
 check-deps: deps $(BUILD)/CMakeCache.txt $(ASAN_BUILD)/CMakeCache.txt
-	tools/check-deps $(foreach b,$(BUILD) $(ASAN_BUILD),--cmake-cache $(b)/CMakeCache.txt)
+	$(PHASE) check-deps tools/check-deps $(foreach b,$(BUILD) $(ASAN_BUILD),--cmake-cache $(b)/CMakeCache.txt)
 
 $(BUILD)/CMakeCache.txt: | deps
-	cmake -S . -B $(BUILD) $(CMAKE_FLAGS)
+	cmake -S . -B $(BUILD) $(GENERATOR) $(CMAKE_FLAGS)
 
 build: deps $(BUILD)/CMakeCache.txt
-	cmake --build $(BUILD) -j $(JOBS)
+	$(PHASE) build-gcc cmake --build $(BUILD) -j $(JOBS)
 
 demo: build
 	$(BUILD)/lec demo
 
 test-fast: build
-	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) -E '$(SHOWN_TESTS)'
-	cd $(BUILD) && ctest -V -R '$(SHOWN_TESTS)'
+	$(PHASE) tests-gcc sh -c "cd $(BUILD) && ctest --output-on-failure -j $(JOBS) -E '$(SHOWN_TESTS)' && ctest -V -R '$(SHOWN_TESTS)'"
 
 # The sanitizer tree is clang's: it compiles it in about 60 % of gcc's time, and
 # it also builds the libFuzzer harnesses there (LEC6_FUZZ), so that they cannot
@@ -60,7 +67,7 @@ test-fast: build
 # and the tree builds a minute faster than with full debug info.
 ASAN_DEBUG_FLAGS ?= -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1
 $(ASAN_BUILD)/CMakeCache.txt: | deps
-	CC=clang CXX=clang++ cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug $(ASAN_DEBUG_FLAGS) -DLEC6_SANITIZE=ON -DLEC6_FUZZ=ON -DLEC6_BENCH=OFF -DLEC6_WEB=OFF -DLEC6_PYTHON=OFF
+	CC=clang CXX=clang++ cmake -S . -B $(ASAN_BUILD) $(GENERATOR) -DCMAKE_BUILD_TYPE=Debug $(ASAN_DEBUG_FLAGS) -DLEC6_SANITIZE=ON -DLEC6_FUZZ=ON -DLEC6_BENCH=OFF -DLEC6_WEB=OFF -DLEC6_PYTHON=OFF
 
 # Not run again under the sanitizers: the package checks (they compile headers
 # and a consumer, and pack: nothing of ours runs) and the README test (its lines
@@ -68,16 +75,14 @@ $(ASAN_BUILD)/CMakeCache.txt: | deps
 ASAN_SKIPPED_TESTS ?= ^package\.|^integration\.readme_test$$
 
 test-asan: deps $(ASAN_BUILD)/CMakeCache.txt
-	cmake --build $(ASAN_BUILD) -j $(JOBS)
-	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-	  ctest --output-on-failure -j $(JOBS) -E '$(SHOWN_TESTS)|$(ASAN_SKIPPED_TESTS)'
-	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-	  ctest -V -R '$(SHOWN_TESTS)'
+	$(PHASE) build-asan cmake --build $(ASAN_BUILD) -j $(JOBS)
+	$(PHASE) tests-asan env ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  sh -c "cd $(ASAN_BUILD) && ctest --output-on-failure -j $(JOBS) -E '$(SHOWN_TESTS)|$(ASAN_SKIPPED_TESTS)' && ctest -V -R '$(SHOWN_TESTS)'"
 
 # Fuzzing: an optimised tree with coverage-instrumented libraries (clang, ASan
 # + UBSan), one harness at a time: fuzz/run.sh.
 $(FUZZ_BUILD)/CMakeCache.txt: | deps
-	CC=clang CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLEC6_FUZZ=ON -DLEC6_BENCH=OFF
+	CC=clang CXX=clang++ cmake -S . -B $(FUZZ_BUILD) $(GENERATOR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLEC6_FUZZ=ON -DLEC6_BENCH=OFF
 
 fuzz-build: deps $(FUZZ_BUILD)/CMakeCache.txt
 	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target fuzzers
@@ -90,7 +95,12 @@ test-fuzz: fuzz-build
 
 # The fuzzers are built in the sanitizer tree (they rot otherwise: a clang-only
 # error was caught so); fuzzing itself runs in `make fuzz` / `make test-fuzz`.
-test: check-deps test-fast test-asan
+test: phases-begin check-deps test-fast test-asan
+	@tools/phase --summary $(BUILD)/phases.log
+
+# A fresh phase log per `make test`.
+phases-begin:
+	@rm -f $(BUILD)/phases.log
 
 # The fault soak: client against the twin on a noisy line, summary tables.
 # And `lec sniff` on the twin's tap (16 ms lumps): 10^5 exchanges at 115200 and
@@ -109,7 +119,7 @@ bench: build
 # configuration (RELEASE_FLAGS) without the tests, benchmarks and Python
 # module. Install it with `sudo apt install ./$(DEB_BUILD)/lec6_*.deb`.
 $(DEB_BUILD)/CMakeCache.txt: | deps
-	cmake -S . -B $(DEB_BUILD) $(RELEASE_FLAGS) -DLEC6_TESTS=OFF -DLEC6_BENCH=OFF -DLEC6_PYTHON=OFF
+	cmake -S . -B $(DEB_BUILD) $(GENERATOR) $(RELEASE_FLAGS) -DLEC6_TESTS=OFF -DLEC6_BENCH=OFF -DLEC6_PYTHON=OFF
 
 deb: deps $(DEB_BUILD)/CMakeCache.txt
 	cmake --build $(DEB_BUILD) -j $(JOBS)

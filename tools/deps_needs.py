@@ -38,6 +38,7 @@ INDIRECT = {
     "cmake": "the Makefile configures and builds",
     "ctest": "the Makefile runs the tests",
     "make": "the README's commands",
+    "ninja": "the Makefile configures its trees with -G Ninja (GENERATOR)",
 }
 _SUBPROCESS = {"run", "Popen", "call", "check_call", "check_output", "execvp", "execv"}
 

@@ -25,7 +25,7 @@ constexpr std::array kUnits{
 
 constexpr const char* kForms = "write a number and a unit, e.g. 500ms, 2s, 1.5s, 250us or 2min";
 
-std::string_view trim(std::string_view s) {
+std::string_view trim_spaces(std::string_view s) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
   return s;
@@ -67,13 +67,13 @@ void warn_deprecated(const std::string& old_spelling, const std::string& new_spe
 }  // namespace
 
 DurationText parse_duration(std::string_view text) {
-  const std::string_view s = trim(text);
+  const std::string_view s = trim_spaces(text);
   double number = 0;
   const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), number);
   if (ec != std::errc() || end == s.data() || !std::isfinite(number)) {
     throw InvalidArgument(fmt::format("'{}' is not a duration: {}", text, kForms));
   }
-  const std::string_view rest = trim(s.substr(static_cast<std::size_t>(end - s.data())));
+  const std::string_view rest = trim_spaces(s.substr(static_cast<std::size_t>(end - s.data())));
   if (rest.empty()) return {to_duration(FractionalSeconds(number)), number, false};
   for (const Unit& u : kUnits) {
     if (rest == u.suffix) return {to_duration(number * u.size), number, true};

@@ -13,14 +13,14 @@
 namespace lec6::lec {
 namespace {
 
-std::string_view trim(std::string_view s) {
+std::string_view trim_value(std::string_view s) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
   return s;
 }
 
 // Lower case, '-' as '_': the spelling find_step_field compares.
-std::string normalise(std::string_view s) {
+std::string normalise_field(std::string_view s) {
   std::string out;
   for (char c : s) {
     out.push_back(c == '-' ? '_' : static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
@@ -37,13 +37,13 @@ std::string field_names(std::span<const StepField> fields) {
 }  // namespace
 
 std::string unknown_field_message(std::string_view name) {
-  const std::string n = normalise(trim(name));
+  const std::string n = normalise_field(trim_value(name));
   std::vector<const StepFieldInfo*> owners;  // of each candidate spelling
   std::vector<std::string> spellings;
   for (const auto& i : step_fields()) {
     for (std::string_view candidate : {i.name, i.long_name, i.csv_column}) {
       owners.push_back(&i);
-      spellings.push_back(normalise(candidate));
+      spellings.push_back(normalise_field(candidate));
     }
   }
   const auto best = nearest_index(n, spellings);
@@ -51,20 +51,20 @@ std::string unknown_field_message(std::string_view name) {
   for (const auto& i : step_fields()) known.push_back(i.name);
   const std::string hint =
       best ? fmt::format(" did you mean '{}'?", owners[*best]->name) : std::string();
-  return fmt::format("unknown field '{}':{} known fields are {}", trim(name), hint,
+  return fmt::format("unknown field '{}':{} known fields are {}", trim_value(name), hint,
                      fmt::join(known, ", "));
 }
 
 Expected<StepAssignment, std::string> parse_assignment(std::string_view arg) {
   const auto eq = arg.find('=');
   const std::string_view name =
-      eq == std::string_view::npos ? std::string_view{} : trim(arg.substr(0, eq));
+      eq == std::string_view::npos ? std::string_view{} : trim_value(arg.substr(0, eq));
   if (name.empty()) {
     return unexpected(fmt::format("'{}' is not field=value (e.g. speed=500)", arg));
   }
   const StepFieldInfo* info = find_step_field(name);
   if (!info) return unexpected(unknown_field_message(name));
-  const std::string_view value = trim(arg.substr(eq + 1));
+  const std::string_view value = trim_value(arg.substr(eq + 1));
   if (value.empty()) {
     return unexpected(fmt::format("{}: no value after '=' (e.g. {}=...)", info->name, info->name));
   }

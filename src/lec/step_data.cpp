@@ -50,7 +50,7 @@ constexpr std::array<Alias, 8> kAliases{{
     {"inp", StepField::InPosition},
 }};
 
-std::string normalise(std::string_view s) {
+std::string normalise_name(std::string_view s) {
   std::string out;
   out.reserve(s.size());
   for (char c : s)
@@ -112,9 +112,10 @@ const StepFieldInfo& field_info(StepField f) noexcept {
 }
 
 const StepFieldInfo* find_step_field(std::string_view name) noexcept {
-  const std::string n = normalise(name);
+  const std::string n = normalise_name(name);
   for (const auto& i : kFields) {
-    if (n == normalise(i.name) || n == normalise(i.long_name) || n == normalise(i.csv_column))
+    if (n == normalise_name(i.name) || n == normalise_name(i.long_name) ||
+        n == normalise_name(i.csv_column))
       return &i;
   }
   for (const auto& a : kAliases) {
@@ -162,7 +163,7 @@ std::string format_field(StepField f, int64_t raw) {
 Expected<int64_t, std::string> parse_field(StepField f, std::string_view text) {
   const auto& i = field_info(f);
   if (f == StepField::MovementMode) {
-    const std::string t = normalise(text);
+    const std::string t = normalise_name(text);
     if (t == "abs" || t == "absolute" || t == "1") return int64_t{1};
     if (t == "inc" || t == "incremental" || t == "relative" || t == "2") return int64_t{2};
     return unexpected(fmt::format("{} '{}': expected abs or inc", i.name, text));

@@ -10,7 +10,7 @@ namespace lec6::lec {
 namespace {
 constexpr int64_t kInt32Max = 2147483647;
 
-std::string_view trim(std::string_view s) {
+std::string_view trim_number(std::string_view s) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
   return s;
@@ -24,7 +24,7 @@ std::string format_mm(int64_t v) {
 }
 
 Expected<int64_t, std::string> parse_integer(std::string_view text) {
-  const std::string_view t = trim(text);
+  const std::string_view t = trim_number(text);
   std::string_view digits = t;
   if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
   int64_t v = 0;
@@ -36,7 +36,7 @@ Expected<int64_t, std::string> parse_integer(std::string_view text) {
 }
 
 Expected<int64_t, std::string> parse_mm(std::string_view text) {
-  std::string_view t = trim(text);
+  std::string_view t = trim_number(text);
   bool negative = false;
   if (!t.empty() && (t.front() == '-' || t.front() == '+')) {
     negative = t.front() == '-';

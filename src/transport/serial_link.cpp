@@ -10,6 +10,8 @@
 #include <poll.h>
 #include <sys/file.h>
 #include <sys/ioctl.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -119,6 +121,10 @@ SerialLink::SerialLink(std::string path, SerialOptions options)
     throw LinkError(LinkErrorKind::PortUnavailable,
                     fmt::format("cannot open {}: not a serial device", path_));
   }
+  // Unix98 pty slaves have the character-device majors 136-143 (UNIX98_PTY_SLAVE_MAJOR).
+  struct stat st {};
+  pty_ = ::fstat(fd, &st) == 0 && S_ISCHR(st.st_mode) && major(st.st_rdev) >= 136 &&
+         major(st.st_rdev) <= 143;
   if (options_.exclusive) {
     // flock holds against every cooperating program, root included; TIOCEXCL
     // makes the kernel refuse other opens (except by root).
@@ -252,7 +258,9 @@ void SerialLink::write(std::span<const uint8_t> bytes) {
     throw LinkError(LinkErrorKind::Io, fmt::format("{}: write timed out ({} of {} bytes sent)",
                                                    path_, done, bytes.size()));
   }
-  while (::tcdrain(fd) != 0) {
+  // The query's timing starts when its last byte has left the transmitter; a
+  // pty has none, and the call would be one more system call per query.
+  while (!pty_ && ::tcdrain(fd) != 0) {
     if (errno != EINTR) fail("tcdrain", errno);
   }
   if (options_.discard_echo) swallow_echo(bytes);

@@ -17,14 +17,14 @@
 #include "lec6/lec/memory_map.hpp"
 #include "sim_fixture.hpp"
 
+#include "test_time.hpp"
+
 namespace lec6::client {
 namespace {
 
 using testing::SimFixture;
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
 struct Quirk {
   const char* name;

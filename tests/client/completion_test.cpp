@@ -7,6 +7,8 @@
 
 #include <vector>
 
+#include "test_time.hpp"
+
 namespace lec6::client {
 namespace {
 
@@ -14,9 +16,7 @@ using lec::StatusFlags;
 
 const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
 StatusFlags flags(std::initializer_list<StatusFlags::Bit> on, uint8_t out = 0) {
   StatusFlags f;

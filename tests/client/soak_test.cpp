@@ -41,7 +41,7 @@ int soak_transactions() {
   return 10000;
 }
 
-enum class Op {
+enum class SoakOp {
   ReadState,
   ReadFlags,
   ReadControls,
@@ -102,8 +102,8 @@ struct Report {
   uint64_t idempotent_failures() const {
     uint64_t c = 0;
     for (std::size_t op = 0; op < kOps; ++op) {
-      if (op == static_cast<std::size_t>(Op::WriteOnce) ||
-          op == static_cast<std::size_t>(Op::ExceptionProbe))
+      if (op == static_cast<std::size_t>(SoakOp::WriteOnce) ||
+          op == static_cast<std::size_t>(SoakOp::ExceptionProbe))
         continue;
       for (auto r : {Result::Timeout, Result::Crc, Result::Framing, Result::Other}) {
         c += rows[op].n[static_cast<std::size_t>(r)];
@@ -187,7 +187,7 @@ struct Soak {
   }
 
   template <typename Fn>
-  void call(Op op, Fn&& fn) {
+  void call(SoakOp op, Fn&& fn) {
     Row& row = report.rows[static_cast<std::size_t>(op)];
     ++row.calls;
     const uint64_t retries_before = f.client->stats().retries;
@@ -230,36 +230,36 @@ struct Soak {
     const auto now = [&] { return f.clock.now(); };
     const int k = std::uniform_int_distribution<int>(0, 99)(rng);
     if (k < 15) {
-      call(Op::ReadState, [&] { return c.read_state() == twin.state(now()); });
+      call(SoakOp::ReadState, [&] { return c.read_state() == twin.state(now()); });
     } else if (k < 30) {
-      call(Op::ReadFlags, [&] { return c.read_flags() == twin.status(now()); });
+      call(SoakOp::ReadFlags, [&] { return c.read_flags() == twin.status(now()); });
     } else if (k < 37) {
-      call(Op::ReadControls, [&] {
+      call(SoakOp::ReadControls, [&] {
         const auto got = c.read_controls();
         return got.y10_1f == twin.control().y10_1f && got.serial_mode == twin.control().serial_mode;
       });
     } else if (k < 52) {
       const unsigned n = std::uniform_int_distribution<unsigned>(0, 63)(rng);
-      call(Op::ReadStep, [&] { return c.read_step(n) == twin.eeprom().steps[n]; });
+      call(SoakOp::ReadStep, [&] { return c.read_step(n) == twin.eeprom().steps[n]; });
     } else if (k < 55) {
-      call(Op::ReadName, [&] { return c.read_name() == twin.eeprom().name; });
+      call(SoakOp::ReadName, [&] { return c.read_name() == twin.eeprom().name; });
     } else if (k < 57) {
-      call(Op::ReadAlarms, [&] { return c.read_alarms() == twin.eeprom().alarms; });
+      call(SoakOp::ReadAlarms, [&] { return c.read_alarms() == twin.eeprom().alarms; });
     } else if (k < 64) {
       const auto data = static_cast<uint16_t>(rng());
-      call(Op::Echo, [&] { return c.echo(data) == data; });
+      call(SoakOp::Echo, [&] { return c.echo(data) == data; });
     } else if (k < 72) {
       static constexpr uint16_t kInert[] = {0x16, 0x17,
                                             0x1F};  // "cannot be used": accepted, no effect
       const uint16_t coil = kInert[rng() % 3];
       const bool on = rng() & 1;
-      call(Op::WriteCoil, [&] {
+      call(SoakOp::WriteCoil, [&] {
         c.write_coil(static_cast<lec::Coil>(coil), on);
         return ((twin.control().y10_1f >> (coil - 0x10)) & 1U) == (on ? 1U : 0U);
       });
     } else if (k < 78) {
       const unsigned n = std::uniform_int_distribution<unsigned>(0, 63)(rng);
-      call(Op::SelectStep, [&] {
+      call(SoakOp::SelectStep, [&] {
         c.select_step(n);
         return twin.control().selected_step() == n;
       });
@@ -268,14 +268,14 @@ struct Soak {
       const unsigned n = std::uniform_int_distribution<unsigned>(0, 63)(rng);
       const lec::StepData want = (rng() % 8 == 0) ? lec::StepData{} : random_step(rng);
       bool written = false;
-      call(Op::WriteStep, [&] {
+      call(SoakOp::WriteStep, [&] {
         c.write_step(n, want);
         written = true;
         return twin.eeprom().steps[n] == want;
       });
       // Faults only touch replies: the write arrived even when its reply did not.
       if (!written && twin.eeprom().steps[n] == want) ++report.failed_but_applied;
-      call(Op::VerifyStep, [&] {
+      call(SoakOp::VerifyStep, [&] {
         const auto got = c.read_step(n);
         return got == twin.eeprom().steps[n] && (!written || got == want);
       });
@@ -284,7 +284,7 @@ struct Soak {
       const lec::StepData want = random_step(rng);
       const auto regs = want.to_registers();
       bool written = false;
-      call(Op::WriteOnce, [&] {
+      call(SoakOp::WriteOnce, [&] {
         c.write_registers(lec::step_address(n), regs, Retry::Never);
         written = true;
         return twin.eeprom().steps[n] == want;
@@ -292,7 +292,7 @@ struct Soak {
       if (!written && twin.eeprom().steps[n] == want) ++report.failed_but_applied;
     } else {
       // A read outside the map, sent raw: the right answer is exception 02.
-      call(Op::ExceptionProbe, [&] {
+      call(SoakOp::ExceptionProbe, [&] {
         const auto reply = c.transact_raw({1, modbus::ReadRegistersRequest{0x2000, 1}});
         const auto* ex = std::get_if<modbus::ExceptionResponse>(&reply.pdu);
         return ex && ex->code == modbus::ExceptionCode::IllegalAddress;

@@ -26,7 +26,7 @@ modbus::Request coils(uint16_t start, std::vector<bool> levels) {
   return modbus::WriteCoilsRequest::of(start, std::span<const bool>(bits, levels.size()));
 }
 
-struct Row {
+struct RuleRow {
   uint16_t address;
   const char* name;
   bool stops_when_on;
@@ -35,7 +35,7 @@ struct Row {
 
 // Every coil of the map (Y10–Y1E, Y30) and every address between: at 1, at 0.
 TEST(StopRule, EveryCoilAtBothLevels) {
-  const std::vector<Row> table = {
+  const std::vector<RuleRow> table = {
       {0x10, "IN0", false, false},
       {0x11, "IN1", false, false},
       {0x12, "IN2", false, false},
@@ -54,7 +54,7 @@ TEST(StopRule, EveryCoilAtBothLevels) {
       {0x1F, "(unused)", false, false},
       {0x30, "Y30 serial mode", false, false},
   };
-  for (const Row& r : table) {
+  for (const RuleRow& r : table) {
     EXPECT_EQ(stops_or_releases(coil(r.address, true)), r.stops_when_on) << r.name << " <- 1";
     EXPECT_EQ(stops_or_releases(coil(r.address, false)), r.stops_when_off) << r.name << " <- 0";
     // The same level written by FC0F over that one coil reads the same.

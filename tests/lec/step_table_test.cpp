@@ -28,7 +28,7 @@ std::string read_fixture(const std::string& name) {
   return ss.str();
 }
 
-std::string joined(const TableErrors& errors) {
+std::string joined_table_errors(const TableErrors& errors) {
   std::string out;
   for (const auto& e : errors) out += e + "\n";
   return out;
@@ -122,7 +122,7 @@ TEST(StepTableCsv, QuotesTheNameLineWhenItHoldsASeparatorOrQuote) {
   const std::string csv = to_csv(t);
   EXPECT_TRUE(csv.starts_with("\"# equipment_name: A,\"\"B\"\"\"\n")) << csv;
   auto back = parse_csv(csv);
-  ASSERT_TRUE(back) << joined(back.error());
+  ASSERT_TRUE(back) << joined_table_errors(back.error());
   EXPECT_EQ(back->equipment_name, "A,\"B\"");
 }
 
@@ -146,7 +146,7 @@ TEST(StepTableCsv, RoundTripsRandomTablesExactly) {
     const StepTable t = random_table(rng, n % 3 == 0);
     const std::string csv = to_csv(t);
     auto back = parse_csv(csv);
-    ASSERT_TRUE(back) << joined(back.error()) << csv;
+    ASSERT_TRUE(back) << joined_table_errors(back.error()) << csv;
     ASSERT_EQ(*back, t) << csv;
     ASSERT_EQ(to_csv(*back), csv);
   }
@@ -158,7 +158,7 @@ TEST(StepTableJson, RoundTripsRandomTablesExactly) {
     const StepTable t = random_table(rng, n % 3 == 0);
     const std::string text = to_json(t);
     auto back = parse_json(text);
-    ASSERT_TRUE(back) << joined(back.error()) << text;
+    ASSERT_TRUE(back) << joined_table_errors(back.error()) << text;
     ASSERT_EQ(*back, t) << text;
     ASSERT_EQ(to_json(*back), text);
   }
@@ -174,7 +174,7 @@ TEST(StepTableCsv, RoundTripsExtremeLengths) {
   t.steps[1].area1_001mm = -kI32;
   for (auto fmt : {TableFormat::Csv, TableFormat::Json}) {
     auto back = parse_table(format_table(t, fmt), fmt);
-    ASSERT_TRUE(back) << joined(back.error());
+    ASSERT_TRUE(back) << joined_table_errors(back.error());
     EXPECT_EQ(*back, t);
   }
   EXPECT_THAT(to_csv(t), HasSubstr("0,abs,500,-21474836.47,5000,5000,0,0,20,100,21474836.47,-0.01,"
@@ -199,7 +199,7 @@ TEST(StepTableCsv, ReadsASpreadsheetSavedFile) {
   ASSERT_TRUE(text.starts_with("\xEF\xBB\xBF"));
   ASSERT_NE(text.find("\r\n"), std::string::npos);
   auto t = parse_csv(text);
-  ASSERT_TRUE(t) << joined(t.error());
+  ASSERT_TRUE(t) << joined_table_errors(t.error());
   EXPECT_EQ(t->equipment_name, "AX \"B\", 1");
   EXPECT_EQ(t->controller_id, 7);
   EXPECT_EQ(t->covered_steps(), (std::vector<unsigned>{0, 1, 2, 3}));
@@ -213,7 +213,7 @@ TEST(StepTableCsv, ReadsASpreadsheetSavedFile) {
 
 TEST(StepTableCsv, ReadsSemicolonsAndDecimalCommas) {
   auto t = parse_csv(read_fixture("semicolon_decimal_comma.csv"));
-  ASSERT_TRUE(t) << joined(t.error());
+  ASSERT_TRUE(t) << joined_table_errors(t.error());
   EXPECT_EQ(t->equipment_name, "Press 2");
   EXPECT_EQ(t->controller_id, 3);
   EXPECT_EQ(t->covered_steps(), (std::vector<unsigned>{0, 5, 63}));
@@ -225,9 +225,9 @@ TEST(StepTableCsv, ReadsSemicolonsAndDecimalCommas) {
 
 TEST(StepTableJson, FixtureReadsLikeTheSameCsv) {
   auto json = parse_json(read_fixture("press2.json"));
-  ASSERT_TRUE(json) << joined(json.error());
+  ASSERT_TRUE(json) << joined_table_errors(json.error());
   auto csv = parse_csv(read_fixture("semicolon_decimal_comma.csv"));
-  ASSERT_TRUE(csv) << joined(csv.error());
+  ASSERT_TRUE(csv) << joined_table_errors(csv.error());
   EXPECT_EQ(*json, *csv);
   EXPECT_EQ(
       parse_table(read_fixture("press2.json"), table_format_for_path("press2.json"))->steps[5],
@@ -237,14 +237,14 @@ TEST(StepTableJson, FixtureReadsLikeTheSameCsv) {
 TEST(StepTableCsv, BadRowNamesLineStepFieldAndRangeAndReturnsNoTable) {
   auto t = parse_csv(read_fixture("bad_row.csv"));
   ASSERT_FALSE(t);
-  ASSERT_EQ(t.error().size(), 1u) << joined(t.error());
+  ASSERT_EQ(t.error().size(), 1u) << joined_table_errors(t.error());
   EXPECT_EQ(t.error()[0],
             "line 5 (step 3): speed_mm_s 70000 mm/s is out of range: allowed 1 to 65535 mm/s");
 }
 
 TEST(StepTableCsv, ReadsReorderedCapitalisedAndLongNamedColumns) {
   auto t = parse_csv(read_fixture("reordered_columns.csv"));
-  ASSERT_TRUE(t) << joined(t.error());
+  ASSERT_TRUE(t) << joined_table_errors(t.error());
   EXPECT_EQ(t->covered_steps(), (std::vector<unsigned>{7, 10}));
   EXPECT_EQ(t->equipment_name, "");
   EXPECT_EQ(t->controller_id, 0);
@@ -257,7 +257,7 @@ TEST(StepTableCsv, ReadsReorderedCapitalisedAndLongNamedColumns) {
 TEST(StepTableCsv, UnknownColumnIsNamed) {
   auto t = parse_csv(read_fixture("unknown_column.csv"));
   ASSERT_FALSE(t);
-  ASSERT_EQ(t.error().size(), 1u) << joined(t.error());
+  ASSERT_EQ(t.error().size(), 1u) << joined_table_errors(t.error());
   EXPECT_THAT(t.error()[0], AllOf(HasSubstr("line 1: unknown columns 'colour', 'Notes'"),
                                   HasSubstr("known columns are step, mode, speed_mm_s")));
 }
@@ -310,7 +310,7 @@ TEST(StepTableCsv, ErrorsUseTheColumnNameTheFileUses) {
 
 TEST(StepTableCsv, BlankRowMayUseBlankWordAndUnpaddedZeros) {
   auto t = parse_csv(kHeader + "\n7,blank,0,0,0,0,0,0,0,0,0,-0,0.0\n");
-  ASSERT_TRUE(t) << joined(t.error());
+  ASSERT_TRUE(t) << joined_table_errors(t.error());
   EXPECT_TRUE(t->steps[7].is_blank());
   EXPECT_EQ(t->covered_steps(), std::vector<unsigned>{7});
 }
@@ -318,7 +318,7 @@ TEST(StepTableCsv, BlankRowMayUseBlankWordAndUnpaddedZeros) {
 TEST(StepTableCsv, MissingAndRepeatedColumnsAreErrors) {
   auto t = parse_csv("step,mode,speed,speed_mm_s,position_mm\n0,abs,1,1,1\n");
   ASSERT_FALSE(t);
-  ASSERT_EQ(t.error().size(), 2u) << joined(t.error());
+  ASSERT_EQ(t.error().size(), 2u) << joined_table_errors(t.error());
   EXPECT_EQ(t.error()[0], "line 1: columns 'speed' and 'speed_mm_s' are both speed_mm_s");
   EXPECT_EQ(t.error()[1],
             "line 1: missing columns accel_mm_s2, decel_mm_s2, pushing_force_pct, "
@@ -404,7 +404,7 @@ TEST(StepTableCsv, CrLfAndBomAndTabSeparatorsInMemory) {
   std::string text = "\xEF\xBB\xBF# equipment_name: X\r\n" + kHeader + "\r\n" +
                      "0,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\r\n";
   auto t = parse_csv(text);
-  ASSERT_TRUE(t) << joined(t.error());
+  ASSERT_TRUE(t) << joined_table_errors(t.error());
   EXPECT_EQ(t->steps[0], abs_step(15000));
   EXPECT_EQ(t->equipment_name, "X");
 
@@ -413,7 +413,7 @@ TEST(StepTableCsv, CrLfAndBomAndTabSeparatorsInMemory) {
     if (c == ',') c = '\t';
   }
   auto tt = parse_csv(tabs);
-  ASSERT_TRUE(tt) << joined(tt.error());
+  ASSERT_TRUE(tt) << joined_table_errors(tt.error());
   EXPECT_EQ(tt->steps[0], abs_step(15000));
 }
 
@@ -423,7 +423,7 @@ TEST(StepTableCsv, MetadataIsValidated) {
       "# controller_id: 2\n# a free comment: ignored\n" +
       kHeader + "\n0,abs,500,150.00,5000,5000,0,0,20,100,0.00,0.00,1.00\n");
   ASSERT_FALSE(t);
-  ASSERT_EQ(t.error().size(), 3u) << joined(t.error());
+  ASSERT_EQ(t.error().size(), 3u) << joined_table_errors(t.error());
   EXPECT_THAT(t.error()[0],
               HasSubstr("line 1: equipment name 'FIFTEEN-CHARS-X' has 15 characters"));
   EXPECT_THAT(t.error()[1], HasSubstr("line 2: controller_id '256' is not a controller ID"));
@@ -498,7 +498,7 @@ TEST(StepTableJson, AcceptsStringsLongNamesAndWholeNumbersAsFloats) {
       "position": "-1.5", "acceleration": 5000, "deceleration": 5000, "pushing_force": 0,
       "trigger_level": 0, "pushing_speed": 20, "moving_force": 100, "area1": 0,
       "area2": 150.07, "in_position": 1}]})");
-  ASSERT_TRUE(t) << joined(t.error());
+  ASSERT_TRUE(t) << joined_table_errors(t.error());
   EXPECT_EQ(t->covered_steps(), std::vector<unsigned>{4});
   EXPECT_EQ(t->steps[4], (StepData{MovementMode::Incremental, 500, -150, 5000, 5000, 0, 0, 20, 100,
                                    0, 15007, 100}));

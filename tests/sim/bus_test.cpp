@@ -16,15 +16,15 @@
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/modbus/crc.hpp"
 
+#include "test_time.hpp"
+
 namespace lec6::sim {
 namespace {
 
 using modbus::Bytes;
 using modbus::ExceptionCode;
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
 Bytes hex(std::string_view text) {
   return modbus::from_hex(text).value();

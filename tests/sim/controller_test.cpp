@@ -13,6 +13,8 @@
 #include "lec6/error.hpp"
 #include "lec6/lec/memory_map.hpp"
 
+#include "test_time.hpp"
+
 namespace lec6::sim {
 namespace {
 
@@ -21,9 +23,7 @@ using lec::StatusFlags;
 using lec::StepData;
 using modbus::ExceptionCode;
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
 std::optional<ExceptionCode> exception_of(const modbus::Response& r) {
   if (auto* e = std::get_if<modbus::ExceptionResponse>(&r)) return e->code;

@@ -16,14 +16,14 @@
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/sim/bus.hpp"
 
+#include "test_time.hpp"
+
 namespace lec6::sim {
 namespace {
 
 using modbus::Bytes;
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
 // A frame from its hex text (ID, function, data) with the CRC appended.
 Bytes frame(std::string_view text) {

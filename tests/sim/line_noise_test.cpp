@@ -9,14 +9,14 @@
 #include "lec6/modbus/crc.hpp"
 #include "lec6/sim/bus.hpp"
 
+#include "test_time.hpp"
+
 namespace lec6::sim {
 namespace {
 
 using modbus::Bytes;
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
 const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
 

@@ -9,17 +9,17 @@
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/sim/controller.hpp"
 
+#include "test_time.hpp"
+
 namespace lec6::sim {
 namespace {
 
 using lec::Coil;
 using lec::StatusFlags;
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
-lec::StepData positioning(int32_t pos_001mm, lec::MovementMode mode = lec::MovementMode::Absolute) {
+lec::StepData quirk_step(int32_t pos_001mm, lec::MovementMode mode = lec::MovementMode::Absolute) {
   lec::StepData s;
   s.movement_mode = mode;
   s.speed_mm_s = 500;
@@ -74,7 +74,7 @@ class Quirks : public ::testing::Test {
 
 TEST_F(Quirks, WithoutQuirksBusyRisesAtTheStart) {
   make({});
-  direct(positioning(10000));
+  direct(quirk_step(10000));
   EXPECT_TRUE(flags().busy());
   EXPECT_FALSE(flags().inp());
   EXPECT_FALSE(c->start_pending());
@@ -91,7 +91,7 @@ TEST_F(Quirks, StartChecksHappenWhenBusyWouldRise) {
 
 TEST_F(Quirks, BusyDelayKeepsTheOldOutputsUntilBusyRises) {
   make(ms(20));
-  direct(positioning(10000));
+  direct(quirk_step(10000));
   const StatusFlags during = flags(ms(19.9));
   EXPECT_FALSE(during.busy());
   EXPECT_TRUE(during.inp()) << "INP keeps the previous value";
@@ -108,7 +108,7 @@ TEST_F(Quirks, BusyDelayKeepsTheOldOutputsUntilBusyRises) {
 
 TEST_F(Quirks, TargetUpdateLateKeepsD9004AndD9006AndOutputs) {
   make(ms(30), {}, true);
-  lec::StepData s = positioning(12000);
+  lec::StepData s = quirk_step(12000);
   (void)c->handle(modbus::WriteRegistersRequest::of(lec::step_address(5),
                                                     std::span<const uint16_t>(s.to_registers())),
                   t);
@@ -123,7 +123,7 @@ TEST_F(Quirks, TargetUpdateLateKeepsD9004AndD9006AndOutputs) {
 
 TEST_F(Quirks, IncCountsFromTheTargetWhenTheStartWasTaken) {
   make(ms(20));  // early target update: D9004 shows the new target during the delay
-  direct(positioning(2500, lec::MovementMode::Incremental));
+  direct(quirk_step(2500, lec::MovementMode::Incremental));
   EXPECT_EQ(state(ms(5)).target_001mm, 2500);
   t += ms(500);
   EXPECT_EQ(state().target_001mm, 2500) << "not counted twice";
@@ -132,7 +132,7 @@ TEST_F(Quirks, IncCountsFromTheTargetWhenTheStartWasTaken) {
 
 TEST_F(Quirks, ShortestBusyPulseForAMoveAlreadyAtItsTarget) {
   make({}, ms(60));
-  direct(positioning(0));  // already there
+  direct(quirk_step(0));  // already there
   EXPECT_TRUE(flags().busy());
   EXPECT_FALSE(flags(ms(59.9)).inp());
   EXPECT_TRUE(flags(ms(59.9)).busy());
@@ -144,7 +144,7 @@ TEST_F(Quirks, ShortestBusyPulseForAMoveAlreadyAtItsTarget) {
 
 TEST_F(Quirks, WithoutTheMinimumAnAtTargetPulseHasNoLength) {
   make({});
-  direct(positioning(0));
+  direct(quirk_step(0));
   EXPECT_FALSE(flags().busy());
   const auto& rec = c->operations().back();
   EXPECT_EQ(rec.busy_rose, rec.busy_fell);
@@ -162,7 +162,7 @@ TEST_F(Quirks, HomeWhenHomedShowsTheShortPulseToo) {
 
 TEST_F(Quirks, ResetCancelsAPendingStart) {
   make(ms(50));
-  direct(positioning(20000));
+  direct(quirk_step(20000));
   t += ms(10);
   coil(Coil::RESET, true);
   coil(Coil::RESET, false);
@@ -175,10 +175,10 @@ TEST_F(Quirks, ResetCancelsAPendingStart) {
 
 TEST_F(Quirks, ARetargetLetsTheRunningMoveGoOnUntilItBegins) {
   make(ms(150));
-  direct(positioning(10000));
+  direct(quirk_step(10000));
   t += ms(150 + 200);  // begun 200 ms ago: decelerating, 25 mm (100 ms) to go
   ASSERT_TRUE(flags().busy());
-  direct(positioning(30000));
+  direct(quirk_step(30000));
   // The old move ends at 100 mm inside the delay: BUSY falls, INP rises.
   const Duration old_end = ms(120);
   EXPECT_TRUE(flags(old_end).inp());
@@ -195,9 +195,9 @@ TEST_F(Quirks, ARetargetLetsTheRunningMoveGoOnUntilItBegins) {
 
 TEST_F(Quirks, ARetargetWithoutDelaySupersedesTheRunningMove) {
   make({});
-  direct(positioning(10000));
+  direct(quirk_step(10000));
   t += ms(100);
-  direct(positioning(30000));
+  direct(quirk_step(30000));
   t += ms(1500);
   const auto& recs = c->operations();
   EXPECT_TRUE(recs[recs.size() - 2].superseded);

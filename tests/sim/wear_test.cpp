@@ -9,14 +9,14 @@
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/sim/controller.hpp"
 
+#include "test_time.hpp"
+
 namespace lec6::sim {
 namespace {
 
 using lec::Coil;
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
 struct Measured {
   double duration_ms = 0;

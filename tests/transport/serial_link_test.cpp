@@ -40,7 +40,7 @@ using client::LinkErrorKind;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 
-const SteadyClock kClock;
+const SteadyClock kSerialClock;
 using Bytes = std::vector<uint8_t>;
 
 // Read 2 registers from D9000 of controller 1 (a frame from the manual).
@@ -48,7 +48,7 @@ const Bytes kQuery = {0x01, 0x03, 0x90, 0x00, 0x00, 0x02, 0xE9, 0x0B};
 const Bytes kReply = {0x01, 0x03, 0x04, 0x00, 0x00, 0x27, 0x10, 0xE2, 0x1F};
 
 TimePoint from_now(Duration d) {
-  return kClock.now() + d;
+  return kSerialClock.now() + d;
 }
 
 void write_fd(int fd, std::span<const uint8_t> data) {
@@ -61,7 +61,7 @@ void write_fd(int fd, std::span<const uint8_t> data) {
       continue;
     }
     ASSERT_TRUE(errno == EAGAIN || errno == EINTR) << errno_text(errno);
-    ASSERT_NE(poll_until(fd, POLLOUT, deadline, kClock), 0) << "write timed out";
+    ASSERT_NE(poll_until(fd, POLLOUT, deadline, kSerialClock), 0) << "write timed out";
   }
 }
 
@@ -70,7 +70,7 @@ Bytes read_fd(int fd, std::size_t count, Duration timeout = 2s) {
   const TimePoint deadline = from_now(timeout);
   Bytes out;
   while (out.size() < count) {
-    if (poll_until(fd, POLLIN, deadline, kClock) == 0) break;
+    if (poll_until(fd, POLLIN, deadline, kSerialClock) == 0) break;
     uint8_t buffer[256];
     const ssize_t n = ::read(fd, buffer, std::min(sizeof buffer, count - out.size()));
     if (n > 0) out.insert(out.end(), buffer, buffer + n);
@@ -152,9 +152,9 @@ TEST(SerialLink, ReadSomeWithAPastDeadlineStillReturnsWhatIsThere) {
   Pty pty;
   SerialLink link(pty.slave_path());
   write_fd(pty.master_fd(), kReply);
-  ASSERT_NE(poll_until(link.fd(), POLLIN, from_now(2s), kClock), 0);
+  ASSERT_NE(poll_until(link.fd(), POLLIN, from_now(2s), kSerialClock), 0);
   uint8_t buffer[64];
-  const std::size_t n = link.read_some(buffer, kClock.now() - 1ms);
+  const std::size_t n = link.read_some(buffer, kSerialClock.now() - 1ms);
   ASSERT_GT(n, 0u);
   EXPECT_TRUE(std::equal(buffer, buffer + n, kReply.begin()));
 }
@@ -166,7 +166,7 @@ TEST(SerialLink, ReadSomeReturnsAsSoonAsBytesArriveWithoutWaitingForMore) {
   uint8_t buffer[64];
   const TimePoint deadline = from_now(10s);
   EXPECT_EQ(link.read_some(buffer, deadline), 2u);
-  EXPECT_LT(kClock.now(), deadline - 9s);
+  EXPECT_LT(kSerialClock.now(), deadline - 9s);
 }
 
 TEST(SerialLink, ReadSomeExactReturnsZeroOnlyOnceTheDeadlineHasPassed) {
@@ -187,7 +187,7 @@ TEST(SerialLink, ReadSomeExactReturnsBytesThatArriveWhilePolling) {
   uint8_t buffer[64];
   const TimePoint deadline = from_now(10s);
   EXPECT_EQ(link.read_some_exact(buffer, deadline), 2u);
-  EXPECT_LT(kClock.now(), deadline - 9s);
+  EXPECT_LT(kSerialClock.now(), deadline - 9s);
 }
 
 TEST(SerialLink, ReadSomeExactWithoutSpinIsReadSome) {
@@ -207,7 +207,7 @@ TEST(SerialLink, DiscardInputDropsStaleBytes) {
   Pty pty;
   SerialLink link(pty.slave_path());
   write_fd(pty.master_fd(), Bytes{0xAA, 0xBB, 0xCC});
-  ASSERT_NE(poll_until(link.fd(), POLLIN, from_now(2s), kClock), 0);  // they have arrived
+  ASSERT_NE(poll_until(link.fd(), POLLIN, from_now(2s), kSerialClock), 0);  // they have arrived
   link.discard_input();
   uint8_t buffer[16];
   EXPECT_EQ(link.read_some(buffer, from_now(20ms)), 0u);
@@ -273,7 +273,7 @@ TEST(SerialLink, ClosingThePtyMasterMakesReadThrowPortLostPromptly) {
   const LinkError e = link_error([&] { link.read_some(buffer, deadline); });
   EXPECT_EQ(e.kind(), LinkErrorKind::PortLost);
   EXPECT_THAT(e.what(), HasSubstr("the serial port " + path + " went away"));
-  EXPECT_LT(kClock.now(), deadline - 9s);
+  EXPECT_LT(kSerialClock.now(), deadline - 9s);
 }
 
 TEST(SerialLink, ClosingThePtyMasterMakesWriteThrowPortLost) {
@@ -281,11 +281,11 @@ TEST(SerialLink, ClosingThePtyMasterMakesWriteThrowPortLost) {
   const std::string path = pty->slave_path();
   SerialLink link(path);
   pty.reset();
-  const TimePoint start = kClock.now();
+  const TimePoint start = kSerialClock.now();
   const LinkError e = link_error([&] { link.write(kQuery); });
   EXPECT_EQ(e.kind(), LinkErrorKind::PortLost);
   EXPECT_THAT(e.what(), HasSubstr(path));
-  EXPECT_LT(kClock.now() - start, 1s);
+  EXPECT_LT(kSerialClock.now() - start, 1s);
 }
 
 TEST(SerialLink, ClosingThePtyMasterMakesDiscardThrowPortLost) {
@@ -430,7 +430,7 @@ TEST(Pty, MasterIsNonBlockingAndSlaveIsRaw) {
   EXPECT_EQ(pty.client_path(), pty.slave_path());
   // A cooked slave would echo this back to the master.
   write_fd(pty.master_fd(), Bytes{'a', 'b', '\n'});
-  EXPECT_EQ(poll_until(pty.master_fd(), POLLIN, from_now(50ms), kClock), 0);
+  EXPECT_EQ(poll_until(pty.master_fd(), POLLIN, from_now(50ms), kSerialClock), 0);
 }
 
 TEST(Pty, MasterStaysQuietBetweenClients) {
@@ -441,7 +441,7 @@ TEST(Pty, MasterStaysQuietBetweenClients) {
   }
   // The client is gone: no EIO, no HUP on the master, and what it sent is there.
   EXPECT_EQ(read_fd(pty.master_fd(), kQuery.size()), kQuery);
-  EXPECT_EQ(poll_until(pty.master_fd(), POLLIN, from_now(20ms), kClock), 0);
+  EXPECT_EQ(poll_until(pty.master_fd(), POLLIN, from_now(20ms), kSerialClock), 0);
   uint8_t byte;
   EXPECT_EQ(::read(pty.master_fd(), &byte, 1), -1);
   EXPECT_EQ(errno, EAGAIN);

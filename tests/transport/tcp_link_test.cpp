@@ -31,16 +31,16 @@ using client::LinkErrorKind;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 
-const SteadyClock kClock;
+const SteadyClock kTcpClock;
 using Bytes = std::vector<uint8_t>;
-const Bytes kQuery = {0x01, 0x03, 0x90, 0x00, 0x00, 0x02, 0xE9, 0x0B};
-const Bytes kReply = {0x01, 0x03, 0x04, 0x00, 0x00, 0x27, 0x10, 0xE2, 0x1F};
+const Bytes kTcpQuery = {0x01, 0x03, 0x90, 0x00, 0x00, 0x02, 0xE9, 0x0B};
+const Bytes kTcpReply = {0x01, 0x03, 0x04, 0x00, 0x00, 0x27, 0x10, 0xE2, 0x1F};
 
-TimePoint from_now(Duration d) {
-  return kClock.now() + d;
+TimePoint tcp_from_now(Duration d) {
+  return kTcpClock.now() + d;
 }
 
-LinkError link_error(const std::function<void()>& f) {
+LinkError tcp_link_error(const std::function<void()>& f) {
   try {
     f();
   } catch (const LinkError& e) {
@@ -50,18 +50,18 @@ LinkError link_error(const std::function<void()>& f) {
   return LinkError(LinkErrorKind::Io, "none");
 }
 
-UniqueFd accept_one(TcpListener& listener) {
-  const TimePoint deadline = from_now(2s);
+UniqueFd accept_tcp(TcpListener& listener) {
+  const TimePoint deadline = tcp_from_now(2s);
   for (;;) {
-    if (poll_until(listener.fd(), POLLIN, deadline, kClock) == 0) return UniqueFd();
+    if (poll_until(listener.fd(), POLLIN, deadline, kTcpClock) == 0) return UniqueFd();
     if (UniqueFd fd = listener.accept()) return fd;
   }
 }
 
 Bytes recv_fd(int fd, std::size_t count) {
-  const TimePoint deadline = from_now(2s);
+  const TimePoint deadline = tcp_from_now(2s);
   Bytes out;
-  while (out.size() < count && poll_until(fd, POLLIN, deadline, kClock) != 0) {
+  while (out.size() < count && poll_until(fd, POLLIN, deadline, kTcpClock) != 0) {
     uint8_t buffer[256];
     const ssize_t n = ::recv(fd, buffer, std::min(sizeof buffer, count - out.size()), 0);
     if (n <= 0) break;
@@ -81,7 +81,7 @@ struct Connected {
   TcpLink link;
   UniqueFd server;
   explicit Connected(TcpOptions options = {})
-      : link("127.0.0.1", listener.port(), options), server(accept_one(listener)) {}
+      : link("127.0.0.1", listener.port(), options), server(accept_tcp(listener)) {}
 };
 
 TEST(TcpListener, BindsTheLoopbackOnAFreePortAndAcceptsWithoutBlocking) {
@@ -94,7 +94,7 @@ TEST(TcpListener, BindsTheLoopbackOnAFreePortAndAcceptsWithoutBlocking) {
 
 TEST(TcpListener, APortInUseIsPortUnavailable) {
   TcpListener first;
-  const LinkError e = link_error([&] { TcpListener second(first.port()); });
+  const LinkError e = tcp_link_error([&] { TcpListener second(first.port()); });
   EXPECT_EQ(e.kind(), LinkErrorKind::PortUnavailable);
   EXPECT_THAT(e.what(),
               HasSubstr("cannot listen on tcp://127.0.0.1:" + std::to_string(first.port())));
@@ -107,16 +107,16 @@ TEST(TcpLink, RoundTrip) {
   EXPECT_EQ(c.link.describe(),
             "tcp://127.0.0.1:" + std::to_string(c.listener.port()) + " @ 115200");
 
-  c.link.write(kQuery);
-  EXPECT_EQ(recv_fd(c.server.get(), kQuery.size()), kQuery);
-  send_fd(c.server.get(), kReply);
-  EXPECT_EQ(read_link(c.link, kReply.size()), kReply);
+  c.link.write(kTcpQuery);
+  EXPECT_EQ(recv_fd(c.server.get(), kTcpQuery.size()), kTcpQuery);
+  send_fd(c.server.get(), kTcpReply);
+  EXPECT_EQ(read_link(c.link, kTcpReply.size()), kTcpReply);
 }
 
 TEST(TcpLink, ReadSomeReturnsZeroOnlyOnceTheDeadlineHasPassed) {
   Connected c;
   uint8_t buffer[16];
-  const TimePoint deadline = from_now(30ms);
+  const TimePoint deadline = tcp_from_now(30ms);
   EXPECT_EQ(c.link.read_some(buffer, deadline), 0u);
   EXPECT_GE(c.link.clock().now(), deadline);
 }
@@ -124,23 +124,23 @@ TEST(TcpLink, ReadSomeReturnsZeroOnlyOnceTheDeadlineHasPassed) {
 TEST(TcpLink, DiscardInputDropsStaleBytes) {
   Connected c;
   send_fd(c.server.get(), Bytes{0xAA, 0xBB});
-  ASSERT_NE(poll_until(c.link.fd(), POLLIN, from_now(2s), kClock), 0);
+  ASSERT_NE(poll_until(c.link.fd(), POLLIN, tcp_from_now(2s), kTcpClock), 0);
   c.link.discard_input();
   uint8_t buffer[16];
-  EXPECT_EQ(c.link.read_some(buffer, from_now(20ms)), 0u);
-  send_fd(c.server.get(), kReply);
-  EXPECT_EQ(read_link(c.link, kReply.size()), kReply);
+  EXPECT_EQ(c.link.read_some(buffer, tcp_from_now(20ms)), 0u);
+  send_fd(c.server.get(), kTcpReply);
+  EXPECT_EQ(read_link(c.link, kTcpReply.size()), kTcpReply);
 }
 
 TEST(TcpLink, PeerClosingIsPortLostPromptly) {
   Connected c;
   c.server.reset();
   uint8_t buffer[16];
-  const TimePoint deadline = from_now(10s);
-  const LinkError e = link_error([&] { c.link.read_some(buffer, deadline); });
+  const TimePoint deadline = tcp_from_now(10s);
+  const LinkError e = tcp_link_error([&] { c.link.read_some(buffer, deadline); });
   EXPECT_EQ(e.kind(), LinkErrorKind::PortLost);
   EXPECT_THAT(e.what(), HasSubstr("tcp://127.0.0.1:"));
-  EXPECT_LT(kClock.now(), deadline - 9s);
+  EXPECT_LT(kTcpClock.now(), deadline - 9s);
 }
 
 TEST(TcpLink, WritingToAClosedPeerIsPortLost) {
@@ -148,9 +148,9 @@ TEST(TcpLink, WritingToAClosedPeerIsPortLost) {
   c.server.reset();
   // The first send is still accepted locally; the peer answers it with a
   // reset, which poll reports as an error condition (events 0: errors only).
-  c.link.write(kQuery);
-  ASSERT_NE(poll_until(c.link.fd(), 0, from_now(2s), kClock), 0);
-  const LinkError e = link_error([&] { c.link.write(kQuery); });
+  c.link.write(kTcpQuery);
+  ASSERT_NE(poll_until(c.link.fd(), 0, tcp_from_now(2s), kTcpClock), 0);
+  const LinkError e = tcp_link_error([&] { c.link.write(kTcpQuery); });
   EXPECT_EQ(e.kind(), LinkErrorKind::PortLost);
   EXPECT_THAT(e.what(), AllOf(HasSubstr("the connection to tcp://127.0.0.1:"),
                               HasSubstr("went away (write: ")));
@@ -162,7 +162,7 @@ TEST(TcpLink, ConnectionRefusedIsPortUnavailable) {
     TcpListener listener;
     port = listener.port();
   }
-  const LinkError e = link_error([&] { TcpLink link("127.0.0.1", port); });
+  const LinkError e = tcp_link_error([&] { TcpLink link("127.0.0.1", port); });
   EXPECT_EQ(e.kind(), LinkErrorKind::PortUnavailable);
   EXPECT_EQ(std::string(e.what()),
             "cannot connect to tcp://127.0.0.1:" + std::to_string(port) + ": Connection refused");
@@ -177,12 +177,12 @@ TEST(TcpLink, ConnectIsBoundedByTheTimeout) {
   std::optional<LinkError> error;
   Duration took{};
   for (int i = 0; i < 8 && !error; ++i) {
-    const TimePoint start = kClock.now();
+    const TimePoint start = kTcpClock.now();
     try {
       queued.push_back(std::make_unique<TcpLink>("127.0.0.1", listener.port(), options));
     } catch (const LinkError& e) {
       error = e;
-      took = kClock.now() - start;
+      took = kTcpClock.now() - start;
     }
   }
   ASSERT_TRUE(error.has_value()) << "the accept queue never filled up";

@@ -20,8 +20,8 @@ using ::testing::HasSubstr;
 using transport::parse_port_spec;
 
 // A pty twin on its own thread for the test's duration.
-struct ServedTwin : testing::ServedTwin {
-  explicit ServedTwin(sim::Timing timing)
+struct PortTwin : testing::ServedTwin {
+  explicit PortTwin(sim::Timing timing)
       : testing::ServedTwin({1}, testing::pty_only(), sim::LineConfig{{}, timing}) {}
 };
 
@@ -38,7 +38,7 @@ TEST(OpenPort, SimIsATwinInThisProcessWithTheGivenId) {
 }
 
 TEST(OpenPort, SerialDeviceSpeaksRtuWithTheGivenLineSettings) {
-  ServedTwin twin(sim::Timing::Fast);
+  PortTwin twin(sim::Timing::Fast);
   PortOptions o;
   o.baud = 115200;
   o.wait_for_silence = false;

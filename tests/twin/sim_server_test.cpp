@@ -63,14 +63,14 @@ Bytes echo(uint8_t id, uint16_t data) {
 
 using testing::read_link;
 
-class TempDir {
+class ScratchDir {
  public:
-  TempDir() {
+  ScratchDir() {
     std::string pattern = (fs::temp_directory_path() / "lec6-simserver-XXXXXX").string();
     if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
     path_ = pattern;
   }
-  ~TempDir() {
+  ~ScratchDir() {
     std::error_code ec;
     fs::remove_all(path_, ec);
   }
@@ -270,7 +270,7 @@ TEST(SimServer, AClientThatLeavesBeforeItsReplyDoesNotDisturbOthers) {
 // ---- life cycle ------------------------------------------------------------------
 
 TEST(SimServer, StopEndsTheLoopPromptlyAndRemovesTheLink) {
-  TempDir dir;
+  ScratchDir dir;
   SimServerOptions o = pty_only();
   o.pty_link = dir.path() / "lec0";
   auto twin = std::make_unique<ServedTwin>(std::vector<uint8_t>{1}, o);
@@ -304,7 +304,7 @@ TEST(SimServer, NeedsSomewhereToServe) {
 }
 
 TEST(SimServer, SavesTheEepromWhenItChangesAndAtTheEnd) {
-  TempDir dir;
+  ScratchDir dir;
   const fs::path state = dir.path() / "twin.state";
   SimServerOptions o = pty_only();
   o.state_file = state;

@@ -22,9 +22,9 @@ using modbus::Bytes;
 using transport::SerialLink;
 using transport::SerialOptions;
 
-const SteadyClock kClock;
+const SteadyClock kTapClock;
 
-Bytes read_state() {
+Bytes tap_read_state() {
   return *modbus::encode_request({1, modbus::ReadRegistersRequest{0x9000, 7}});
 }
 constexpr std::size_t kReplyBytes = 5 + 14;
@@ -37,7 +37,7 @@ Bytes read_bytes(client::Link& link, std::size_t count, Duration timeout = 3s) {
 class Twin {
  public:
   explicit Twin(SimServerOptions options) {
-    bus_.add(1, {}, kClock.now());
+    bus_.add(1, {}, kTapClock.now());
     server_ = std::make_unique<SimServer>(bus_, std::move(options));
     thread_ = std::thread([this] { server_->run(); });
   }
@@ -70,7 +70,7 @@ void expect_tap_hears_the_exchange(Duration tap_latency, Duration usb_latency) {
   SerialLink tap(twin.server().tap()->client_path(), SerialOptions{.baud = 38400});
   SerialLink master(twin.server().pty()->slave_path(), SerialOptions{.baud = 38400});
   for (int i = 0; i < 3; ++i) {
-    const Bytes query = read_state();
+    const Bytes query = tap_read_state();
     master.write(query);
     const Bytes reply = read_bytes(master, kReplyBytes);
     ASSERT_EQ(reply.size(), kReplyBytes) << "exchange " << i;
@@ -99,7 +99,7 @@ TEST(Tap, WhatIsWrittenIntoTheTapNeverReachesTheLine) {
   o.tap_link = tap_path("write");
   Twin twin(std::move(o));
   SerialLink tap(twin.server().tap()->client_path(), SerialOptions{.baud = 38400});
-  tap.write(read_state());             // a listener that transmits: discarded
+  tap.write(tap_read_state());         // a listener that transmits: discarded
   std::this_thread::sleep_for(100ms);  // (nothing to wait for: the absence of a reply)
   EXPECT_EQ(twin.server().stats().bytes_in, 0u);
   EXPECT_EQ(twin.server().stats().replies_sent, 0u);

@@ -10,6 +10,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 
 #include "lec6/client/errors.hpp"
 #include "lec6/clock.hpp"
@@ -47,6 +48,8 @@ class Transaction {
   void timed_out(TimePoint t);
 
   const modbus::ResponseFrame& response() const { return *response_; }
+  // Moves the verified reply out (Done only; response() is empty after).
+  modbus::ResponseFrame take_response() { return std::move(*response_); }
   const std::optional<modbus::ResponseFrame>& maybe_response() const { return response_; }
   TransportErrorKind error_kind() const noexcept { return error_kind_; }
   const std::string& error() const noexcept { return error_; }

@@ -116,6 +116,9 @@ class SerialLink final : public client::Link {
   SteadyClock clock_;
   UniqueFd fd_;
   bool exclusive_set_ = false;
+  // The slave side of a pseudo-terminal (the twin's): no transmitter, so
+  // write() does not wait for one to drain (tcdrain has nothing to wait for).
+  bool pty_ = false;
   std::vector<std::string> warnings_;
 };
 

@@ -67,7 +67,7 @@ MotionRecord rec(int64_t id, int64_t start_ms, const std::string& axis = "x") {
 }
 
 constexpr int64_t kDay = 86'400'000;
-constexpr int64_t kT0 = 1'790'000'000'000;
+constexpr int64_t kStoreT0 = 1'790'000'000'000;
 
 TEST(HistoryStore, RecordsAndTheOdometerSurviveAReopen) {
   TempDir dir;
@@ -80,7 +80,7 @@ TEST(HistoryStore, RecordsAndTheOdometerSurviveAReopen) {
     EXPECT_EQ(s.first_free_id(), 1);
     Odometer o;
     for (int i = 1; i <= 50; ++i) {
-      auto r = rec(i, kT0 + i * 1000, i % 2 ? "x" : "y");
+      auto r = rec(i, kStoreT0 + i * 1000, i % 2 ? "x" : "y");
       if (r.axis == "x") o.add(r);
       EXPECT_TRUE(s.append(r, r.axis == "x" ? o : Odometer{}));
     }
@@ -117,8 +117,8 @@ TEST(HistoryStore, RecordsAndTheOdometerSurviveAReopen) {
   EXPECT_LT(page2.front().id, page1.back().id);
   q = {};
   q.axis = "x";
-  q.since_ms = kT0 + 10'000;
-  q.until_ms = kT0 + 20'000;
+  q.since_ms = kStoreT0 + 10'000;
+  q.until_ms = kStoreT0 + 20'000;
   for (const auto& r : s.query(q)) {
     EXPECT_GE(r.start_ms, *q.since_ms);
     EXPECT_LT(r.start_ms, *q.until_ms);
@@ -145,7 +145,7 @@ TEST(HistoryStore, ACorruptFileIsMovedAsideWithALogLineAndANewOneStarted) {
     aside += e.path().filename().string().starts_with("history.db.corrupt-");
   }
   EXPECT_EQ(aside, 1);
-  EXPECT_TRUE(s.append(rec(1, kT0), {}));
+  EXPECT_TRUE(s.append(rec(1, kStoreT0), {}));
   s.flush();
   HistoryQuery q;
   q.axis = "x";
@@ -158,7 +158,7 @@ TEST(HistoryStore, AnUnusableDirectoryTurnsTheHistoryOffButNeverThrows) {
   c.file = "/proc/lec6-no-such-dir/history.db";
   Store s(c, log.log());
   EXPECT_FALSE(s.ok());
-  EXPECT_FALSE(s.append(rec(1, kT0), {}));
+  EXPECT_FALSE(s.append(rec(1, kStoreT0), {}));
   EXPECT_NE(s.stats().disabled_reason.find("move history off"), std::string::npos);
   EXPECT_NE(log.all().find("the lines run without it"), std::string::npos) << log.all();
 }
@@ -170,7 +170,7 @@ TEST(HistoryStore, RetentionBySizeKeepsTheNewestOfAHundredThousandRecordsUnderTh
   c.file = dir.path / "history.db";
   c.max_bytes = 2u << 20;  // 2 MiB
   c.queue_capacity = 2000;
-  constexpr int64_t now = kT0 + 100 * kDay;
+  constexpr int64_t now = kStoreT0 + 100 * kDay;
   c.now_ms = [] { return now; };
   Store s(c, log.log());
   ASSERT_TRUE(s.ok());
@@ -214,7 +214,7 @@ TEST(HistoryStore, TheOdometerCountsWhatRetentionDeleted) {
     Store s(c, log.log());
     Odometer o;
     for (int i = 1; i <= 5000; ++i) {
-      auto r = rec(i, kT0 + i);
+      auto r = rec(i, kStoreT0 + i);
       o.add(r);
       s.append(r, o);
       if (i % 500 == 0) s.flush();
@@ -231,11 +231,11 @@ TEST(HistoryStore, RetentionByAgeDropsWhatIsOlderThanMaxAge) {
   StoreConfig c;
   c.file = dir.path / "history.db";
   c.max_age_days = 30;
-  std::atomic<int64_t> now{kT0};
+  std::atomic<int64_t> now{kStoreT0};
   c.now_ms = [&now] { return now.load(); };
   {
     Store s(c, log.log());
-    for (int i = 1; i <= 40; ++i) s.append(rec(i, kT0 - (40 - i) * kDay), {});
+    for (int i = 1; i <= 40; ++i) s.append(rec(i, kStoreT0 - (40 - i) * kDay), {});
     s.flush();
   }
   Store s(c, log.log());  // opening prunes by age
@@ -243,7 +243,7 @@ TEST(HistoryStore, RetentionByAgeDropsWhatIsOlderThanMaxAge) {
   q.axis = "x";
   const auto kept = s.query(q);
   ASSERT_FALSE(kept.empty());
-  for (const auto& r : kept) EXPECT_GE(r.start_ms, kT0 - 30 * kDay);
+  for (const auto& r : kept) EXPECT_GE(r.start_ms, kStoreT0 - 30 * kDay);
   EXPECT_EQ(kept.size(), 31u);  // 0 to 30 days old
 }
 
@@ -263,7 +263,7 @@ TEST(HistoryStore, KillMinus9DuringABurstLosesNothingCommittedAndTheOdometerMatc
     Store s(c, [](LogLevel, std::string_view) {});
     Odometer o;
     for (int64_t i = 1;; ++i) {
-      auto r = rec(i, kT0 + i);
+      auto r = rec(i, kStoreT0 + i);
       o.add(r);
       s.append(r, o);
       if (i % 10 == 0) {
