@@ -243,12 +243,12 @@ void Actuator::hold(bool on) {
 }
 
 void Actuator::stop() {
-  release_if_set(Coil::RESET);
+  client_.write_coil(Coil::RESET, false);  // an edge needs a 0 first (a 1 over a 1 is none)
   pulse(Coil::RESET);
 }
 
 std::vector<uint8_t> Actuator::reset_alarms() {
-  release_if_set(Coil::RESET);  // RESET acts on its edge
+  client_.write_coil(Coil::RESET, false);  // RESET acts on its edge: a 0 first
   pulse(Coil::RESET);
   return active_alarms(client_.read_flags());
 }

@@ -43,17 +43,6 @@ std::string StopReport::describe() const {
                      problem.empty() ? "" : " (" + problem + ")");
 }
 
-bool Actuator::release_if_set(Coil coil) {
-  bool set = true;  // unread: released all the same (a 0 over a 0 does nothing)
-  try {
-    set = client_.read_controls().test(coil);
-  } catch (const Error&) {  // no answer, or Ctrl-C on the line (only stops go out then)
-  }
-  if (!set) return false;
-  client_.write_coil(coil, false);
-  return true;
-}
-
 // One look at the axis: flags and state. At rest: speed 0, and for a stop
 // BUSY 0 too (a held operation keeps BUSY).
 bool Actuator::at_rest(StopKind kind, StopReport& report) {
@@ -69,6 +58,7 @@ bool Actuator::watch(StopKind kind, const StopPolicy& policy, TimePoint until_re
   const TimePoint began = clock.now();
   bool budget_set = false;
   int failed = 0;
+  int looks = 0;
   for (;;) {
     try {
       if (at_rest(kind, report)) return true;
@@ -86,7 +76,9 @@ bool Actuator::watch(StopKind kind, const StopPolicy& policy, TimePoint until_re
       if (++failed >= kFailedReadsGiveUp) return false;
     }
     const TimePoint now = clock.now();
-    if (now >= until_rest || now >= deadline) return false;
+    ++looks;
+    // Two looks at least: one slow read must not escalate a stop that worked.
+    if ((now >= until_rest && looks >= 2) || now >= deadline) return false;
   }
 }
 
@@ -105,33 +97,18 @@ StopReport Actuator::stop(StopKind kind, const StopPolicy& policy) {
       return false;
     }
   };
-  // 1. The edge.
-  const Coil coil = kind == StopKind::Hold ? Coil::HOLD : Coil::RESET;
+  // 1. The edge, written before anything is read: a read first would wait
+  // behind other clients' requests on a shared line.
   if (kind == StopKind::Hold) {
-    // HOLD already 1: releasing it would resume a held operation. Only when
-    // the axis moves all the same (the 1 was no edge) is it released and set
-    // again: it is moving anyway.
-    bool held = false;
-    try {
-      held = client_.read_controls().test(Coil::HOLD) && at_rest(kind, report);
-    } catch (const Error&) {
-    }
-    if (held) {
-      report.actions.push_back("HOLD was already 1");
-      report.stopped = true;
-      report.took = clock.now() - began;
-      return report;
-    }
-  }
-  attempt([&] {
-    if (release_if_set(coil))
-      report.actions.push_back(fmt::format("{} released first (a 1 over a 1 is no edge)",
-                                           lec::coil_name(lec::address(coil))));
-  });
-  if (kind == StopKind::Hold) {
+    // Never HOLD <- 0: it would resume a held operation. A HOLD already at
+    // 1 stays; if the axis moves all the same, the judgement says so.
     if (attempt([&] { client_.write_coil(Coil::HOLD, true); }))
       report.actions.push_back("HOLD <- 1");
   } else {
+    // RESET <- 0 first, whatever it reads (a 1 over a 1 is no edge: an HMI's
+    // maintained button); a release of RESET does nothing else.
+    if (attempt([&] { client_.write_coil(Coil::RESET, false); }))
+      report.actions.push_back("RESET <- 0 (an edge needs a 0 first)");
     const bool sent = attempt([&] { client_.write_coil(Coil::RESET, true); });
     // Released whatever happened: a 1 heard with its reply lost would spoil the next edge.
     attempt([&] { client_.write_coil(Coil::RESET, false); });

@@ -38,7 +38,7 @@ TEST(StopJudge, ARESETLeftAtOneByAnotherClientIsReleasedFirstAndTheAxisStops) {
   f.client->write_coil(lec::Coil::RESET, true);  // an HMI's maintained button
   const auto r = f.axis->stop(StopKind::Stop, {});
   EXPECT_TRUE(r.stopped) << r.describe();
-  EXPECT_THAT(r.describe(), HasSubstr("RESET released first"));
+  EXPECT_THAT(r.describe(), HasSubstr("RESET <- 0 (an edge needs a 0 first)"));
   EXPECT_FALSE(f.client->read_flags().busy());
   const auto at = f.client->read_state().position_001mm;
   f.client->idle_until(f.clock.now() + 1s);
@@ -52,7 +52,9 @@ TEST(StopJudge, AStopOnAnAxisAtRestSaysWhereItIs) {
   const auto r = f.axis->stop(StopKind::Stop, {});
   EXPECT_TRUE(r.stopped);
   EXPECT_THAT(r.describe(), HasSubstr("stopped at"));
-  EXPECT_EQ(r.actions, std::vector<std::string>{"RESET pulse"}) << "RESET read 0: no release";
+  EXPECT_EQ(r.actions,
+            (std::vector<std::string>{"RESET <- 0 (an edge needs a 0 first)", "RESET pulse"}))
+      << "nothing read before the edge: a read would wait behind other clients";
 }
 
 TEST(StopJudge, AHoldIsJudgedBySpeedAndTheMoveResumesAfterIt) {
@@ -78,8 +80,11 @@ TEST(StopJudge, AHoldOnAnAxisAlreadyHeldNeverReleasesIt) {
   f.sent.clear();
   const auto r = f.axis->stop(StopKind::Hold, {});
   EXPECT_TRUE(r.stopped) << r.describe();
-  for (const auto& frame : f.sent)
-    EXPECT_NE(frame[1], 0x05) << "a coil was written: releasing HOLD resumes the held move";
+  for (const auto& frame : f.sent) {
+    const bool hold_off =
+        frame.size() >= 6 && frame[1] == 0x05 && frame[3] == 0x18 && frame[4] == 0;
+    EXPECT_FALSE(hold_off) << "HOLD <- 0 was written: it resumes the held move";
+  }
 }
 
 // A controller that answers RESET writes but does not act on them (a worn

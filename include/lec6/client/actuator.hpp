@@ -148,9 +148,9 @@ class Actuator {
   MoveResult jog(bool plus, TimePoint until, TimePoint deadline, const WaitOptions& wait = {});
   void hold(bool on);
   // Decelerating stop: a RESET pulse with no alarm active cancels the
-  // operation. RESET is released first when it reads 1 or cannot be read (a
-  // 1 over a 1 is no edge); nothing is checked afterwards: prefer stop(kind,
-  // policy), which watches the axis.
+  // operation. RESET <- 0 first (a 1 over a 1 is no edge), then 1, then 0;
+  // nothing is checked afterwards: prefer stop(kind, policy), which watches
+  // the axis.
   void stop();
   // A stop judged by the axis (stop.hpp): the edge, then reads until the
   // axis is at rest, escalating by `policy`. Never throws for a line fault:
@@ -171,8 +171,6 @@ class Actuator {
   void check_soft_limits(int32_t target_001mm) const;
   void require_serial_mode(const lec::ControlFlags& controls);
   void pulse(lec::Coil coil);
-  // Releases `coil` first when it reads 1 or cannot be read; returns whether it wrote.
-  bool release_if_set(lec::Coil coil);
   bool at_rest(StopKind kind, StopReport& report);
   bool watch(StopKind kind, const StopPolicy& policy, TimePoint until_rest, TimePoint deadline,
              StopReport& report);

@@ -3,11 +3,12 @@
 // docs/protocol-decisions.md, "A stop is judged by the axis").
 //
 // RESET and HOLD act on their edge: a write of 1 over a 1 (an HMI or a PLC
-// that left the coil set) is no edge and stops nothing. So a stop first
-// releases the coil when it reads 1 (or cannot be read), then makes the edge
-// (a hold whose HOLD already reads 1 with the axis at rest is left alone:
-// releasing it would resume the held operation),
-// then watches the axis: "stopped at X mm" only when a read shows it at rest
+// that left the coil set) is no edge and stops nothing. So a stop writes
+// RESET <- 0, 1, 0 (nothing read first: a read would wait behind other
+// clients on a shared line); a hold writes HOLD <- 1 and never HOLD <- 0
+// (that would resume a held operation: a HOLD left at 1 with the axis still
+// moving is reported, and escalated by the policy). Then it watches the axis:
+// "stopped at X mm" only when a read shows it at rest
 // (speed 0, and BUSY 0 for a stop; a held axis keeps BUSY). If the axis is
 // not at rest within the time its speed needs at the deceleration (plus a
 // margin), the stop escalates by the policy: HOLD, then servo off where

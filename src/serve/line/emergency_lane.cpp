@@ -3,14 +3,23 @@
 #include <utility>
 #include <vector>
 
+#include "lec6/lec/memory_map.hpp"
 #include "line/scheduler.hpp"
 
 namespace lec6::serve {
 
 bool EmergencyLane::push(Queued q) {
   Controller& c = controllers_[q.job.frame.id];
-  for (Queued& waiting : c.jobs) {
-    if (waiting.retry || !(waiting.job.frame.pdu == q.job.frame.pdu)) continue;
+  c.not_before = std::max(c.not_before, backoff_until_[q.job.frame.id]);
+  // Joins only the last one queued: joining an earlier one would reorder the
+  // writes (RESET <- 1 then <- 0 joined to an earlier 0 leaves RESET at 1).
+  if (!c.jobs.empty()) {
+    Queued& waiting = c.jobs.back();
+    if (waiting.retry || !(waiting.job.frame.pdu == q.job.frame.pdu)) {
+      c.jobs.push_back(std::move(q));
+      ++size_;
+      return false;
+    }
     // Joins: one exchange answers both submitters.
     auto first = std::move(waiting.job.done);
     auto second = std::move(q.job.done);
@@ -21,16 +30,44 @@ bool EmergencyLane::push(Queued q) {
     waiting.job.attempts = std::max(waiting.job.attempts, q.job.attempts);
     return true;
   }
-  if (c.jobs.empty()) c.waiting_since = std::max(q.submitted, c.not_before);
+  c.waiting_since = std::max(q.submitted, c.not_before);
   c.jobs.push_back(std::move(q));
   ++size_;
   return false;
+}
+
+namespace {
+
+// A write of levels (coils, the control words): the same one twice in a row
+// is the same as once. A D9100 start is not (each is a start).
+bool writes_levels(const modbus::Request& r) {
+  if (std::holds_alternative<modbus::WriteCoilRequest>(r) ||
+      std::holds_alternative<modbus::WriteCoilsRequest>(r))
+    return true;
+  const auto* w = std::get_if<modbus::WriteRegistersRequest>(&r);
+  return w && w->start >= lec::kControlWordY10 && w->start + w->count <= lec::kControlWordY30 + 1;
+}
+
+}  // namespace
+
+void EmergencyLane::push_in_order(Queued q) {
+  if (writes_levels(q.job.frame.pdu)) {
+    push(std::move(q));  // joins an identical last one
+    return;
+  }
+  Controller& c = controllers_[q.job.frame.id];
+  c.not_before = std::max(c.not_before, backoff_until_[q.job.frame.id]);
+  if (c.jobs.empty()) c.waiting_since = std::max(q.submitted, c.not_before);
+  c.jobs.push_back(std::move(q));
+  ++size_;
 }
 
 void EmergencyLane::retry(Queued q, bool answering, TimePoint now) {
   Controller& c = controllers_[q.job.frame.id];
   q.retry = true;
   c.not_before = answering ? now : now + backoff_;
+  // Kept beyond this stop: the next one to this controller backs off too.
+  backoff_until_[q.job.frame.id] = c.not_before;
   c.waiting_since = c.not_before;
   c.jobs.push_front(std::move(q));
   ++size_;

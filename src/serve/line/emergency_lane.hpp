@@ -17,8 +17,9 @@
 //   - a non-answering controller's stop keeps its attempts, but after a
 //     failed attempt it waits `backoff` before the next (other traffic, not
 //     only other stops, goes meanwhile);
-//   - a stop identical to one queued for the same controller (same request,
-//     not yet on the wire) joins it: one exchange, both submitters answered.
+//   - a stop identical to the last one queued for the same controller (same
+//     request, not yet on the wire) joins it: one exchange, both submitters
+//     answered (only the last: joining an earlier one would reorder writes).
 //     A PLC rewriting its output image every scan then holds one entry, not
 //     hundreds.
 //
@@ -45,6 +46,10 @@ class EmergencyLane {
   // A new stop: joins an identical one queued for its controller, or queues.
   // Returns true when it joined.
   bool push(Queued q);
+  // A write queued before a stop to the same controller, moved here so that
+  // the wire sees the controller's writes in the order they were sent
+  // (never joined).
+  void push_in_order(Queued q);
   // A stop whose exchange failed and has attempts left: first in its
   // controller's queue again. `answering`: whether the controller still
   // counts as answering (only its replies may be lost); if not, it waits
@@ -75,6 +80,7 @@ class EmergencyLane {
 
   Duration backoff_;
   std::map<uint8_t, Controller> controllers_;
+  std::map<uint8_t, TimePoint> backoff_until_;  // per controller, beyond its queued stops
   std::size_t size_ = 0;
   uint8_t last_answering_ = 0;       // round robin of the answering controllers
   uint8_t last_silent_ = 0;          // and of the non-answering ones

@@ -132,6 +132,25 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     return id;
   }
   if (job.priority == Priority::Emergency) {
+    // The controller's writes queued before it go first, in order: a stop
+    // must not overtake an earlier write to its controller (a HOLD <- 0 left
+    // behind would undo the HOLD that overtook it).
+    const uint8_t to = job.frame.id;
+    std::vector<Queued> earlier;
+    for (auto& q : queues_) {
+      for (auto it = q.begin(); it != q.end();) {
+        if ((it->job.frame.id == to || to == modbus::kBroadcastId) &&
+            modbus::is_write(it->job.frame.pdu)) {
+          earlier.push_back(std::move(*it));
+          it = q.erase(it);
+        } else {
+          ++it;
+        }
+      }
+    }
+    std::sort(earlier.begin(), earlier.end(),
+              [](const Queued& a, const Queued& b) { return a.id < b.id; });
+    for (Queued& q : earlier) lane_.push_in_order(std::move(q));
     lane_.push(Queued{id, std::move(job), now});
     return id;
   }

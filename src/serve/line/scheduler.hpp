@@ -256,9 +256,9 @@ class Scheduler {
   LineStats stats_;
   std::vector<PendingCompletion> completions_;
   std::vector<TelemetryEvent> events_;
-  std::string line_down_;  // non-empty: why the line is down
-  bool shutting_down_ = false;  // only stops are taken
-  bool closed_ = false;         // nothing is taken
+  std::string line_down_;         // non-empty: why the line is down
+  bool shutting_down_ = false;    // only stops are taken
+  bool closed_ = false;           // nothing is taken
   Turn last_turn_ = Turn::Reads;  // the kind of the last dispatch (for taking turns)
   JobId next_id_ = 1;
 };

@@ -120,13 +120,15 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   // Stops go to the line whatever this connection holds; the rest in order,
   // while it has room (see full()).
   void dispatch() {
-    for (auto it = waiting_.begin(); it != waiting_.end() && !closed_;) {
-      if (!is_stop(it->decision)) {
-        ++it;
-        continue;
-      }
-      Waiting w = std::move(*it);
-      it = waiting_.erase(it);
+    // Up to the last stop waiting, every frame goes now, in the order sent
+    // (a stop must not overtake this master's earlier writes; the scheduler
+    // keeps them in order on the line).
+    std::size_t last_stop = 0;
+    for (std::size_t i = 0; i < waiting_.size(); ++i)
+      if (is_stop(waiting_[i].decision)) last_stop = i + 1;
+    for (; last_stop > 0 && !closed_; --last_stop) {
+      Waiting w = std::move(waiting_.front());
+      waiting_.pop_front();
       handle(w.transaction, w.unit, w.decision);
     }
     while (!waiting_.empty() && !full() && !closed_) {

@@ -44,9 +44,11 @@ void MqttBridge::Core::command(const MqttMessage& m) {
       auto parsed = parse_command(c.op, c.payload);
       if (!parsed) {
         why = EnvelopeError{c.id, 400, parsed.error().field, parsed.error().message};
-      } else if (!stops_motion(*parsed)) {
+      } else if (!stops_motion(*parsed) || received.retained) {
         // Freshness exists so that a late command never moves an axis: a
-        // stop, hold or reset is never refused by it (issue 31 rule 5).
+        // stop, hold or reset is never refused by it (issue 31 rule 5). A
+        // retained copy is refused all the same: it would act again at every
+        // restart.
         why = check_fresh(c, received);
       }
       if (!why) {

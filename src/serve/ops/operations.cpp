@@ -313,20 +313,14 @@ client::StopPolicy Operations::stop_policy(const AxisRef& axis) {
 }
 
 OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& run) {
-  // Stop, reset and hold (not HOLD off: it resumes motion) write at
-  // Emergency (priority_of: the one rule); the reads that judge them go
-  // ahead of telemetry, and at Emergency once lec serve is shutting down
-  // (only stops are taken then).
+  // Stop, reset and hold (not HOLD off: it resumes motion) go at Emergency,
+  // the reads that judge them too: behind other clients' requests a
+  // judgement would wait for a SCADA flood (their writes would go first
+  // anyway: priority_of, the one rule). They take their controller's turn in
+  // the emergency lane, so other controllers' stops still go.
   const bool urgent = stops_motion(cmd);
-  bool closing = false;
-  {
-    std::lock_guard lock(mutex_);
-    closing = shutting_down_;
-  }
-  LineMaster master(
-      *axis.line,
-      urgent ? (closing ? Priority::Emergency : Priority::Command) : Priority::Completion,
-      urgent ? Priority::Emergency : Priority::Command);
+  LineMaster master(*axis.line, urgent ? Priority::Emergency : Priority::Completion,
+                    urgent ? Priority::Emergency : Priority::Command);
   client::ClientOptions co;
   co.id = axis.id;
   co.retries = axis.line_config->retries;

@@ -26,8 +26,9 @@ using namespace std::chrono_literals;
 using lec::Coil;
 
 constexpr Duration kRun = 3s;
-constexpr Duration kMaxWait = 10s;   // invariant 4
-constexpr Duration kTimeout = 65ms;  // a reply window that stays empty
+constexpr Duration kMaxWait = 10s;      // invariant 4
+constexpr Duration kTimeout = 65ms;     // a reply window that stays empty
+constexpr std::size_t kMaxQueued = 32;  // per connection (ModbusTcpLimits::max_queued)
 const client::TransportError kNoReply(client::TransportErrorKind::Timeout, "no reply (simulated)");
 
 enum class Kind { Clean, Dead, Noisy, Flapping };
@@ -42,6 +43,8 @@ struct Device {
   std::size_t last_write_key = 0;  // the last write answered done
 };
 
+struct Actor;
+
 struct Tracked {
   TimePoint submitted{};
   uint8_t id = 0;
@@ -51,6 +54,8 @@ struct Tracked {
   int answers = 0;
   std::size_t same_queued = 0;  // stops to the same controller already queued
   std::optional<JobResult> result;
+  Actor* from = nullptr;  // a PLC connection, bounded like lec serve's
+  Duration bound{};       // for a stop: the lane's bound, as the line stood at its submit
 };
 
 struct Actor {
@@ -60,7 +65,8 @@ struct Actor {
   std::vector<uint8_t> ids;
   int encoding = 0;  // Plc: 0 FC05, 1 FC0F, 2 FC10 word
   bool hangs_up = false;
-  std::size_t depth = 0;  // Scada: reads kept queued
+  std::size_t depth = 0;        // Scada: reads kept queued
+  std::size_t outstanding = 0;  // Plc: as lec serve's Modbus TCP session, at most kMaxQueued
 };
 
 class World {
@@ -214,7 +220,8 @@ class World {
         a.next += a.period;
         switch (a.type) {
           case Actor::Type::Plc:
-            for (uint8_t id : a.ids) plc_image(a, id);
+            for (uint8_t id : a.ids)
+              if (a.outstanding < kMaxQueued) plc_image(a, id);
             break;
           case Actor::Type::Scada:
             // Keeps `depth` reads queued (refused or cached ones come back at once).
@@ -236,7 +243,7 @@ class World {
     }
   }
 
-  void plc_image(const Actor& a, uint8_t id) {
+  void plc_image(Actor& a, uint8_t id) {
     // An output image: running (servo on, maybe DRIVE), or a stop in it.
     const int what = pick(0, 9);
     bool hold = what == 7, svon = what != 8, reset = what == 9;
@@ -257,7 +264,7 @@ class World {
       const uint16_t words[] = {word};
       r = modbus::WriteRegistersRequest::of(lec::kControlWordY10, words);
     }
-    submit_tcp(id, std::move(r), a.hangs_up);
+    submit_tcp(id, std::move(r), a.hangs_up, &a);
   }
 
   void operator_stop(const Actor& a) {
@@ -289,7 +296,7 @@ class World {
 
   // As the Modbus TCP listener does (modbus_tcp_server.cpp): the gateway
   // rule decides; a master that hangs up cancels what it had queued.
-  void submit_tcp(uint8_t id, modbus::Request request, bool hangs_up) {
+  void submit_tcp(uint8_t id, modbus::Request request, bool hangs_up, Actor* from = nullptr) {
     const auto pdu = modbus::encode_request_pdu(request);
     const auto decision = decide(policy_, id, *pdu);
     const auto* line = std::get_if<LineRequest>(&decision);
@@ -303,8 +310,13 @@ class World {
     const auto* coil = std::get_if<modbus::WriteCoilRequest>(&request);
     const bool hold_on = coil && coil->coil == lec::address(Coil::HOLD) && coil->on();
     const std::size_t key = next_key_++;
-    Tracked t{clock_, id, stop, hold_on, modbus::is_write(request), 0, 0, std::nullopt};
-    if (stop) t.same_queued = queued_stops_[id];
+    Tracked t{clock_, id, stop, hold_on, modbus::is_write(request), 0, 0, std::nullopt, from};
+    if (from) ++from->outstanding;
+    // Ahead of it in its controller's lane: the stops and writes queued
+    // before it (the scheduler keeps a controller's writes in order).
+    if (stop) t.same_queued = pending_writes_[id];
+    if (stop) t.bound = stop_bound(t);
+    if (modbus::is_write(request)) ++pending_writes_[id];
     tracked_[key] = t;
     job.done = [this, key](const JobResult& r) { answered(key, r); };
     if (stop) ++queued_stops_[id], ++run_.stops;
@@ -329,6 +341,8 @@ class World {
     if (++t.answers > 1) violation(fmt::format("job #{} answered twice", key));
     t.result = r;
     if (t.stop && queued_stops_[t.id] > 0) --queued_stops_[t.id];
+    if (t.write && pending_writes_[t.id] > 0) --pending_writes_[t.id];
+    if (t.from && t.from->outstanding > 0) --t.from->outstanding;
     note(3, key * 8 + static_cast<uint64_t>(r.failure),
          [&] { return fmt::format("answer #{}: {}", key, failure_name(r.failure)); });
     if (t.write && r.failure == Failure::None) devices_[t.id].last_write_key = key;
@@ -342,7 +356,7 @@ class World {
       if (d.kind == Kind::Clean && r.failure == Failure::None) {
         const Duration wait = r.started - t.submitted;
         run_.stop_wait_ms.push_back(ms(wait));
-        const Duration bound = stop_bound(t);
+        const Duration bound = t.bound;
         if (wait > bound)
           violation(
               fmt::format("stop #{} to answering ID {} waited {:.1f} ms for the wire (bound "
@@ -364,14 +378,15 @@ class World {
     const Duration answered =
         exchange_time(modbus::ReadRegistersRequest{lec::kStateData, 7}, 1) * 3 / 2;
     const Duration lost = kTimeout + timing_.wire_time(17);
-    Duration round = lost;  // the dead ones' turn
+    Duration round = lost;  // the non-answering ones' turn
     for (const auto& [id, d] : devices_) {
-      if (id == t.id || d.kind == Kind::Dead) continue;
+      if (id == t.id) continue;
+      // A dead controller not yet tried counts as answering: nobody knows.
+      const bool known_silent = s_->health(id).consecutive_failures > 0;
+      if (d.kind == Kind::Dead && known_silent) continue;
       round += d.kind == Kind::Clean ? answered : lost;
     }
     return lost + static_cast<int64_t>(t.same_queued + 1) * round + 1ms;
-    // (The noisy and flapping ones' lost exchanges are counted per round:
-    // one of theirs whose last exchange failed waits with the dead ones.)
   }
 
   Duration exchange_time(const modbus::Request& r, uint8_t id) const {
@@ -460,6 +475,7 @@ class World {
   GatewayPolicy policy_;
   std::map<std::size_t, Tracked> tracked_;
   std::map<uint8_t, std::size_t> queued_stops_;
+  std::map<uint8_t, std::size_t> pending_writes_;
   struct Hold {
     uint8_t id;
     TimePoint at;
