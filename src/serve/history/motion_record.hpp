@@ -28,7 +28,12 @@ struct MotionRecord {
   std::optional<double> accel_mm_s2;
   std::optional<double> force_pct;  // moving force
   std::optional<double> pushing_force_pct;
-  std::string outcome;  // reached, pushed, push_missed, stopped, alarm, deadline, not_started
+  // reached, pushed, push_missed, stopped, alarm, deadline, not_started;
+  // refused: nothing that could move the axis reached the wire (servo off, a
+  // soft limit, an alarm already active): kept as an event, not a motion
+  // (the odometer and the drift detector skip it; tracker_test.cpp
+  // ARefusedMoveIsAnEventNotAMotion).
+  std::string outcome;
   std::optional<double> busy_up_s, busy_down_s, inp_s;  // the timeline, from the start
   double duration_s = 0;                                // start to BUSY down (else to the end)
   std::optional<double> settle_s;                       // BUSY down to INP
@@ -39,6 +44,7 @@ struct MotionRecord {
   std::vector<int> alarms;               // alarm codes raised
 
   bool succeeded() const { return outcome == "reached" || outcome == "pushed"; }
+  bool refused() const { return outcome == "refused"; }
 };
 
 nlohmann::json to_json(const MotionRecord& r);

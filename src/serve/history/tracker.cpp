@@ -18,6 +18,17 @@ bool is_motion_op(const std::string& op) {
 
 }  // namespace
 
+bool refused_before_start(const nlohmann::json& event, const std::string& op) {
+  // A move's result carries its timeline once its start was written (the
+  // client's MoveResult, ops/op_results.cpp); a 4xx without one is a
+  // refusal from the checks before the start (client/actuator.cpp:
+  // ready_to_move, soft limits, the step's validation) or from lec serve
+  // itself. A jog's result has no timeline: a jog's 4xx is an alarm while
+  // it ran, a motion.
+  const int status = event.value("status", 0);
+  return op != "jog" && status >= 400 && status < 500 && !event.contains("timeline");
+}
+
 std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event, TimePoint at,
                                                     int64_t wall_ms) {
   const std::string kind = event.value("event", "");
@@ -50,8 +61,15 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
   if (!is_motion_op(op) && op != "") return std::nullopt;
   Motion m = std::move(*motion_);
   motion_.reset();
-  wait_idle_ = true;
   MotionRecord& r = m.record;
+  if (refused_before_start(event, op)) {
+    // Nothing reached the wire that could move the axis (servo off, a soft
+    // limit, an alarm already active, a stop that came first): an event of
+    // the history, not a motion (no odometer move, no alarm count, no drift).
+    r.outcome = "refused";
+    return r;
+  }
+  wait_idle_ = true;
   r.outcome = event.value("outcome", event.value("ok", false) ? "reached" : "not_started");
   if (const auto it = event.find("timeline"); it != event.end() && it->is_object()) {
     r.busy_up_s = number(*it, "busy_up_s");
@@ -123,7 +141,8 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
     m.record.busy_down_s = to_seconds(at - m.started);
   }
   if (!m.busy_down) return std::nullopt;
-  const bool settled = flags->inp() || flags->alarm() || at - *m.busy_down >= std::chrono::seconds(1);
+  const bool settled =
+      flags->inp() || flags->alarm() || at - *m.busy_down >= std::chrono::seconds(1);
   if (!settled) return std::nullopt;
   MotionRecord& r = m.record;
   r.duration_s = *r.busy_down_s;

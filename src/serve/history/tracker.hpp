@@ -31,6 +31,10 @@
 
 namespace lec6::serve::history {
 
+// A finished event of a motion op that was refused before its start reached
+// the wire (servo off, soft limit, alarm already active, a stop first).
+bool refused_before_start(const nlohmann::json& event, const std::string& op);
+
 class MotionTracker {
  public:
   explicit MotionTracker(std::string axis) : axis_(std::move(axis)) {}
@@ -40,8 +44,8 @@ class MotionTracker {
   std::optional<MotionRecord> op_event(const nlohmann::json& event, TimePoint at, int64_t wall_ms);
   // A telemetry read of the axis: its state and flags as the cache has them.
   std::optional<MotionRecord> telemetry(const std::optional<lec::StateData>& state,
-                                        const std::optional<lec::StatusFlags>& flags,
-                                        TimePoint at, int64_t wall_ms);
+                                        const std::optional<lec::StatusFlags>& flags, TimePoint at,
+                                        int64_t wall_ms);
 
  private:
   struct Sample {

@@ -131,5 +131,36 @@ TEST(History, AStepWriteThroughLecServeStartsANewBaseline) {
   EXPECT_TRUE(h.health("x")["warnings"].empty());
 }
 
+TEST(History, RefusedMovesDoNotCountOnTheOdometer) {
+  // Issue 32: five moves refused before anything was sent gave "moves: 5,
+  // alarms: 5" and a lubrication notice.
+  TempDir dir;
+  HistoryConfig c;
+  c.state_dir = dir.path;
+  c.services.push_back({"lubricate", std::nullopt, 5.0, std::nullopt});
+  History h(c, {"x"}, quiet, now);
+  for (int i = 0; i < 5; ++i) {
+    h.on_op_event("x", {{"event", "started"}, {"op", "move"}, {"source", "mqtt"}}, TimePoint{});
+    h.on_op_event("x",
+                  {{"event", "finished"},
+                   {"op", "move"},
+                   {"status", 422},
+                   {"outcome", "alarm"},
+                   {"alarms", {{{"code", 51}}}},
+                   {"error", "the move (alarm already active): alarm 51"}},
+                  TimePoint{});
+  }
+  const auto health = h.health("x");
+  EXPECT_EQ(health["odometer"]["moves"], 0);
+  EXPECT_EQ(health["odometer"]["alarms"], 0);
+  EXPECT_TRUE(health["service"].empty());
+  h.flush();
+  HistoryQuery q;
+  q.axis = "x";
+  const auto records = h.query(q);
+  ASSERT_EQ(records.size(), 5u);  // kept as events
+  EXPECT_EQ(records.front().outcome, "refused");
+}
+
 }  // namespace
 }  // namespace lec6::serve::history

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "serve/history/history_http.hpp"
+#include "serve/history/odometer.hpp"
 
 namespace lec6::serve::history {
 namespace {
@@ -115,6 +116,61 @@ TEST(Tracker, AfterAnOperationEndsTheTailOfItsBusyIsNotAnotherMotion) {
   EXPECT_FALSE(t.telemetry(state(33, 0, 5, 150), flags(false, false), now, 400));
   now += 2s;
   EXPECT_FALSE(t.telemetry(state(33, 0, 5, 150), flags(false, false), now, 2400));
+}
+
+TEST(Tracker, ARefusedMoveIsAnEventNotAMotion) {
+  // The three refusals of issue 32 as operations report them: servo off and
+  // a soft limit (409, InvalidRequest), an alarm already active (422 with
+  // alarms, but no timeline: nothing was started).
+  const nlohmann::json refusals[] = {{{"event", "finished"},
+                                      {"op", "move"},
+                                      {"ok", false},
+                                      {"status", 409},
+                                      {"error", "the move needs the servo on (SVRE = 0)"}},
+                                     {{"event", "finished"},
+                                      {"op", "move"},
+                                      {"ok", false},
+                                      {"status", 409},
+                                      {"error", "target 900 mm is beyond the soft limits"}},
+                                     {{"event", "finished"},
+                                      {"op", "home"},
+                                      {"ok", false},
+                                      {"status", 422},
+                                      {"outcome", "alarm"},
+                                      {"alarms", {{{"code", 98}}}}}};
+  for (const auto& refused : refusals) {
+    MotionTracker t("x");
+    TimePoint now{};
+    t.telemetry(state(10, 0, 5, 10), flags(false, true), now, 0);
+    t.op_event({{"event", "started"}, {"op", refused["op"]}, {"source", "mqtt"}}, now, 0);
+    now += 30ms;
+    const auto r = t.op_event(refused, now, 30);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->outcome, "refused");
+    EXPECT_TRUE(r->alarms.empty());
+    Odometer o;
+    o.add(*r);
+    EXPECT_EQ(o.moves, 0);
+    EXPECT_EQ(o.alarms, 0);
+  }
+  // A move that ran and ended on an alarm counts, with its alarm.
+  MotionTracker t("x");
+  TimePoint now{};
+  t.op_event({{"event", "started"}, {"op", "move"}, {"source", "mqtt"}}, now, 0);
+  now += 500ms;
+  const auto r = t.op_event({{"event", "finished"},
+                             {"op", "move"},
+                             {"status", 422},
+                             {"outcome", "alarm"},
+                             {"alarms", {{{"code", 98}}}},
+                             {"timeline", {{"busy_up_s", 0.02}, {"busy_down_s", nullptr}}}},
+                            now, 500);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->outcome, "alarm");
+  Odometer o;
+  o.add(*r);
+  EXPECT_EQ(o.moves, 1);
+  EXPECT_EQ(o.alarms, 1);
 }
 
 TEST(HistoryQueryParse, BadFiltersNameTheParameter) {
