@@ -102,7 +102,7 @@ Reply get(const Url& u, const std::string& target) {
   if (!ec) asio::connect(socket, endpoints, ec);
   if (ec) {
     throw CommandFailed(kTransport, fmt::format("lec serve at http://{}:{} does not answer: {} "
-                                                "(is it running with --http and --state-dir?)",
+                                                "(is it running, with --http?)",
                                                 u.host, u.port, ec.message()));
   }
   const std::string request =

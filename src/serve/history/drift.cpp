@@ -101,9 +101,9 @@ DriftDetector::Group* DriftDetector::find_or_make(const MotionRecord& r) {
     }
   }
   if (groups.size() >= config_.max_groups_per_axis) {
-    const auto lru = std::min_element(groups.begin(), groups.end(), [](const Group& a, const Group& b) {
-      return a.last_use < b.last_use;
-    });
+    const auto lru =
+        std::min_element(groups.begin(), groups.end(),
+                         [](const Group& a, const Group& b) { return a.last_use < b.last_use; });
     groups.erase(lru);
   }
   Group g;
@@ -168,10 +168,10 @@ std::vector<DriftEvent> DriftDetector::judge(Group& g, const MotionRecord& r) {
     const double current = median(xs);
     const double ref = g.reference[m];
     if (std::isnan(current) || std::isnan(ref)) continue;
-    const double allowed = std::max(
-        {config_.threshold * std::abs(ref),
-         config_.spread_factor * 1.2533 * g.spread[m] / std::sqrt(double(config_.window)),
-         floors[m]});
+    const double allowed =
+        std::max({config_.threshold * std::abs(ref),
+                  config_.spread_factor * 1.2533 * g.spread[m] / std::sqrt(double(config_.window)),
+                  floors[m]});
     const double excess = current - ref;
     auto& w = g.warning[m];
     if (!w && excess > allowed) {

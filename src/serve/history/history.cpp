@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "state_dir.hpp"
+
 namespace lec6::serve::history {
 namespace {
 
@@ -32,7 +34,17 @@ History::History(const HistoryConfig& config, std::vector<std::string> axes, Log
       wall_ms_(wall_ms ? std::move(wall_ms) : std::function<int64_t()>(system_ms)),
       drift_(drift_config(config)) {
   StoreConfig sc;
-  sc.file = config_.state_dir / "history.db";
+  std::string where_from;
+  if (config_.state_dir.empty()) {  // on by default (issue 32): state_dir.hpp
+    if (const auto d = default_state_dir()) {
+      config_.state_dir = d->dir;
+      where_from = fmt::format(
+          " (the default, from {}; --state-dir DIR keeps it elsewhere, "
+          "--no-history keeps none)",
+          d->from);
+    }
+  }
+  if (!config_.state_dir.empty()) sc.file = config_.state_dir / "history.db";
   sc.max_age_days = config_.max_age_days;
   sc.max_bytes = static_cast<uint64_t>(config_.max_size_mb * 1024 * 1024);
   sc.queue_capacity = config_.queue;
@@ -43,8 +55,8 @@ History::History(const HistoryConfig& config, std::vector<std::string> axes, Log
   services_ = store_->services();
   for (const auto& a : axes) trackers_.emplace(a, MotionTracker(a));
   if (store_->ok()) {
-    log_(LogLevel::Info,
-         fmt::format("move history in {} ({} records so far)", sc.file.string(), next_id_ - 1));
+    log_(LogLevel::Info, fmt::format("move history in {} ({} records so far){}", sc.file.string(),
+                                     next_id_ - 1, where_from));
   }
 }
 

@@ -25,8 +25,8 @@ std::optional<T> whole(std::string_view text) {
 
 HttpResponse history_off() {
   return error_response(404,
-                        "the move history is off: start lec serve with --state-dir DIR, or give "
-                        "its config a history: section (docs/history.md)");
+                        "the move history is off: lec serve was started with --no-history or "
+                        "history: false (docs/history.md)");
 }
 
 }  // namespace

@@ -3,8 +3,14 @@
 #include <fmt/format.h>
 #include <sqlite3.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <stdexcept>
 
 namespace lec6::serve::history {
@@ -73,6 +79,11 @@ class Stmt {
  private:
   sqlite3* db_;
   sqlite3_stmt* s_ = nullptr;
+};
+
+class InUse : public std::runtime_error {  // another daemon holds the file's lock
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 class CorruptFile : public std::runtime_error {
@@ -168,10 +179,21 @@ Odometer odometer_of(const Stmt& s, int first) {
 Store::Store(StoreConfig config, Log log) : config_(std::move(config)), log_(std::move(log)) {
   if (!config_.now_ms) config_.now_ms = system_ms;
   std::string why;
+  if (config_.file.empty()) {
+    stats_.disabled_reason =
+        "move history off: no state directory (no --state-dir, history.state_dir, "
+        "$STATE_DIRECTORY, $XDG_STATE_HOME or $HOME)";
+    log_(LogLevel::Warning, stats_.disabled_reason + " (the lines run without it)");
+    return;
+  }
+  bool in_use = false;
   for (int attempt = 0; attempt < 2; ++attempt) {
     bool corrupt = false;
     try {
       if (open(config_.file)) break;
+    } catch (const InUse& e) {
+      why = e.what();
+      in_use = true;
     } catch (const CorruptFile& e) {
       why = e.what();
       corrupt = true;
@@ -190,7 +212,10 @@ Store::Store(StoreConfig config, Log log) : config_(std::move(config)), log_(std
   if (!writer_) {
     stats_.disabled_reason =
         fmt::format("move history off: cannot use {}: {}", config_.file.string(), why);
-    log_(LogLevel::Error, stats_.disabled_reason + " (the lines run without it)");
+    log_(in_use ? LogLevel::Warning : LogLevel::Error,
+         stats_.disabled_reason +
+             " (the lines run without it; --state-dir DIR keeps it elsewhere, "
+             "--no-history turns it off)");
     return;
   }
   stats_.file_bytes = file_bytes();
@@ -206,12 +231,37 @@ Store::~Store() {
   if (thread_.joinable()) thread_.join();
   if (reader_) sqlite3_close_v2(reader_);
   if (writer_) sqlite3_close_v2(writer_);
+  if (lock_fd_ >= 0) ::close(lock_fd_);
+}
+
+// One daemon per file (issue 32: the history is on by default, and two
+// daemons of one user share the default directory): an exclusive lock on
+// <file>.lock, held while the store is open. The second gets a clear
+// "in use" and runs without history (store_test.cpp
+// ASecondStoreOnTheSameFileIsRefusedNotMixedIn).
+void Store::lock_file(const std::filesystem::path& file) {
+  if (lock_fd_ >= 0) return;
+  const std::string lock = file.string() + ".lock";
+  const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    throw std::runtime_error(fmt::format("cannot make {}: {}", lock, std::strerror(errno)));
+  }
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int e = errno;
+    ::close(fd);
+    if (e == EWOULDBLOCK) {
+      throw InUse(fmt::format("another lec serve keeps its history there (it holds {})", lock));
+    }
+    throw std::runtime_error(fmt::format("cannot lock {}: {}", lock, std::strerror(e)));
+  }
+  lock_fd_ = fd;
 }
 
 // Opens (or makes) the file and checks it. Throws saying what is wrong.
 bool Store::open(const std::filesystem::path& file) {
   std::error_code ec;
   std::filesystem::create_directories(file.parent_path(), ec);
+  lock_file(file);
   const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX;
   if (sqlite3_open_v2(file.c_str(), &writer_, flags, nullptr) != SQLITE_OK) {
     throw SqlError(writer_, "opening");

@@ -65,7 +65,7 @@ struct HistoryQuery {
 struct StoreStats {
   uint64_t written = 0, dropped = 0, pruned = 0;
   std::size_t queued = 0;
-  uint64_t file_bytes = 0;  // the file and its WAL
+  uint64_t file_bytes = 0;      // the file and its WAL
   std::string disabled_reason;  // non-empty: the store is off
 };
 
@@ -103,6 +103,7 @@ class Store {
     std::string axis, service_what;
   };
   bool open(const std::filesystem::path& file);
+  void lock_file(const std::filesystem::path& file);
   void move_aside(const std::string& why);
   void load();
   void writer_loop();
@@ -113,6 +114,7 @@ class Store {
 
   StoreConfig config_;
   Log log_;
+  int lock_fd_ = -1;  // <file>.lock, held exclusively while open
   sqlite3* writer_ = nullptr;
   sqlite3* reader_ = nullptr;
   mutable std::mutex reader_mutex_;

@@ -80,8 +80,19 @@ TEST(History, AServiceThresholdRaisesANoticeUntilTheServiceIsDone) {
   EXPECT_FALSE(h.serviced("x", "paint"));
   EXPECT_TRUE(h.serviced("x", "lubricate"));
   EXPECT_TRUE(h.health("x")["service"].empty());
-  h.flush();
-  History again(c, {"x"}, quiet, now);  // the service mark persists
+}
+
+TEST(History, TheServiceMarkPersists) {
+  TempDir dir;
+  HistoryConfig c;
+  c.state_dir = dir.path;
+  c.services.push_back({"lubricate", std::nullopt, 20.0, std::nullopt});
+  {
+    History h(c, {"x"}, quiet, now);
+    for (int i = 0; i < 20; ++i) h.record(move(1.4, 40, i));
+    EXPECT_TRUE(h.serviced("x", "lubricate"));
+  }
+  History again(c, {"x"}, quiet, now);
   EXPECT_TRUE(again.health("x")["service"].empty());
 }
 

@@ -291,5 +291,40 @@ TEST(HistoryStore, KillMinus9DuringABurstLosesNothingCommittedAndTheOdometerMatc
   EXPECT_EQ(s.odometers().at("x").moves, in_file) << "the odometer row goes with its record";
 }
 
+TEST(HistoryStore, ASecondStoreOnTheSameFileIsRefusedNotMixedIn) {
+  // Two daemons of one user share the default directory (issue 32): the
+  // second would number its records from the same id and lose batches.
+  TempDir dir;
+  Logged log;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  {
+    Store first(c, log.log());
+    ASSERT_TRUE(first.ok());
+    Store second(c, log.log());
+    EXPECT_FALSE(second.ok());
+    EXPECT_NE(second.stats().disabled_reason.find("another lec serve"), std::string::npos)
+        << second.stats().disabled_reason;
+    EXPECT_TRUE(first.append(rec(1, kT0 + 1), Odometer{}));
+    first.flush();
+  }
+  Store after(c, log.log());  // the lock goes with the store
+  EXPECT_TRUE(after.ok()) << log.all();
+  EXPECT_EQ(after.first_free_id(), 2);
+}
+
+TEST(HistoryStore, ADirectoryThatCannotBeMadeIsAClearMessageAndNoStore) {
+  TempDir dir;
+  Logged log;
+  { std::ofstream(dir.path / "a-file") << "x"; }
+  StoreConfig c;
+  c.file = dir.path / "a-file" / "history.db";
+  Store s(c, log.log());
+  EXPECT_FALSE(s.ok());
+  EXPECT_NE(log.all().find("move history off: cannot use"), std::string::npos) << log.all();
+  EXPECT_NE(log.all().find("--no-history"), std::string::npos) << log.all();
+  EXPECT_FALSE(s.append(rec(1, kT0), Odometer{}));
+}
+
 }  // namespace
 }  // namespace lec6::serve::history
