@@ -1,4 +1,5 @@
 #include "drift.hpp"
+#include "drift_group.hpp"
 
 #include <fmt/format.h>
 
@@ -11,9 +12,6 @@
 
 namespace lec6::serve::history {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-using Values = std::array<double, kMetrics>;
 
 double median(std::vector<double> v) {
   std::erase_if(v, [](double x) { return std::isnan(x); });
@@ -66,25 +64,6 @@ const char* metric_name(Metric m) {
   return "?";
 }
 
-struct DriftDetector::Group {
-  int id = 0;
-  MotionRecord key;  // the first move's settings
-  std::string description;
-  uint64_t last_use = 0;
-  std::size_t moves = 0;
-  std::vector<Values> baseline;
-  bool ready = false;
-  bool rebase = false;
-  Values reference{}, spread{};
-  struct Seen {
-    int64_t id, start_ms;
-    Values v;
-  };
-  std::deque<Seen> window;
-  std::array<std::optional<DriftWarning>, kMetrics> warning;
-  std::deque<GroupView::Point> trend;
-};
-
 DriftDetector::DriftDetector(DriftConfig config) : config_(config) {}
 DriftDetector::~DriftDetector() = default;
 
@@ -104,6 +83,7 @@ DriftDetector::Group* DriftDetector::find_or_make(const MotionRecord& r) {
     const auto lru =
         std::min_element(groups.begin(), groups.end(),
                          [](const Group& a, const Group& b) { return a.last_use < b.last_use; });
+    changed_[r.axis][lru->id] = false;
     groups.erase(lru);
   }
   Group g;
@@ -118,6 +98,7 @@ std::vector<DriftEvent> DriftDetector::add(const MotionRecord& r) {
   if (!r.succeeded() || r.kind == "jog") return {};
   Group& g = *find_or_make(r);
   g.last_use = ++use_counter_;
+  changed_[r.axis][g.id] = true;
   ++g.moves;
   const Values v = values_of(r);
   g.trend.push_back({r.id, r.start_ms, {v[0], v[1], v[2]}});
@@ -217,7 +198,7 @@ void DriftDetector::settings_changed(const std::string& axis, std::optional<int>
   if (it == axes_.end()) return;
   for (Group& g : it->second) {
     if (!g.key.step) continue;  // direct moves carry their own settings
-    if (!step || g.key.step == step) g.rebase = true;
+    if (!step || g.key.step == step) g.rebase = true, changed_[axis][g.id] = true;
   }
 }
 

@@ -28,6 +28,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json_fwd.hpp>
@@ -101,6 +102,14 @@ class DriftDetector {
   // The step table of `axis` changed (`step`: one step; nullopt: any).
   void settings_changed(const std::string& axis, std::optional<int> step);
 
+  // Persistence (issue 32: baselines and warnings survive a restart). The
+  // groups changed since the last call, as JSON (null: the group is gone),
+  // for the store to write with the record that changed them; and the
+  // groups read back from it at start (drift_state.cpp). A group's trend
+  // (the dashboard's plot) is not kept: it starts again after a restart.
+  std::vector<std::pair<int, nlohmann::json>> take_changed(const std::string& axis);
+  void restore(const std::string& axis, const std::vector<nlohmann::json>& groups);
+
   std::vector<DriftWarning> warnings(const std::string& axis) const;
   std::vector<GroupView> groups(const std::string& axis) const;
   const DriftConfig& config() const noexcept { return config_; }
@@ -110,8 +119,12 @@ class DriftDetector {
   Group* find_or_make(const MotionRecord& r);
   std::vector<DriftEvent> judge(Group& g, const MotionRecord& r);
 
+  static nlohmann::json save(const Group& g);
+  static Group load(const nlohmann::json& j);
+
   DriftConfig config_;
   std::map<std::string, std::vector<Group>> axes_;
+  std::map<std::string, std::map<int, bool>> changed_;  // axis → group id → still there
   int next_group_id_ = 1;
   uint64_t use_counter_ = 0;
 };

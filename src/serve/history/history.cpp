@@ -53,6 +53,15 @@ History::History(const HistoryConfig& config, std::vector<std::string> axes, Log
   next_id_ = store_->first_free_id();
   odometers_ = store_->odometers();
   services_ = store_->services();
+  // Drift baselines, references and active warnings carry on (issue 32).
+  for (const auto& [axis, rows] : store_->drift_states()) {
+    std::vector<nlohmann::json> groups;
+    for (const auto& text : rows) {
+      auto j = nlohmann::json::parse(text, nullptr, false);
+      if (!j.is_discarded()) groups.push_back(std::move(j));
+    }
+    drift_.restore(axis, groups);
+  }
   for (const auto& a : axes) trackers_.emplace(a, MotionTracker(a));
   if (store_->ok()) {
     log_(LogLevel::Info, fmt::format("move history in {} ({} records so far){}", sc.file.string(),
@@ -99,6 +108,15 @@ void History::on_telemetry(const std::string& axis, const AxisSnapshot& s, TimeP
 void History::on_step_table_edit(const std::string& axis, std::optional<int> step) {
   std::lock_guard lock(mutex_);
   drift_.settings_changed(axis, step);
+  store_->drift(axis, drift_rows(axis));
+}
+
+// The drift groups changed since the last call, for the store (locked).
+std::vector<DriftRow> History::drift_rows(const std::string& axis) {
+  std::vector<DriftRow> rows;
+  for (auto& [id, state] : drift_.take_changed(axis))
+    rows.push_back({id, state.is_null() ? std::string() : state.dump()});
+  return rows;
 }
 
 bool History::serviced(const std::string& axis, const std::string& what) {
@@ -124,8 +142,8 @@ void History::record(MotionRecord r) {
     r.id = next_id_++;
     Odometer& odo = odometers_[r.axis];
     odo.add(r);
-    store_->append(r, odo);
     events = drift_.add(r);
+    store_->append(r, odo, drift_rows(r.axis));
     health = health_locked(r.axis);
     listeners = listeners_;
   }

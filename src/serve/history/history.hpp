@@ -66,6 +66,7 @@ class History {
 
  private:
   std::vector<ServiceNotice> notices_of(const std::string& axis) const;  // locked
+  std::vector<DriftRow> drift_rows(const std::string& axis);             // locked
   nlohmann::json health_locked(const std::string& axis, bool trend = false) const;
 
   HistoryConfig config_;

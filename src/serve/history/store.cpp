@@ -105,6 +105,8 @@ CREATE TABLE IF NOT EXISTS odometer (
 CREATE TABLE IF NOT EXISTS services (
   axis TEXT, what TEXT, at_ms INTEGER, moves INTEGER, distance_mm REAL, motion_s REAL,
   pushes INTEGER, alarms INTEGER, PRIMARY KEY (axis, what));
+CREATE TABLE IF NOT EXISTS drift_groups (
+  axis TEXT, group_id INTEGER, state TEXT, PRIMARY KEY (axis, group_id));
 )";
 
 constexpr const char* kColumns =
@@ -318,11 +320,16 @@ void Store::load() {
     Stmt s(writer_, "SELECT axis, moves, distance_mm, motion_s, pushes, alarms FROM odometer");
     while (s.step()) odometers_[s.text(0)] = odometer_of(s, 1);
   }
-  Stmt s(writer_, "SELECT axis, what, moves, distance_mm, motion_s, pushes, alarms FROM services");
-  while (s.step()) services_[{s.text(0), s.text(1)}] = odometer_of(s, 2);
+  {
+    Stmt s(writer_,
+           "SELECT axis, what, moves, distance_mm, motion_s, pushes, alarms FROM services");
+    while (s.step()) services_[{s.text(0), s.text(1)}] = odometer_of(s, 2);
+  }
+  Stmt s(writer_, "SELECT axis, state FROM drift_groups ORDER BY axis, group_id");
+  while (s.step()) drift_states_[s.text(0)].push_back(s.text(1));
 }
 
-bool Store::append(MotionRecord record, Odometer odometer_after) {
+bool Store::append(MotionRecord record, Odometer odometer_after, std::vector<DriftRow> drift) {
   std::unique_lock lock(mutex_);
   if (!writer_ || stopping_) return false;
   if (queue_.size() >= config_.queue_capacity) {
@@ -339,7 +346,17 @@ bool Store::append(MotionRecord record, Odometer odometer_after) {
     return false;
   }
   const std::string axis = record.axis;
-  queue_.push_back({std::move(record), odometer_after, axis, {}});
+  queue_.push_back({std::move(record), odometer_after, axis, {}, std::move(drift)});
+  ++enqueued_;
+  lock.unlock();
+  wake_.notify_one();
+  return true;
+}
+
+bool Store::drift(const std::string& axis, std::vector<DriftRow> rows) {
+  std::unique_lock lock(mutex_);
+  if (!writer_ || stopping_ || rows.empty()) return false;
+  queue_.push_back({std::nullopt, Odometer{}, axis, {}, std::move(rows)});
   ++enqueued_;
   lock.unlock();
   wake_.notify_one();
@@ -349,7 +366,7 @@ bool Store::append(MotionRecord record, Odometer odometer_after) {
 bool Store::service(const std::string& axis, const std::string& what, const Odometer& at) {
   std::unique_lock lock(mutex_);
   if (!writer_ || stopping_) return false;
-  queue_.push_back({std::nullopt, at, axis, what});
+  queue_.push_back({std::nullopt, at, axis, what, {}});
   ++enqueued_;
   lock.unlock();
   wake_.notify_one();
@@ -391,9 +408,21 @@ void Store::write_batch(std::deque<Item>& batch) {
     Stmt svc(writer_,
              "INSERT OR REPLACE INTO services (axis, what, at_ms, moves, distance_mm, motion_s, "
              "pushes, alarms) VALUES (?,?,?,?,?,?,?,?)");
+    Stmt drift_put(writer_,
+                   "INSERT OR REPLACE INTO drift_groups (axis, group_id, state) VALUES (?,?,?)");
+    Stmt drift_gone(writer_, "DELETE FROM drift_groups WHERE axis = ? AND group_id = ?");
     std::map<std::string, Odometer> last;
     uint64_t records = 0;
     for (const Item& item : batch) {
+      for (const DriftRow& d : item.drift) {
+        Stmt& st = d.state.empty() ? drift_gone : drift_put;
+        st.bind(1, item.axis);
+        st.bind(2, int64_t{d.group_id});
+        if (!d.state.empty()) st.bind(3, d.state);
+        st.step();
+        st.reset();
+      }
+      if (!item.record && item.service_what.empty()) continue;  // drift rows alone
       if (!item.record) {
         svc.bind(1, item.axis);
         svc.bind(2, item.service_what);

@@ -62,6 +62,12 @@ struct HistoryQuery {
   std::size_t limit = 100;           // newest first
 };
 
+// A drift group's state (drift.hpp take_changed); an empty state: the group is gone.
+struct DriftRow {
+  int group_id = 0;
+  std::string state;  // JSON
+};
+
 struct StoreStats {
   uint64_t written = 0, dropped = 0, pruned = 0;
   std::size_t queued = 0;
@@ -87,7 +93,14 @@ class Store {
 
   // Queues the record with its axis' odometer after it. false: dropped (the
   // queue is full, or the store is off).
-  bool append(MotionRecord record, Odometer odometer_after);
+  // `drift`: the drift groups this record changed, written in its transaction.
+  bool append(MotionRecord record, Odometer odometer_after, std::vector<DriftRow> drift = {});
+  // Queues drift group states alone (a step-table edit rebases groups).
+  bool drift(const std::string& axis, std::vector<DriftRow> rows);
+  // The drift groups' states as the file had them when opened, per axis.
+  const std::map<std::string, std::vector<std::string>>& drift_states() const noexcept {
+    return drift_states_;
+  }
   // Queues "`what` was serviced on `axis` at this odometer".
   bool service(const std::string& axis, const std::string& what, const Odometer& at);
   // Waits until everything queued before it is committed (tests, shutdown).
@@ -101,6 +114,7 @@ class Store {
     std::optional<MotionRecord> record;
     Odometer odometer;
     std::string axis, service_what;
+    std::vector<DriftRow> drift;
   };
   bool open(const std::filesystem::path& file);
   void lock_file(const std::filesystem::path& file);
@@ -121,6 +135,7 @@ class Store {
   int64_t first_free_id_ = 1;
   std::map<std::string, Odometer> odometers_;
   std::map<std::pair<std::string, std::string>, Odometer> services_;
+  std::map<std::string, std::vector<std::string>> drift_states_;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_, written_;
