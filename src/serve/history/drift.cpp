@@ -100,15 +100,22 @@ std::vector<DriftEvent> DriftDetector::add(const MotionRecord& r) {
   g.last_use = ++use_counter_;
   changed_[r.axis][g.id] = true;
   ++g.moves;
-  const Values v = values_of(r);
+  Values v = values_of(r);
+  // Issue 32: a duration known only to ± more than a quarter of the drift
+  // threshold (polls far apart, a busy line) is not judged: the move still
+  // counts for thrust and settle time, and the group says how many it skipped.
+  if (!std::isnan(v[0]) && r.duration_pm_s &&
+      *r.duration_pm_s > config_.max_uncertainty_fraction * config_.threshold * v[0]) {
+    v[0] = kNaN;
+  }
+  if (std::isnan(v[0])) ++g.skipped_duration;
   g.trend.push_back({r.id, r.start_ms, {v[0], v[1], v[2]}});
   while (g.trend.size() > config_.trend_points) g.trend.pop_front();
-  return judge(g, r);
+  return judge(g, r, v);
 }
 
-std::vector<DriftEvent> DriftDetector::judge(Group& g, const MotionRecord& r) {
+std::vector<DriftEvent> DriftDetector::judge(Group& g, const MotionRecord& r, const Values& v) {
   std::vector<DriftEvent> events;
-  const Values v = values_of(r);
   if (g.rebase) {
     // The settings changed under this group: what comes now is the new normal.
     g.rebase = false;
@@ -224,6 +231,7 @@ std::vector<GroupView> DriftDetector::groups(const std::string& axis) const {
     v.axis = axis;
     v.description = g.description;
     v.moves = g.moves;
+    v.skipped_duration = g.skipped_duration;
     v.baseline_ready = g.ready;
     for (std::size_t m = 0; m < kMetrics; ++m) {
       v.reference[m] = g.reference[m];

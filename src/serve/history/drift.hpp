@@ -23,6 +23,7 @@
 // Time is what the caller gives (the record's start, Unix ms): no clock here.
 // Thread safety: none (the history owns one and locks around it).
 
+#include <array>
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -50,6 +51,8 @@ struct DriftConfig {
   double floor_settle_s = 0.05;
   std::size_t max_groups_per_axis = 256;  // the least recently used goes
   std::size_t trend_points = 300;         // kept per group for the dashboard
+  // A duration whose ± is above this × threshold × the duration is not judged.
+  double max_uncertainty_fraction = 0.25;
 };
 
 enum class Metric { Duration, PeakThrust, Settle };
@@ -79,6 +82,7 @@ struct GroupView {
   int group_id = 0;
   std::string axis, description;
   std::size_t moves = 0;
+  std::size_t skipped_duration = 0;  // durations not judged: unknown or too uncertain
   bool baseline_ready = false;
   double reference[kMetrics] = {0, 0, 0};
   double spread[kMetrics] = {0, 0, 0};
@@ -117,7 +121,8 @@ class DriftDetector {
  private:
   struct Group;
   Group* find_or_make(const MotionRecord& r);
-  std::vector<DriftEvent> judge(Group& g, const MotionRecord& r);
+  std::vector<DriftEvent> judge(Group& g, const MotionRecord& r,
+                                const std::array<double, kMetrics>& v);
 
   static nlohmann::json save(const Group& g);
   static Group load(const nlohmann::json& j);

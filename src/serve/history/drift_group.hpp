@@ -21,6 +21,7 @@ struct DriftDetector::Group {
   std::string description;
   uint64_t last_use = 0;
   std::size_t moves = 0;
+  std::size_t skipped_duration = 0;  // moves whose duration was too uncertain, or unknown
   std::vector<Values> baseline;
   bool ready = false;
   bool rebase = false;

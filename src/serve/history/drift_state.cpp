@@ -83,6 +83,7 @@ json DriftDetector::save(const Group& g) {
           {"description", g.description},
           {"last_use", g.last_use},
           {"moves", g.moves},
+          {"skipped_duration", g.skipped_duration},
           {"ready", g.ready},
           {"rebase", g.rebase},
           {"reference", values(g.reference)},
@@ -107,6 +108,7 @@ DriftDetector::Group DriftDetector::load(const json& j) {
   g.description = j.value("description", "");
   g.last_use = j.value("last_use", uint64_t{0});
   g.moves = j.value("moves", std::size_t{0});
+  g.skipped_duration = j.value("skipped_duration", std::size_t{0});
   g.ready = j.value("ready", false);
   g.rebase = j.value("rebase", false);
   g.reference = values_of(j.value("reference", json::array()));

@@ -202,6 +202,7 @@ nlohmann::json History::health_locked(const std::string& axis, bool trend) const
     groups.push_back({{"group_id", g.group_id},
                       {"group", g.description},
                       {"moves", g.moves},
+                      {"durations_skipped", g.skipped_duration},
                       {"baseline", baseline}});
     if (trend) {
       json points = json::array();
@@ -217,11 +218,8 @@ nlohmann::json History::health_locked(const std::string& axis, bool trend) const
     }
   }
   const StoreStats st = store_->stats();
-  json storage = {{"written", st.written},
-                  {"dropped", st.dropped},
-                  {"pruned", st.pruned},
-                  {"queued", st.queued},
-                  {"file_bytes", st.file_bytes}};
+  json storage = {{"written", st.written}, {"dropped", st.dropped}, {"pruned", st.pruned},
+                  {"retried", st.retried}, {"queued", st.queued},   {"file_bytes", st.file_bytes}};
   if (!st.disabled_reason.empty()) storage["disabled"] = st.disabled_reason;
   return {{"axis", axis},
           {"ok", warnings.empty() && notes.empty()},

@@ -35,8 +35,12 @@ struct MotionRecord {
   // ARefusedMoveIsAnEventNotAMotion).
   std::string outcome;
   std::optional<double> busy_up_s, busy_down_s, inp_s;  // the timeline, from the start
-  double duration_s = 0;                                // start to BUSY down (else to the end)
-  std::optional<double> settle_s;                       // BUSY down to INP
+  // BUSY's rise to its fall, each edge dated at the middle of the two polls
+  // that bracket it, ± duration_pm_s (issue 32); NaN: BUSY was never seen, no
+  // duration (JSON null). Records of older versions: start to BUSY down.
+  double duration_s = 0;
+  std::optional<double> duration_pm_s;
+  std::optional<double> settle_s;  // BUSY down to INP
   std::optional<double> peak_thrust_pct, mean_thrust_pct, peak_speed_mm_s;
   std::optional<double> overshoot_mm;    // past the target, in the direction of travel
   std::optional<double> final_error_mm;  // final position − target

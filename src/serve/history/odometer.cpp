@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 namespace lec6::serve::history {
@@ -10,7 +12,7 @@ void Odometer::add(const MotionRecord& r) {
   if (r.refused()) return;  // nothing reached the wire: not a motion
   ++moves;
   distance_mm += r.distance_mm;
-  motion_s += r.duration_s;
+  if (!std::isnan(r.duration_s)) motion_s += r.duration_s;
   if (r.pushing_force_pct.value_or(0) > 0 || r.outcome == "pushed" || r.outcome == "push_missed") {
     ++pushes;
   }

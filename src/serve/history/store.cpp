@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 
 namespace lec6::serve::history {
@@ -97,7 +98,8 @@ CREATE TABLE IF NOT EXISTS motions (
   kind TEXT, step INTEGER, start_mm REAL, target_mm REAL, speed_mm_s REAL, accel_mm_s2 REAL,
   force_pct REAL, pushing_force_pct REAL, outcome TEXT, busy_up_s REAL, busy_down_s REAL,
   inp_s REAL, duration_s REAL, settle_s REAL, peak_thrust_pct REAL, mean_thrust_pct REAL,
-  peak_speed_mm_s REAL, overshoot_mm REAL, final_error_mm REAL, distance_mm REAL, alarms TEXT);
+  peak_speed_mm_s REAL, overshoot_mm REAL, final_error_mm REAL, distance_mm REAL, alarms TEXT,
+  duration_pm_s REAL);
 CREATE INDEX IF NOT EXISTS motions_axis_start ON motions (axis, start_ms);
 CREATE TABLE IF NOT EXISTS odometer (
   axis TEXT PRIMARY KEY, moves INTEGER, distance_mm REAL, motion_s REAL, pushes INTEGER,
@@ -113,7 +115,7 @@ constexpr const char* kColumns =
     "id, start_ms, axis, source, kind, step, start_mm, target_mm, speed_mm_s, accel_mm_s2, "
     "force_pct, pushing_force_pct, outcome, busy_up_s, busy_down_s, inp_s, duration_s, settle_s, "
     "peak_thrust_pct, mean_thrust_pct, peak_speed_mm_s, overshoot_mm, final_error_mm, "
-    "distance_mm, alarms";
+    "distance_mm, alarms, duration_pm_s";
 
 std::string alarms_text(const std::vector<int>& codes) {
   std::string out;
@@ -154,7 +156,7 @@ MotionRecord record_of(const Stmt& s) {
   r.busy_up_s = s.opt(13);
   r.busy_down_s = s.opt(14);
   r.inp_s = s.opt(15);
-  r.duration_s = s.f64(16);
+  r.duration_s = s.opt(16).value_or(std::numeric_limits<double>::quiet_NaN());
   r.settle_s = s.opt(17);
   r.peak_thrust_pct = s.opt(18);
   r.mean_thrust_pct = s.opt(19);
@@ -163,6 +165,7 @@ MotionRecord record_of(const Stmt& s) {
   r.final_error_mm = s.opt(22);
   r.distance_mm = s.f64(23);
   r.alarms = alarms_of(s.text(24));
+  r.duration_pm_s = s.opt(25);
   return r;
 }
 
@@ -268,7 +271,7 @@ bool Store::open(const std::filesystem::path& file) {
   if (sqlite3_open_v2(file.c_str(), &writer_, flags, nullptr) != SQLITE_OK) {
     throw SqlError(writer_, "opening");
   }
-  sqlite3_busy_timeout(writer_, 5000);
+  sqlite3_busy_timeout(writer_, config_.busy_timeout_ms);
   // auto_vacuum only takes effect before the first table: a new file gets it.
   exec(writer_, "PRAGMA auto_vacuum = INCREMENTAL");
   {
@@ -278,13 +281,23 @@ bool Store::open(const std::filesystem::path& file) {
     }
   }
   exec(writer_, "PRAGMA journal_mode = WAL");
-  exec(writer_, "PRAGMA synchronous = NORMAL");
+  // FULL (issue 32, docs/history.md "Storage"): with WAL, NORMAL may lose the
+  // last committed records on a power cut; FULL syncs the WAL at each commit,
+  // one fsync per batch (a batch is a motion or a few), so a committed record
+  // survives a power cut too.
+  exec(writer_, "PRAGMA synchronous = FULL");
   // The WAL stays within a tenth of the size limit: checkpoints come that often.
   const uint64_t tenth = std::max<uint64_t>(config_.max_bytes / 10, 64 * 1024);
   exec(writer_, fmt::format("PRAGMA journal_size_limit = {}", tenth).c_str());
   exec(writer_,
        fmt::format("PRAGMA wal_autocheckpoint = {}", std::max<uint64_t>(tenth / 4096, 16)).c_str());
   exec(writer_, kSchema);
+  {  // a file of an older version: the column issue 32 added
+    bool has_pm = false;
+    Stmt cols(writer_, "PRAGMA table_info(motions)");
+    while (cols.step()) has_pm = has_pm || cols.text(1) == "duration_pm_s";
+    if (!has_pm) exec(writer_, "ALTER TABLE motions ADD COLUMN duration_pm_s REAL");
+  }
   if (sqlite3_open_v2(file.c_str(), &reader_, SQLITE_OPEN_READONLY | SQLITE_OPEN_NOMUTEX,
                       nullptr) != SQLITE_OK) {
     throw SqlError(reader_, "opening for queries");
@@ -389,7 +402,35 @@ void Store::writer_loop() {
     dropping_ = false;
     lock.unlock();
     const std::size_t n = batch.size();
-    write_batch(batch);
+    // Issue 32: a lock held past the busy timeout (a sqlite3 shell), a full
+    // disk: the same batch again after 0.5, 1 and 2 s before it is given up
+    // (and logged as such). Shutdown does not wait for the pauses.
+    std::string why;
+    for (int attempt = 0; !write_batch(batch, why); ++attempt) {
+      if (attempt == 3) {
+        log_(LogLevel::Error, fmt::format("move history: {} records not written to {} after 4 "
+                                          "attempts: {}",
+                                          n, config_.file.string(), why));
+        break;
+      }
+      log_(LogLevel::Warning, fmt::format("move history: writing {} records failed ({}); "
+                                          "trying again",
+                                          n, why));
+      lock.lock();
+      ++stats_.retried;
+      wake_.wait_for(lock, std::chrono::milliseconds(500 << attempt), [this] { return stopping_; });
+      lock.unlock();
+    }
+    try {  // after COMMIT: a failure here loses nothing written
+      const int64_t now = config_.now_ms();
+      const bool by_age = now - last_age_prune_ms_ > 3'600'000;
+      if (by_age || logical_bytes() > config_.max_bytes * 85 / 100) prune(by_age);
+    } catch (const std::exception& e) {
+      log_(LogLevel::Warning,
+           fmt::format("move history: retention could not delete old records (the new ones are "
+                       "written): {}",
+                       e.what()));
+    }
     lock.lock();
     committed_ += n;
     stats_.file_bytes = file_bytes();
@@ -397,11 +438,11 @@ void Store::writer_loop() {
   }
 }
 
-void Store::write_batch(std::deque<Item>& batch) {
+bool Store::write_batch(const std::deque<Item>& batch, std::string& why) {
   try {
     exec(writer_, "BEGIN");
     Stmt insert(writer_, fmt::format("INSERT OR REPLACE INTO motions ({}) VALUES ({})", kColumns,
-                                     "?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?"));
+                                     "?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?"));
     Stmt odo(writer_,
              "INSERT OR REPLACE INTO odometer (axis, moves, distance_mm, motion_s, pushes, alarms) "
              "VALUES (?,?,?,?,?,?)");
@@ -463,6 +504,7 @@ void Store::write_batch(std::deque<Item>& batch) {
       insert.bind(i++, r.final_error_mm);
       insert.bind(i++, r.distance_mm);
       insert.bind(i++, alarms_text(r.alarms));
+      insert.bind(i++, r.duration_pm_s);
       insert.step();
       insert.reset();
       last[item.axis] = item.odometer;
@@ -479,17 +521,13 @@ void Store::write_batch(std::deque<Item>& batch) {
       odo.reset();
     }
     exec(writer_, "COMMIT");
-    {
-      std::lock_guard lock(mutex_);
-      stats_.written += records;
-    }
-    const int64_t now = config_.now_ms();
-    const bool by_age = now - last_age_prune_ms_ > 3'600'000;
-    if (by_age || logical_bytes() > config_.max_bytes * 85 / 100) prune(by_age);
+    std::lock_guard lock(mutex_);
+    stats_.written += records;
+    return true;
   } catch (const std::exception& e) {
     sqlite3_exec(writer_, "ROLLBACK", nullptr, nullptr, nullptr);
-    log_(LogLevel::Error, fmt::format("move history: {} records not written to {}: {}",
-                                      batch.size(), config_.file.string(), e.what()));
+    why = e.what();
+    return false;
   }
 }
 

@@ -49,6 +49,7 @@ struct StoreConfig {
   double max_age_days = 365;
   uint64_t max_bytes = 100ull << 20;
   std::size_t queue_capacity = 4096;
+  int busy_timeout_ms = 5000;  // another connection's lock: SQLite waits this long, then a retry
   std::function<int64_t()> now_ms;  // wall clock, Unix ms (tests set it)
 };
 
@@ -70,6 +71,7 @@ struct DriftRow {
 
 struct StoreStats {
   uint64_t written = 0, dropped = 0, pruned = 0;
+  uint64_t retried = 0;  // batches written again after a failure (a lock, a full disk)
   std::size_t queued = 0;
   uint64_t file_bytes = 0;      // the file and its WAL
   std::string disabled_reason;  // non-empty: the store is off
@@ -121,7 +123,7 @@ class Store {
   void move_aside(const std::string& why);
   void load();
   void writer_loop();
-  void write_batch(std::deque<Item>& batch);
+  bool write_batch(const std::deque<Item>& batch, std::string& why);  // false: rolled back
   void prune(bool by_age);
   uint64_t file_bytes() const;
   uint64_t logical_bytes() const;

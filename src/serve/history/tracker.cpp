@@ -18,6 +18,12 @@ bool is_motion_op(const std::string& op) {
 
 }  // namespace
 
+void time_from_brackets(MotionRecord& r, double up_after_s, double down_after_s) {
+  const double up = (up_after_s + *r.busy_up_s) / 2, down = (down_after_s + *r.busy_down_s) / 2;
+  r.duration_s = down - up;
+  r.duration_pm_s = ((*r.busy_up_s - up_after_s) + (*r.busy_down_s - down_after_s)) / 2;
+}
+
 bool refused_before_start(const nlohmann::json& event, const std::string& op) {
   // A move's result carries its timeline once its start was written (the
   // client's MoveResult, ops/op_results.cpp); a 4xx without one is a
@@ -77,7 +83,18 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
     r.inp_s = number(*it, "inp_s");
   }
   const auto elapsed = number(event, "elapsed_s");
-  r.duration_s = r.busy_down_s.value_or(elapsed.value_or(to_seconds(at - m.started)));
+  std::optional<double> up_after, down_after;
+  if (const auto it = event.find("timeline"); it != event.end() && it->is_object()) {
+    up_after = number(*it, "busy_up_after_s");
+    down_after = number(*it, "busy_down_after_s");
+  }
+  if (r.busy_up_s && r.busy_down_s && up_after && down_after) {
+    time_from_brackets(r, *up_after, *down_after);
+  } else if (!r.busy_up_s && event.contains("timeline")) {
+    r.duration_s = kNoDuration;  // BUSY never seen: no duration (not the start window's)
+  } else {
+    r.duration_s = r.busy_down_s.value_or(elapsed.value_or(to_seconds(at - m.started)));
+  }
   if (r.busy_down_s && r.inp_s) r.settle_s = std::max(0.0, *r.inp_s - *r.busy_down_s);
   if (!r.target_mm || r.kind == "move" || r.kind == "run-step") {
     if (const auto t = number(event, "target_mm")) r.target_mm = t;
@@ -108,6 +125,8 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   const bool busy = flags->busy();
   const bool rose = busy && !last_busy_;
   last_busy_ = busy;
+  const std::optional<TimePoint> flags_before = last_flags_at_;
+  last_flags_at_ = at;
   if (!busy) wait_idle_ = false;
   if (!motion_) {
     if (!rose || wait_idle_) return std::nullopt;
@@ -130,6 +149,7 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
       if (before && state) m.samples.push_back(*last_);
     }
     m.record.busy_up_s = 0;
+    if (flags_before) m.up_after_s = to_seconds(*flags_before - at);
     motion_ = std::move(m);
     return std::nullopt;
   }
@@ -139,6 +159,7 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   if (!busy && !m.busy_down) {
     m.busy_down = at;
     m.record.busy_down_s = to_seconds(at - m.started);
+    if (flags_before) m.down_after_s = to_seconds(*flags_before - m.started);
   }
   if (!m.busy_down) return std::nullopt;
   const bool settled =
@@ -146,6 +167,7 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   if (!settled) return std::nullopt;
   MotionRecord& r = m.record;
   r.duration_s = *r.busy_down_s;
+  if (m.up_after_s && m.down_after_s) time_from_brackets(r, *m.up_after_s, *m.down_after_s);
   if (flags->inp()) {
     r.inp_s = to_seconds(at - m.started);
     r.settle_s = *r.inp_s - *r.busy_down_s;

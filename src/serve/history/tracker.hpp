@@ -18,6 +18,7 @@
 // Thread safety: none (History locks around it).
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -34,6 +35,11 @@ namespace lec6::serve::history {
 // A finished event of a motion op that was refused before its start reached
 // the wire (servo off, soft limit, alarm already active, a stop first).
 bool refused_before_start(const nlohmann::json& event, const std::string& op);
+
+// A record's duration (BUSY's rise to its fall) from the brackets of its two
+// edges: each lies between `*_after_s` and the time it was seen.
+void time_from_brackets(MotionRecord& r, double up_after_s, double down_after_s);
+inline constexpr double kNoDuration = std::numeric_limits<double>::quiet_NaN();
 
 class MotionTracker {
  public:
@@ -57,6 +63,7 @@ class MotionTracker {
     MotionRecord record;
     TimePoint started{};
     std::optional<TimePoint> busy_down;
+    std::optional<double> up_after_s, down_after_s;  // the brackets' early ends (telemetry)
     std::vector<Sample> samples;
   };
   MotionRecord finish(Motion& m, std::optional<double> final_mm);
@@ -65,6 +72,7 @@ class MotionTracker {
   std::optional<Motion> motion_;
   std::optional<Sample> last_;
   bool last_busy_ = false;
+  std::optional<TimePoint> last_flags_at_;
   bool wait_idle_ = false;  // after an operation: BUSY must fall before telemetry starts one
 };
 

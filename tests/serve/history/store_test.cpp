@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sqlite3.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -324,6 +325,39 @@ TEST(HistoryStore, ADirectoryThatCannotBeMadeIsAClearMessageAndNoStore) {
   EXPECT_NE(log.all().find("move history off: cannot use"), std::string::npos) << log.all();
   EXPECT_NE(log.all().find("--no-history"), std::string::npos) << log.all();
   EXPECT_FALSE(s.append(rec(1, kT0), Odometer{}));
+}
+
+TEST(HistoryStore, ABatchALockHeldElsewhereRefusedIsWrittenOnTheRetry) {
+  // Issue 32: a sqlite3 shell holding the lock past the busy timeout rolled
+  // the whole batch back, with no retry.
+  TempDir dir;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  c.busy_timeout_ms = 20;
+  sqlite3* shell = nullptr;
+  std::mutex m;
+  std::vector<std::string> lines;
+  Store s(c, [&](LogLevel, std::string_view t) {
+    std::lock_guard lock(m);
+    lines.emplace_back(t);
+    // The shell lets go when the store says it will try again.
+    if (shell && t.find("trying again") != std::string_view::npos) {
+      sqlite3_exec(shell, "COMMIT", nullptr, nullptr, nullptr);
+    }
+  });
+  ASSERT_TRUE(s.ok());
+  ASSERT_EQ(sqlite3_open(c.file.c_str(), &shell), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(shell, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr), SQLITE_OK);
+  ASSERT_TRUE(s.append(rec(1, kT0 + 1), Odometer{}));
+  s.flush();
+  sqlite3_close(shell);
+  EXPECT_EQ(s.stats().written, 1u);
+  EXPECT_GE(s.stats().retried, 1u);
+  HistoryQuery q;
+  q.axis = "x";
+  EXPECT_EQ(s.query(q).size(), 1u);
+  std::lock_guard lock(m);
+  for (const auto& l : lines) EXPECT_EQ(l.find("not written"), std::string::npos) << l;
 }
 
 }  // namespace
