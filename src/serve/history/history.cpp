@@ -236,7 +236,12 @@ nlohmann::json History::health(const std::string& axis, bool trend) const {
 }
 
 std::vector<MotionRecord> History::query(const HistoryQuery& q) const {
+  store_->flush();
   return store_->query(q);
+}
+
+bool History::query_async(HistoryQuery q, std::function<void(std::vector<MotionRecord>)> done) {
+  return queries_.post([this, q = std::move(q), done = std::move(done)] { done(query(q)); });
 }
 
 }  // namespace lec6::serve::history

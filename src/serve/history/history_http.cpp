@@ -149,24 +149,31 @@ bool handle_http(History* history, const AxisRef& axis, const std::vector<std::s
     if (auto* e = std::get_if<QueryError>(&parsed)) {
       return responder.respond(error_response(400, e->message, e->parameter)), true;
     }
-    const HistoryQuery& q = std::get<HistoryQuery>(parsed);
-    const auto records = history->query(q);
+    const HistoryQuery q = std::get<HistoryQuery>(parsed);
     const bool csv = request.query.count("format") && request.query.at("format") == "csv";
-    if (csv) {
-      std::string body = csv_header();
-      for (const auto& r : records) body += csv_row(r);
-      auto out = text_response(200, std::move(body), "text/csv; charset=utf-8");
-      out.headers.set("Content-Disposition",
-                      fmt::format("attachment; filename=\"{}-history.csv\"", axis.name));
-      return responder.respond(out), true;
+    // Off the I/O thread (issue 32): the query and the answer's text are
+    // made on the history's query thread; the Responder answers from there.
+    auto answer = [q, csv, name = axis.name, responder](std::vector<MotionRecord> records) {
+      if (csv) {
+        std::string body = csv_header();
+        for (const auto& r : records) body += csv_row(r);
+        auto out = text_response(200, std::move(body), "text/csv; charset=utf-8");
+        out.headers.set("Content-Disposition",
+                        fmt::format("attachment; filename=\"{}-history.csv\"", name));
+        responder.respond(out);
+        return;
+      }
+      json list = json::array();
+      for (const auto& r : records) list.push_back(to_json(r));
+      json next = nullptr;
+      if (records.size() == q.limit && !records.empty()) next = records.back().id;
+      responder.respond(
+          json_response(200, {{"axis", name}, {"records", list}, {"next_before", next}}));
+    };
+    if (!history->query_async(q, std::move(answer))) {
+      responder.respond(error_response(503, "too many history queries waiting: try again"));
     }
-    json list = json::array();
-    for (const auto& r : records) list.push_back(to_json(r));
-    json next = nullptr;
-    if (records.size() == q.limit && !records.empty()) next = records.back().id;
-    return responder.respond(
-               json_response(200, {{"axis", axis.name}, {"records", list}, {"next_before", next}})),
-           true;
+    return true;
   }
   if (rest.size() == 1 && rest[0] == "health") {
     if (!get)

@@ -593,9 +593,22 @@ std::vector<MotionRecord> Store::query(const HistoryQuery& q) const {
   if (q.outcome) sql += " AND outcome = ?";
   if (q.source) sql += " AND source LIKE ? ESCAPE '\\'";  // starts with
   if (q.step) sql += " AND step = ?";
-  if (q.before_id) sql += " AND id < ?";
-  sql += " ORDER BY id DESC LIMIT ?";
+  // Newest first by start_ms (issue 32): the (axis, start_ms) index holds the
+  // rowid (id) too, so it gives this order without a sort. Paging goes on
+  // from the page's last record: older start, or the same start and a lower id.
   std::lock_guard lock(reader_mutex_);
+  std::optional<int64_t> before_start;
+  if (q.before_id) {
+    Stmt b(reader_, "SELECT start_ms FROM motions WHERE id = ?");
+    b.bind(1, *q.before_id);
+    if (b.step()) before_start = b.i64(0);
+  }
+  if (before_start) {
+    sql += " AND (start_ms < ? OR (start_ms = ? AND id < ?))";
+  } else if (q.before_id) {
+    sql += " AND id < ?";  // the record is gone (retention): by id
+  }
+  sql += " ORDER BY start_ms DESC, id DESC LIMIT ?";
   Stmt s(reader_, sql);
   int i = 1;
   s.bind(i++, q.axis);
@@ -612,6 +625,10 @@ std::vector<MotionRecord> Store::query(const HistoryQuery& q) const {
     s.bind(i++, pattern + "%");
   }
   if (q.step) s.bind(i++, int64_t{*q.step});
+  if (before_start) {
+    s.bind(i++, *before_start);
+    s.bind(i++, *before_start);
+  }
   if (q.before_id) s.bind(i++, *q.before_id);
   s.bind(i++, static_cast<int64_t>(q.limit));
   while (s.step()) out.push_back(record_of(s));

@@ -59,8 +59,9 @@ struct HistoryQuery {
   std::optional<std::string> kind, outcome;
   std::optional<std::string> source;  // starts with: "mqtt" matches "mqtt id 42"
   std::optional<int> step;
-  std::optional<int64_t> before_id;  // paging: records older than this id
-  std::size_t limit = 100;           // newest first
+  std::optional<int64_t>
+      before_id;            // paging: records after this one (older start, or same and lower id)
+  std::size_t limit = 100;  // newest first (start_ms, then id)
 };
 
 // A drift group's state (drift.hpp take_changed); an empty state: the group is gone.

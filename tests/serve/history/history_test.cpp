@@ -12,7 +12,9 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <future>
 #include <random>
+#include <thread>
 
 namespace lec6::serve::history {
 namespace {
@@ -283,6 +285,25 @@ TEST(History, ADriftWarningSurvivesAKill9) {
   ASSERT_EQ(done, 'y');
   History h(c, {"x"}, quiet, now);
   EXPECT_EQ(h.health("x")["warnings"].size(), 1u);
+}
+
+TEST(History, QueriesRunOnTheirOwnThreadAndSeeEveryFinishedRecord) {
+  // Issue 32: history queries held the daemon's I/O thread; and a GET right
+  // after a move could miss its record, still queued for the disk.
+  TempDir dir;
+  HistoryConfig c;
+  c.state_dir = dir.path;
+  History h(c, {"x"}, quiet, now);
+  for (int i = 0; i < 5; ++i) h.record(move(1.4, 40, i * 1000));
+  std::promise<std::pair<std::thread::id, std::size_t>> got;
+  HistoryQuery q;
+  q.axis = "x";
+  ASSERT_TRUE(h.query_async(q, [&](std::vector<MotionRecord> records) {
+    got.set_value({std::this_thread::get_id(), records.size()});
+  }));
+  const auto [thread, n] = got.get_future().get();
+  EXPECT_NE(thread, std::this_thread::get_id());
+  EXPECT_EQ(n, 5u);
 }
 
 }  // namespace
