@@ -119,7 +119,7 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   if (state) {
     last_ = Sample{at, state->position_001mm / 100.0, double(state->speed_mm_s),
                    double(state->thrust_pct)};
-    if (motion_) motion_->samples.push_back(*last_);
+    if (motion_) keep(*motion_, *last_);
   }
   if (!flags) return std::nullopt;
   const bool busy = flags->busy();
@@ -155,6 +155,26 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   }
   if (!motion_->by_telemetry) return std::nullopt;
   Motion& m = *motion_;
+  if (busy && !m.busy_down && state && before) {
+    const bool still = state->speed_mm_s == 0 &&
+                       std::abs(state->position_001mm / 100.0 - before->position_mm) < 0.02;
+    if (!still) {
+      m.rest_since.reset();
+    } else if (!m.rest_since) {
+      m.rest_since = before->at;
+    } else if (at - *m.rest_since >= kRestCloses) {
+      // Left at rest with BUSY on (a hold, a pause): the motion ended when
+      // the carriage stopped; what follows until BUSY falls is not motion.
+      MotionRecord& r = m.record;
+      r.busy_down_s = to_seconds(*m.rest_since - m.started);
+      r.duration_s = *r.busy_down_s;
+      r.outcome = "stopped";
+      Motion done = std::move(m);
+      motion_.reset();
+      wait_idle_ = true;
+      return finish(done, last_ ? std::optional<double>(last_->position_mm) : std::nullopt);
+    }
+  }
   if (state) m.record.target_mm = state->target_001mm / 100.0;
   if (!busy && !m.busy_down) {
     m.busy_down = at;
@@ -176,6 +196,22 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   Motion done = std::move(m);
   motion_.reset();
   return finish(done, last_ ? std::optional<double>(last_->position_mm) : std::nullopt);
+}
+
+void MotionTracker::keep(Motion& m, const Sample& s) {
+  m.samples.push_back(s);
+  if (m.samples.size() <= kMaxSamples) return;
+  // Merge pairs after the first (the start): the later one's time and
+  // position, the larger thrust and speed of the two.
+  std::vector<Sample> merged{m.samples.front()};
+  for (std::size_t i = 1; i + 1 < m.samples.size(); i += 2) {
+    Sample a = m.samples[i + 1];
+    a.thrust_pct = std::max(a.thrust_pct, m.samples[i].thrust_pct);
+    a.speed_mm_s = std::max(a.speed_mm_s, m.samples[i].speed_mm_s);
+    merged.push_back(a);
+  }
+  if (m.samples.size() % 2 == 0) merged.push_back(m.samples.back());
+  m.samples = std::move(merged);
 }
 
 MotionRecord MotionTracker::finish(Motion& m, std::optional<double> final_mm) {

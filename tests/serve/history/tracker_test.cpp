@@ -176,6 +176,52 @@ TEST(Tracker, ARefusedMoveIsAnEventNotAMotion) {
   EXPECT_EQ(o.alarms, 1);
 }
 
+TEST(Tracker, AMotionLeftAtRestIsClosedNotCountedForTheWholeHold) {
+  MotionTracker t("x");
+  TimePoint now{};
+  t.telemetry(state(100, 0, 3, 100), flags(false, true), now, 0);
+  now += 100ms;
+  t.telemetry(state(90, 50, 30, 20), flags(true, false), now, 100);
+  now += 500ms;
+  t.telemetry(state(60, 50, 30, 20), flags(true, false), now, 600);
+  // Held at 60 mm, BUSY on, for a weekend (a read a second).
+  std::optional<MotionRecord> r;
+  for (int i = 0; i < 48 * 3600 && !r; ++i) {
+    now += 1s;
+    r = t.telemetry(state(60, 0, 10, 20), flags(true, false), now, 600 + 1000 * (i + 1));
+  }
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->outcome, "stopped");
+  EXPECT_LT(r->duration_s, 2.0);  // up to the carriage's stop, not 48 h
+  // The rest of that BUSY, and its fall, make no other motion.
+  now += 1h;
+  EXPECT_FALSE(t.telemetry(state(60, 0, 10, 20), flags(true, false), now, 0));
+  now += 100ms;
+  EXPECT_FALSE(t.telemetry(state(60, 0, 10, 20), flags(false, true), now, 0));
+}
+
+TEST(Tracker, ALongMotionKeepsBoundedSamples) {
+  MotionTracker t("x");
+  TimePoint now{};
+  t.telemetry(state(0, 0, 3, 0), flags(false, true), now, 0);
+  t.op_event({{"event", "started"}, {"op", "jog"}, {"source", "mqtt"}}, now, 0);
+  // A slow jog of 10 h at 10 Hz: 360 000 samples, one thrust peak in them.
+  for (int i = 1; i <= 360'000; ++i) {
+    now += 100ms;
+    t.telemetry(state(i * 0.001, 1, i == 200'001 ? 90 : 20, 400), flags(true, false), now, 0);
+  }
+  EXPECT_LE(t.samples_kept(), kMaxSamples);
+  const auto r = t.op_event({{"event", "finished"},
+                             {"op", "jog"},
+                             {"status", 200},
+                             {"outcome", "stopped"},
+                             {"position_mm", 360.0}},
+                            now, 0);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->peak_thrust_pct, 90);  // the peak survives the merging
+  EXPECT_NEAR(r->distance_mm, 360, 0.01);
+}
+
 TEST(HistoryQueryParse, BadFiltersNameTheParameter) {
   auto err = [](std::map<std::string, std::string> q) {
     auto r = parse_query("x", q);
