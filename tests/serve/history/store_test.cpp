@@ -360,5 +360,40 @@ TEST(HistoryStore, ABatchALockHeldElsewhereRefusedIsWrittenOnTheRetry) {
   for (const auto& l : lines) EXPECT_EQ(l.find("not written"), std::string::npos) << l;
 }
 
+TEST(HistoryStore, AFileOfTheVersionBeforeDurationUncertaintyOpensAndTakesNewRecords) {
+  TempDir dir;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  sqlite3* old = nullptr;
+  ASSERT_EQ(sqlite3_open(c.file.c_str(), &old), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(old,
+                         "CREATE TABLE motions (id INTEGER PRIMARY KEY, start_ms INTEGER NOT NULL, "
+                         "axis TEXT NOT NULL, source TEXT, kind TEXT, step INTEGER, start_mm REAL, "
+                         "target_mm REAL, speed_mm_s REAL, accel_mm_s2 REAL, force_pct REAL, "
+                         "pushing_force_pct REAL, outcome TEXT, busy_up_s REAL, busy_down_s REAL, "
+                         "inp_s REAL, duration_s REAL, settle_s REAL, peak_thrust_pct REAL, "
+                         "mean_thrust_pct REAL, peak_speed_mm_s REAL, overshoot_mm REAL, "
+                         "final_error_mm REAL, distance_mm REAL, alarms TEXT);"
+                         "INSERT INTO motions (id, start_ms, axis, outcome, duration_s) "
+                         "VALUES (1, 1790000000001, 'x', 'reached', 1.5);",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(old);
+  Logged log;
+  Store s(c, log.log());
+  ASSERT_TRUE(s.ok()) << log.all();
+  auto r = rec(2, kT0 + 2);
+  r.duration_pm_s = 0.01;
+  ASSERT_TRUE(s.append(r, Odometer{}));
+  s.flush();
+  HistoryQuery q;
+  q.axis = "x";
+  const auto all = s.query(q);
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all.back().duration_s, 1.5);
+  EXPECT_FALSE(all.back().duration_pm_s);
+  EXPECT_EQ(all.front().duration_pm_s, 0.01);
+}
+
 }  // namespace
 }  // namespace lec6::serve::history
