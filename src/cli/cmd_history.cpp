@@ -51,7 +51,8 @@ Url daemon_url(const GlobalOptions& g, const std::string& given) {
     }
   }
   if (text.rfind("http://", 0) != 0) {
-    throw UsageError(fmt::format("--daemon: '{}' is not http://HOST:PORT (lec serve's --http)", text));
+    throw UsageError(
+        fmt::format("--daemon: '{}' is not http://HOST:PORT (lec serve's --http)", text));
   }
   std::string rest = text.substr(7);
   Url u;
@@ -101,12 +102,12 @@ Reply get(const Url& u, const std::string& target) {
   if (!ec) asio::connect(socket, endpoints, ec);
   if (ec) {
     throw CommandFailed(kTransport, fmt::format("lec serve at http://{}:{} does not answer: {} "
-                                                "(is it running with --http and --state-dir?)",
+                                                "(is it running, with --http?)",
                                                 u.host, u.port, ec.message()));
   }
-  const std::string request = fmt::format(
-      "GET {}{} HTTP/1.1\r\nHost: {}:{}\r\nConnection: close\r\nAccept: */*\r\n\r\n", u.base_path,
-      target, u.host, u.port);
+  const std::string request =
+      fmt::format("GET {}{} HTTP/1.1\r\nHost: {}:{}\r\nConnection: close\r\nAccept: */*\r\n\r\n",
+                  u.base_path, target, u.host, u.port);
   asio::write(socket, asio::buffer(request), ec);
   std::string data;
   std::array<char, 65536> buf{};
@@ -117,7 +118,8 @@ Reply get(const Url& u, const std::string& target) {
   }
   const auto end = data.find("\r\n\r\n");
   if (data.rfind("HTTP/1.", 0) != 0 || end == std::string::npos) {
-    throw CommandFailed(kTransport, fmt::format("http://{}:{} did not answer in HTTP", u.host, u.port));
+    throw CommandFailed(kTransport,
+                        fmt::format("http://{}:{} did not answer in HTTP", u.host, u.port));
   }
   Reply r;
   r.status = std::atoi(data.c_str() + 9);
@@ -134,7 +136,8 @@ nlohmann::json get_json(const Url& u, const std::string& target) {
     throw CommandFailed(kFailure, fmt::format("lec serve answered {} without JSON", r.status));
   }
   if (r.status == 400) throw UsageError(j.value("error", "bad request"));
-  if (r.status != 200) throw CommandFailed(kFailure, j.value("error", fmt::format("HTTP {}", r.status)));
+  if (r.status != 200)
+    throw CommandFailed(kFailure, j.value("error", fmt::format("HTTP {}", r.status)));
   return j;
 }
 
@@ -196,7 +199,8 @@ void run_health(const GlobalOptions& g, const DaemonArgs& a) {
   fmt::print("{}: {}\n", a.axis, j.value("ok", false) ? "healthy" : "needs attention");
   fmt::print("  odometer: {} moves, {:.3f} km, {:.2f} h in motion, {} pushes, {} alarms\n",
              o.value("moves", int64_t{0}), o.value("distance_m", 0.0) / 1000,
-             o.value("motion_h", 0.0), o.value("pushes", int64_t{0}), o.value("alarms", int64_t{0}));
+             o.value("motion_h", 0.0), o.value("pushes", int64_t{0}),
+             o.value("alarms", int64_t{0}));
   for (const auto& s : j["service"]) fmt::print("  service due: {}\n", s.value("message", ""));
   for (const auto& w : j["warnings"]) {
     fmt::print("  drift: {} (moves {})\n", w.value("message", ""), w["moves"].dump());
@@ -232,8 +236,9 @@ void add_history_commands(CLI::App& app, const GlobalOptions& globals) {
   history->add_option("--until", h->until, "Before this UTC time or date")->type_name("TIME");
   history->add_option("--kind", h->kind, "home, move, run-step or jog")
       ->check(CLI::IsMember({"home", "move", "run-step", "jog"}));
-  history->add_option("--outcome", h->outcome,
-                      "reached, pushed, push_missed, stopped, alarm, deadline or not_started");
+  history->add_option(
+      "--outcome", h->outcome,
+      "reached, pushed, push_missed, stopped, alarm, deadline, not_started or refused");
   history->add_option("--source", h->source,
                       "Who started it: the start of the recorded source (mqtt, http, telemetry)");
   history->add_option("--step", h->step, "Run-step moves of this step")->check(CLI::Range(0, 63));

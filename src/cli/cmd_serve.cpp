@@ -26,8 +26,9 @@ struct ServeArgs {
   std::string sim_timing = "real";
   std::string mqtt;  // broker URL: the bridge with its defaults (docs/mqtt.md)
   std::string mqtt_prefix = "lec6";
-  std::string record;     // --record FILE (also the global --record)
-  std::string state_dir;  // the move history (docs/history.md)
+  std::string record;       // --record FILE (also the global --record)
+  std::string state_dir;    // the move history (docs/history.md)
+  bool no_history = false;  // issue 32: on by default, in the default directory
   bool check = false;
   std::string sparkplug;  // issue 35: broker URL of the Sparkplug B edge node (docs/sparkplug.md)
   std::string sparkplug_group;  // default: the file's, else lec6
@@ -77,7 +78,25 @@ void log_line(serve::LogLevel level, std::string_view text) {
              std::chrono::floor<std::chrono::milliseconds>(now), tag, text);
 }
 
+serve::ServeConfig make_config_of(const GlobalOptions& g, const ServeArgs& a);
+
+// The move history is on by default (issue 32): without --state-dir or a
+// history: section, in the default directory (serve/history/state_dir.hpp);
+// --no-history or `history: false` keep none.
 serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
+  if (a.no_history && !a.state_dir.empty()) {
+    throw UsageError("give either --state-dir DIR or --no-history, not both");
+  }
+  auto c = make_config_of(g, a);
+  if (a.no_history) {
+    c.history.reset();
+  } else if (!c.history && !c.history_off) {
+    c.history = serve::HistoryConfig{};  // an empty state_dir: the default directory
+  }
+  return c;
+}
+
+serve::ServeConfig make_config_of(const GlobalOptions& g, const ServeArgs& a) {
   if (!a.config.empty()) {
     if (!g.port.empty()) {
       throw UsageError("give either --config FILE or --port with --ids, not both");
@@ -218,8 +237,12 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
       "Primary host application id: births wait for its STATE online (with --sparkplug)");
   cmd->add_option("--state-dir", args->state_dir,
                   "Keep the move history, odometer and drift warnings in DIR/history.db "
-                  "(docs/history.md; the config's history: section has every setting)")
+                  "(docs/history.md; the config's history: section has every setting). "
+                  "Default: $STATE_DIRECTORY, else $XDG_STATE_HOME/lec6, else "
+                  "~/.local/state/lec6")
       ->type_name("DIR");
+  cmd->add_flag("--no-history", args->no_history,
+                "Keep no move history, odometer or drift warnings (they are on by default)");
   cmd->add_flag("--check", args->check, "Check the config and exit");
   cmd->add_option("--record", args->record,
                   "Write every frame of the line, both directions, with timestamps, to FILE (a "

@@ -42,7 +42,7 @@ void Completion::mark_started(const Poll& p, Duration t, std::string evidence) {
   if (started_) return;
   started_ = true;
   evidence_ = std::move(evidence);
-  if (p.flags.busy()) timeline_.busy_up = t;
+  if (p.flags.busy()) timeline_.busy_up = t, timeline_.busy_up_after = poll_before_;
 }
 
 void Completion::look_for_start(const Poll& p, Duration t) {
@@ -121,7 +121,10 @@ MoveResult Completion::result(MoveOutcome o, const Poll& p) const {
   r.elapsed = p.at - start_.at;
   r.timeline = timeline_;
   if (o != MoveOutcome::Deadline && o != MoveOutcome::Alarm && !p.flags.busy()) {
-    if (timeline_.busy_up && !r.timeline.busy_down) r.timeline.busy_down = r.elapsed;
+    if (timeline_.busy_up && !r.timeline.busy_down) {
+      r.timeline.busy_down = r.elapsed;
+      r.timeline.busy_down_after = poll_before_;
+    }
     if (p.flags.inp() && !r.timeline.inp) r.timeline.inp = r.elapsed;
   }
   r.evidence = evidence_;
@@ -134,10 +137,11 @@ MoveResult Completion::result(MoveOutcome o, const Poll& p) const {
 
 std::optional<MoveResult> Completion::feed(const Poll& p) {
   ++polls_;
+  if (last_) poll_before_ = last_->at - start_.at;
   last_ = p;
   const Duration t = p.at - start_.at;
   if (started_ && !p.flags.busy() && timeline_.busy_up && !timeline_.busy_down)
-    timeline_.busy_down = t;
+    timeline_.busy_down = t, timeline_.busy_down_after = poll_before_;
   if (started_ && !p.flags.busy() && p.flags.inp() && !timeline_.inp) timeline_.inp = t;
   if (p.flags.alarm()) return result(MoveOutcome::Alarm, p);
 

@@ -69,6 +69,9 @@ if ! timeout 120 "$tmp/root/usr/bin/lec" demo >"$tmp/demo.log" 2>&1; then
 fi
 grep -q '^ExecStart=/usr/bin/lec serve' "$tmp/root/usr/lib/systemd/system/lec-serve.service" ||
   bad "the unit does not run lec serve"
+# The move history is on by default: the unit gives it /var/lib/lec6 ($STATE_DIRECTORY).
+grep -q '^StateDirectory=lec6$' "$tmp/root/usr/lib/systemd/system/lec-serve.service" ||
+  bad "the unit has no StateDirectory=lec6 (the move history would not be kept)"
 
 [[ $fail -eq 0 ]] && echo "deb: $(basename "$deb") holds everything; its lec runs: $version"
 exit $fail

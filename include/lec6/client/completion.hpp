@@ -110,6 +110,7 @@ class Completion {
   std::string evidence_;
   MoveTimeline timeline_;
   std::optional<Poll> last_;
+  Duration poll_before_{};  // the previous poll, from the start (0: none yet)
 };
 
 }  // namespace lec6::client

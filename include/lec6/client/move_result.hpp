@@ -54,10 +54,16 @@ enum class StopCause {
 // When the polls first saw each flag, from the moment the start was
 // acknowledged (a flag that changed between two polls is dated by the later
 // one). nullopt: not seen (a BUSY pulse shorter than the poll period).
+// BUSY's rise and fall are bracketed (issue 32): each happened after the
+// poll before the one that saw it (`*_after`: that poll, or 0, the start)
+// and before the one that saw it, so a duration is known to ± half the two
+// brackets' widths (completion_test.cpp ASixtyMsMoveReadsWithinItsBracket).
 struct MoveTimeline {
   std::optional<Duration> busy_up;
   std::optional<Duration> busy_down;
   std::optional<Duration> inp;
+  std::optional<Duration> busy_up_after;    // the last poll before BUSY was seen (0: the start)
+  std::optional<Duration> busy_down_after;  // the last poll that saw BUSY = 1
 };
 
 // What was asked: the goal a move is judged against.

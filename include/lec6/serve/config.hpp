@@ -146,7 +146,7 @@ struct MqttConfig {
 
 // The move history, odometer and drift warnings (docs/history.md).
 struct HistoryConfig {
-  std::filesystem::path state_dir;  // history.db lives here
+  std::filesystem::path state_dir;  // history.db lives here; empty: the default (docs/history.md)
   double max_age_days = 365;
   double max_size_mb = 100;
   unsigned queue = 4096;  // records waiting for the disk; beyond: dropped and counted
@@ -188,6 +188,7 @@ struct ServeConfig {
   std::optional<HttpConfig> http;
   std::optional<MqttConfig> mqtt;
   std::optional<HistoryConfig> history;      // issue 26
+  bool history_off = false;  // `history: false`: none, not even in the default directory
   std::optional<SparkplugConfig> sparkplug;  // issue 35
 
   // The axis called `name`, with its line; nullopt when there is none.

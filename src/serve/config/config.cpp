@@ -341,6 +341,7 @@ ServeConfig read_root(const Reader& r, const YAML::Node& root) {
   c.http = read_http(r, root["http"]);
   c.mqtt = read_mqtt(r, root["mqtt"]);
   c.history = history::read_history(r, root["history"]);
+  c.history_off = root["history"] && !c.history;  // issue 32: on by default, unless false
   c.sparkplug = read_sparkplug(r, root["sparkplug"]);
   if (c.sparkplug) {
     for (std::size_t i = 0; i < c.lines.size(); ++i) {

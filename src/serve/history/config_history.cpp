@@ -5,16 +5,18 @@ namespace lec6::serve::history {
 std::optional<HistoryConfig> read_history(const Reader& r, const YAML::Node& n) {
   if (!n) return std::nullopt;
   if (n.IsScalar() && !r.get<bool>(n, "history", true)) return std::nullopt;
-  if (!n.IsMap()) r.fail(n, "history", "expected a map with state_dir: (and retention, drift)");
+  if (!n.IsMap() && !n.IsScalar())
+    r.fail(n, "history", "expected false, true or a map (state_dir:, retention, drift)");
+  if (n.IsScalar()) return HistoryConfig{};  // `history: true`: the default directory
   r.keys(n, "history",
          {"state_dir", "max_age_days", "max_size_mb", "queue", "drift_threshold_pct",
           "drift_baseline_moves", "drift_tolerance_mm", "services"});
   HistoryConfig h;
-  if (!n["state_dir"]) {
-    r.fail(n, "history.state_dir", "the history needs a state_dir (where history.db is kept)");
+  // Without state_dir: the default directory (state_dir.hpp, issue 32).
+  if (n["state_dir"]) {
+    h.state_dir = r.get<std::string>(n["state_dir"], "history.state_dir", "");
+    if (h.state_dir.empty()) r.fail(n["state_dir"], "history.state_dir", "empty");
   }
-  h.state_dir = r.get<std::string>(n["state_dir"], "history.state_dir", "");
-  if (h.state_dir.empty()) r.fail(n["state_dir"], "history.state_dir", "empty");
   h.max_age_days = r.number(n["max_age_days"], "history.max_age_days", 365, 0.001, 36500);
   h.max_size_mb = r.number(n["max_size_mb"], "history.max_size_mb", 100, 0.1, 1e6);
   h.queue = static_cast<unsigned>(

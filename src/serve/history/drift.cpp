@@ -1,4 +1,5 @@
 #include "drift.hpp"
+#include "drift_group.hpp"
 
 #include <fmt/format.h>
 
@@ -11,9 +12,6 @@
 
 namespace lec6::serve::history {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-using Values = std::array<double, kMetrics>;
 
 double median(std::vector<double> v) {
   std::erase_if(v, [](double x) { return std::isnan(x); });
@@ -66,25 +64,6 @@ const char* metric_name(Metric m) {
   return "?";
 }
 
-struct DriftDetector::Group {
-  int id = 0;
-  MotionRecord key;  // the first move's settings
-  std::string description;
-  uint64_t last_use = 0;
-  std::size_t moves = 0;
-  std::vector<Values> baseline;
-  bool ready = false;
-  bool rebase = false;
-  Values reference{}, spread{};
-  struct Seen {
-    int64_t id, start_ms;
-    Values v;
-  };
-  std::deque<Seen> window;
-  std::array<std::optional<DriftWarning>, kMetrics> warning;
-  std::deque<GroupView::Point> trend;
-};
-
 DriftDetector::DriftDetector(DriftConfig config) : config_(config) {}
 DriftDetector::~DriftDetector() = default;
 
@@ -101,9 +80,10 @@ DriftDetector::Group* DriftDetector::find_or_make(const MotionRecord& r) {
     }
   }
   if (groups.size() >= config_.max_groups_per_axis) {
-    const auto lru = std::min_element(groups.begin(), groups.end(), [](const Group& a, const Group& b) {
-      return a.last_use < b.last_use;
-    });
+    const auto lru =
+        std::min_element(groups.begin(), groups.end(),
+                         [](const Group& a, const Group& b) { return a.last_use < b.last_use; });
+    changed_[r.axis][lru->id] = false;
     groups.erase(lru);
   }
   Group g;
@@ -118,16 +98,24 @@ std::vector<DriftEvent> DriftDetector::add(const MotionRecord& r) {
   if (!r.succeeded() || r.kind == "jog") return {};
   Group& g = *find_or_make(r);
   g.last_use = ++use_counter_;
+  changed_[r.axis][g.id] = true;
   ++g.moves;
-  const Values v = values_of(r);
+  Values v = values_of(r);
+  // Issue 32: a duration known only to ± more than a quarter of the drift
+  // threshold (polls far apart, a busy line) is not judged: the move still
+  // counts for thrust and settle time, and the group says how many it skipped.
+  if (!std::isnan(v[0]) && r.duration_pm_s &&
+      *r.duration_pm_s > config_.max_uncertainty_fraction * config_.threshold * v[0]) {
+    v[0] = kNaN;
+  }
+  if (std::isnan(v[0])) ++g.skipped_duration;
   g.trend.push_back({r.id, r.start_ms, {v[0], v[1], v[2]}});
   while (g.trend.size() > config_.trend_points) g.trend.pop_front();
-  return judge(g, r);
+  return judge(g, r, v);
 }
 
-std::vector<DriftEvent> DriftDetector::judge(Group& g, const MotionRecord& r) {
+std::vector<DriftEvent> DriftDetector::judge(Group& g, const MotionRecord& r, const Values& v) {
   std::vector<DriftEvent> events;
-  const Values v = values_of(r);
   if (g.rebase) {
     // The settings changed under this group: what comes now is the new normal.
     g.rebase = false;
@@ -168,10 +156,10 @@ std::vector<DriftEvent> DriftDetector::judge(Group& g, const MotionRecord& r) {
     const double current = median(xs);
     const double ref = g.reference[m];
     if (std::isnan(current) || std::isnan(ref)) continue;
-    const double allowed = std::max(
-        {config_.threshold * std::abs(ref),
-         config_.spread_factor * 1.2533 * g.spread[m] / std::sqrt(double(config_.window)),
-         floors[m]});
+    const double allowed =
+        std::max({config_.threshold * std::abs(ref),
+                  config_.spread_factor * 1.2533 * g.spread[m] / std::sqrt(double(config_.window)),
+                  floors[m]});
     const double excess = current - ref;
     auto& w = g.warning[m];
     if (!w && excess > allowed) {
@@ -217,7 +205,7 @@ void DriftDetector::settings_changed(const std::string& axis, std::optional<int>
   if (it == axes_.end()) return;
   for (Group& g : it->second) {
     if (!g.key.step) continue;  // direct moves carry their own settings
-    if (!step || g.key.step == step) g.rebase = true;
+    if (!step || g.key.step == step) g.rebase = true, changed_[axis][g.id] = true;
   }
 }
 
@@ -243,6 +231,7 @@ std::vector<GroupView> DriftDetector::groups(const std::string& axis) const {
     v.axis = axis;
     v.description = g.description;
     v.moves = g.moves;
+    v.skipped_duration = g.skipped_duration;
     v.baseline_ready = g.ready;
     for (std::size_t m = 0; m < kMetrics; ++m) {
       v.reference[m] = g.reference[m];

@@ -23,11 +23,13 @@
 // Time is what the caller gives (the record's start, Unix ms): no clock here.
 // Thread safety: none (the history owns one and locks around it).
 
+#include <array>
 #include <cstdint>
 #include <deque>
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json_fwd.hpp>
@@ -49,6 +51,8 @@ struct DriftConfig {
   double floor_settle_s = 0.05;
   std::size_t max_groups_per_axis = 256;  // the least recently used goes
   std::size_t trend_points = 300;         // kept per group for the dashboard
+  // A duration whose ± is above this × threshold × the duration is not judged.
+  double max_uncertainty_fraction = 0.25;
 };
 
 enum class Metric { Duration, PeakThrust, Settle };
@@ -78,6 +82,7 @@ struct GroupView {
   int group_id = 0;
   std::string axis, description;
   std::size_t moves = 0;
+  std::size_t skipped_duration = 0;  // durations not judged: unknown or too uncertain
   bool baseline_ready = false;
   double reference[kMetrics] = {0, 0, 0};
   double spread[kMetrics] = {0, 0, 0};
@@ -101,6 +106,14 @@ class DriftDetector {
   // The step table of `axis` changed (`step`: one step; nullopt: any).
   void settings_changed(const std::string& axis, std::optional<int> step);
 
+  // Persistence (issue 32: baselines and warnings survive a restart). The
+  // groups changed since the last call, as JSON (null: the group is gone),
+  // for the store to write with the record that changed them; and the
+  // groups read back from it at start (drift_state.cpp). A group's trend
+  // (the dashboard's plot) is not kept: it starts again after a restart.
+  std::vector<std::pair<int, nlohmann::json>> take_changed(const std::string& axis);
+  void restore(const std::string& axis, const std::vector<nlohmann::json>& groups);
+
   std::vector<DriftWarning> warnings(const std::string& axis) const;
   std::vector<GroupView> groups(const std::string& axis) const;
   const DriftConfig& config() const noexcept { return config_; }
@@ -108,10 +121,15 @@ class DriftDetector {
  private:
   struct Group;
   Group* find_or_make(const MotionRecord& r);
-  std::vector<DriftEvent> judge(Group& g, const MotionRecord& r);
+  std::vector<DriftEvent> judge(Group& g, const MotionRecord& r,
+                                const std::array<double, kMetrics>& v);
+
+  static nlohmann::json save(const Group& g);
+  static Group load(const nlohmann::json& j);
 
   DriftConfig config_;
   std::map<std::string, std::vector<Group>> axes_;
+  std::map<std::string, std::map<int, bool>> changed_;  // axis → group id → still there
   int next_group_id_ = 1;
   uint64_t use_counter_ = 0;
 };

@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "state_dir.hpp"
+
 namespace lec6::serve::history {
 namespace {
 
@@ -32,7 +34,17 @@ History::History(const HistoryConfig& config, std::vector<std::string> axes, Log
       wall_ms_(wall_ms ? std::move(wall_ms) : std::function<int64_t()>(system_ms)),
       drift_(drift_config(config)) {
   StoreConfig sc;
-  sc.file = config_.state_dir / "history.db";
+  std::string where_from;
+  if (config_.state_dir.empty()) {  // on by default (issue 32): state_dir.hpp
+    if (const auto d = default_state_dir()) {
+      config_.state_dir = d->dir;
+      where_from = fmt::format(
+          " (the default, from {}; --state-dir DIR keeps it elsewhere, "
+          "--no-history keeps none)",
+          d->from);
+    }
+  }
+  if (!config_.state_dir.empty()) sc.file = config_.state_dir / "history.db";
   sc.max_age_days = config_.max_age_days;
   sc.max_bytes = static_cast<uint64_t>(config_.max_size_mb * 1024 * 1024);
   sc.queue_capacity = config_.queue;
@@ -41,10 +53,19 @@ History::History(const HistoryConfig& config, std::vector<std::string> axes, Log
   next_id_ = store_->first_free_id();
   odometers_ = store_->odometers();
   services_ = store_->services();
+  // Drift baselines, references and active warnings carry on (issue 32).
+  for (const auto& [axis, rows] : store_->drift_states()) {
+    std::vector<nlohmann::json> groups;
+    for (const auto& text : rows) {
+      auto j = nlohmann::json::parse(text, nullptr, false);
+      if (!j.is_discarded()) groups.push_back(std::move(j));
+    }
+    drift_.restore(axis, groups);
+  }
   for (const auto& a : axes) trackers_.emplace(a, MotionTracker(a));
   if (store_->ok()) {
-    log_(LogLevel::Info,
-         fmt::format("move history in {} ({} records so far)", sc.file.string(), next_id_ - 1));
+    log_(LogLevel::Info, fmt::format("move history in {} ({} records so far){}", sc.file.string(),
+                                     next_id_ - 1, where_from));
   }
 }
 
@@ -87,6 +108,15 @@ void History::on_telemetry(const std::string& axis, const AxisSnapshot& s, TimeP
 void History::on_step_table_edit(const std::string& axis, std::optional<int> step) {
   std::lock_guard lock(mutex_);
   drift_.settings_changed(axis, step);
+  store_->drift(axis, drift_rows(axis));
+}
+
+// The drift groups changed since the last call, for the store (locked).
+std::vector<DriftRow> History::drift_rows(const std::string& axis) {
+  std::vector<DriftRow> rows;
+  for (auto& [id, state] : drift_.take_changed(axis))
+    rows.push_back({id, state.is_null() ? std::string() : state.dump()});
+  return rows;
 }
 
 bool History::serviced(const std::string& axis, const std::string& what) {
@@ -112,8 +142,8 @@ void History::record(MotionRecord r) {
     r.id = next_id_++;
     Odometer& odo = odometers_[r.axis];
     odo.add(r);
-    store_->append(r, odo);
     events = drift_.add(r);
+    store_->append(r, odo, drift_rows(r.axis));
     health = health_locked(r.axis);
     listeners = listeners_;
   }
@@ -172,6 +202,7 @@ nlohmann::json History::health_locked(const std::string& axis, bool trend) const
     groups.push_back({{"group_id", g.group_id},
                       {"group", g.description},
                       {"moves", g.moves},
+                      {"durations_skipped", g.skipped_duration},
                       {"baseline", baseline}});
     if (trend) {
       json points = json::array();
@@ -187,11 +218,8 @@ nlohmann::json History::health_locked(const std::string& axis, bool trend) const
     }
   }
   const StoreStats st = store_->stats();
-  json storage = {{"written", st.written},
-                  {"dropped", st.dropped},
-                  {"pruned", st.pruned},
-                  {"queued", st.queued},
-                  {"file_bytes", st.file_bytes}};
+  json storage = {{"written", st.written}, {"dropped", st.dropped}, {"pruned", st.pruned},
+                  {"retried", st.retried}, {"queued", st.queued},   {"file_bytes", st.file_bytes}};
   if (!st.disabled_reason.empty()) storage["disabled"] = st.disabled_reason;
   return {{"axis", axis},
           {"ok", warnings.empty() && notes.empty()},
@@ -208,7 +236,12 @@ nlohmann::json History::health(const std::string& axis, bool trend) const {
 }
 
 std::vector<MotionRecord> History::query(const HistoryQuery& q) const {
+  store_->flush();
   return store_->query(q);
+}
+
+bool History::query_async(HistoryQuery q, std::function<void(std::vector<MotionRecord>)> done) {
+  return queries_.post([this, q = std::move(q), done = std::move(done)] { done(query(q)); });
 }
 
 }  // namespace lec6::serve::history

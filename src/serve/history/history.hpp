@@ -29,6 +29,7 @@
 #include "lec6/serve/log.hpp"
 #include "line/telemetry_cache.hpp"
 #include "odometer.hpp"
+#include "query_worker.hpp"
 #include "store.hpp"
 #include "tracker.hpp"
 
@@ -60,12 +61,18 @@ class History {
   // `trend`: each group's recent moves too ({"id", "start_ms", duration_s,
   // peak_thrust_pct, settle_s}, up to 300 per group), for the dashboard's plot.
   nlohmann::json health(const std::string& axis, bool trend = false) const;
+  // Sees every record finished before it (waits for the store to commit
+  // what is queued): call it off the I/O thread, e.g. through query_async.
   std::vector<MotionRecord> query(const HistoryQuery& q) const;
+  // The same on the history's query thread (query_worker.hpp); `done` runs
+  // there. false: too many queries waiting (answer 503).
+  bool query_async(HistoryQuery q, std::function<void(std::vector<MotionRecord>)> done);
   Store& store() noexcept { return *store_; }
   void flush() { store_->flush(); }
 
  private:
   std::vector<ServiceNotice> notices_of(const std::string& axis) const;  // locked
+  std::vector<DriftRow> drift_rows(const std::string& axis);             // locked
   nlohmann::json health_locked(const std::string& axis, bool trend = false) const;
 
   HistoryConfig config_;
@@ -79,6 +86,7 @@ class History {
   DriftDetector drift_;
   int64_t next_id_ = 1;
   std::vector<Listener> listeners_;
+  QueryWorker queries_;  // last: joined first, while the store is still open
 };
 
 }  // namespace lec6::serve::history

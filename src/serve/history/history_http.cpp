@@ -25,8 +25,8 @@ std::optional<T> whole(std::string_view text) {
 
 HttpResponse history_off() {
   return error_response(404,
-                        "the move history is off: start lec serve with --state-dir DIR, or give "
-                        "its config a history: section (docs/history.md)");
+                        "the move history is off: lec serve was started with --no-history or "
+                        "history: false (docs/history.md)");
 }
 
 }  // namespace
@@ -74,11 +74,11 @@ std::optional<int64_t> parse_time(std::string_view text) {
 
 std::variant<HistoryQuery, QueryError> parse_query(const std::string& axis,
                                                    const std::map<std::string, std::string>& q) {
-  static const std::set<std::string> known{"since", "until", "kind", "outcome", "source",
+  static const std::set<std::string> known{"since", "until", "kind",   "outcome", "source",
                                            "step",  "limit", "before", "format"};
   static const std::set<std::string> kinds{"home", "move", "run-step", "jog"};
   static const std::set<std::string> outcomes{"reached", "pushed",   "push_missed", "stopped",
-                                              "alarm",   "deadline", "not_started"};
+                                              "alarm",   "deadline", "not_started", "refused"};
   HistoryQuery out;
   out.axis = axis;
   for (const auto& [key, value] : q) {
@@ -97,14 +97,13 @@ std::variant<HistoryQuery, QueryError> parse_query(const std::string& axis,
       (key == "since" ? out.since_ms : out.until_ms) = *t;
     } else if (key == "kind") {
       if (!kinds.contains(value)) {
-        return QueryError{key,
-                          fmt::format("kind: '{}' is not home, move, run-step or jog", value)};
+        return QueryError{key, fmt::format("kind: '{}' is not home, move, run-step or jog", value)};
       }
       out.kind = value;
     } else if (key == "outcome") {
       if (!outcomes.contains(value)) {
         return QueryError{key, fmt::format("outcome: '{}' is not reached, pushed, push_missed, "
-                                           "stopped, alarm, deadline or not_started",
+                                           "stopped, alarm, deadline, not_started or refused",
                                            value)};
       }
       out.outcome = value;
@@ -143,52 +142,65 @@ bool handle_http(History* history, const AxisRef& axis, const std::vector<std::s
   if (rest.empty() || (rest[0] != "history" && rest[0] != "health")) return false;
   const bool get = request.method == "GET" || request.method == "HEAD";
   if (rest.size() == 1 && rest[0] == "history") {
-    if (!get) return responder.respond(error_response(405, "method not allowed here (allowed: GET)")), true;
+    if (!get)
+      return responder.respond(error_response(405, "method not allowed here (allowed: GET)")), true;
     if (!history) return responder.respond(history_off()), true;
     auto parsed = parse_query(axis.name, request.query);
     if (auto* e = std::get_if<QueryError>(&parsed)) {
       return responder.respond(error_response(400, e->message, e->parameter)), true;
     }
-    const HistoryQuery& q = std::get<HistoryQuery>(parsed);
-    const auto records = history->query(q);
+    const HistoryQuery q = std::get<HistoryQuery>(parsed);
     const bool csv = request.query.count("format") && request.query.at("format") == "csv";
-    if (csv) {
-      std::string body = csv_header();
-      for (const auto& r : records) body += csv_row(r);
-      auto out = text_response(200, std::move(body), "text/csv; charset=utf-8");
-      out.headers.set("Content-Disposition",
-                      fmt::format("attachment; filename=\"{}-history.csv\"", axis.name));
-      return responder.respond(out), true;
+    // Off the I/O thread (issue 32): the query and the answer's text are
+    // made on the history's query thread; the Responder answers from there.
+    auto answer = [q, csv, name = axis.name, responder](std::vector<MotionRecord> records) {
+      if (csv) {
+        std::string body = csv_header();
+        for (const auto& r : records) body += csv_row(r);
+        auto out = text_response(200, std::move(body), "text/csv; charset=utf-8");
+        out.headers.set("Content-Disposition",
+                        fmt::format("attachment; filename=\"{}-history.csv\"", name));
+        responder.respond(out);
+        return;
+      }
+      json list = json::array();
+      for (const auto& r : records) list.push_back(to_json(r));
+      json next = nullptr;
+      if (records.size() == q.limit && !records.empty()) next = records.back().id;
+      responder.respond(
+          json_response(200, {{"axis", name}, {"records", list}, {"next_before", next}}));
+    };
+    if (!history->query_async(q, std::move(answer))) {
+      responder.respond(error_response(503, "too many history queries waiting: try again"));
     }
-    json list = json::array();
-    for (const auto& r : records) list.push_back(to_json(r));
-    json next = nullptr;
-    if (records.size() == q.limit && !records.empty()) next = records.back().id;
-    return responder.respond(json_response(
-               200, {{"axis", axis.name}, {"records", list}, {"next_before", next}})),
-           true;
+    return true;
   }
   if (rest.size() == 1 && rest[0] == "health") {
-    if (!get) return responder.respond(error_response(405, "method not allowed here (allowed: GET)")), true;
+    if (!get)
+      return responder.respond(error_response(405, "method not allowed here (allowed: GET)")), true;
     if (!history) return responder.respond(history_off()), true;
     const bool trend = request.query.count("trend") && request.query.at("trend") != "0";
     return responder.respond(json_response(200, history->health(axis.name, trend))), true;
   }
   if (rest.size() == 2 && rest[0] == "health" && rest[1] == "service") {
     if (request.method != "POST") {
-      return responder.respond(error_response(405, "method not allowed here (allowed: POST)")), true;
+      return responder.respond(error_response(405, "method not allowed here (allowed: POST)")),
+             true;
     }
     if (!history) return responder.respond(history_off()), true;
     json body;
     try {
       body = request.body.empty() ? json::object() : json::parse(request.body);
     } catch (const json::exception& e) {
-      return responder.respond(error_response(400, fmt::format("the body is not valid JSON: {}", e.what()))), true;
+      return responder.respond(
+                 error_response(400, fmt::format("the body is not valid JSON: {}", e.what()))),
+             true;
     }
     const std::string what = body.is_object() ? body.value("what", "") : "";
     if (!history->serviced(axis.name, what)) {
       return responder.respond(error_response(
-                 400, fmt::format("what: '{}' is not a service of history.services", what), "what")),
+                 400, fmt::format("what: '{}' is not a service of history.services", what),
+                 "what")),
              true;
     }
     return responder.respond(json_response(200, history->health(axis.name))), true;

@@ -28,10 +28,19 @@ struct MotionRecord {
   std::optional<double> accel_mm_s2;
   std::optional<double> force_pct;  // moving force
   std::optional<double> pushing_force_pct;
-  std::string outcome;  // reached, pushed, push_missed, stopped, alarm, deadline, not_started
+  // reached, pushed, push_missed, stopped, alarm, deadline, not_started;
+  // refused: nothing that could move the axis reached the wire (servo off, a
+  // soft limit, an alarm already active): kept as an event, not a motion
+  // (the odometer and the drift detector skip it; tracker_test.cpp
+  // ARefusedMoveIsAnEventNotAMotion).
+  std::string outcome;
   std::optional<double> busy_up_s, busy_down_s, inp_s;  // the timeline, from the start
-  double duration_s = 0;                                // start to BUSY down (else to the end)
-  std::optional<double> settle_s;                       // BUSY down to INP
+  // BUSY's rise to its fall, each edge dated at the middle of the two polls
+  // that bracket it, ± duration_pm_s (issue 32); NaN: BUSY was never seen, no
+  // duration (JSON null). Records of older versions: start to BUSY down.
+  double duration_s = 0;
+  std::optional<double> duration_pm_s;
+  std::optional<double> settle_s;  // BUSY down to INP
   std::optional<double> peak_thrust_pct, mean_thrust_pct, peak_speed_mm_s;
   std::optional<double> overshoot_mm;    // past the target, in the direction of travel
   std::optional<double> final_error_mm;  // final position − target
@@ -39,6 +48,7 @@ struct MotionRecord {
   std::vector<int> alarms;               // alarm codes raised
 
   bool succeeded() const { return outcome == "reached" || outcome == "pushed"; }
+  bool refused() const { return outcome == "refused"; }
 };
 
 nlohmann::json to_json(const MotionRecord& r);

@@ -2,14 +2,17 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 namespace lec6::serve::history {
 
 void Odometer::add(const MotionRecord& r) {
+  if (r.refused()) return;  // nothing reached the wire: not a motion
   ++moves;
   distance_mm += r.distance_mm;
-  motion_s += r.duration_s;
+  if (!std::isnan(r.duration_s)) motion_s += r.duration_s;
   if (r.pushing_force_pct.value_or(0) > 0 || r.outcome == "pushed" || r.outcome == "push_missed") {
     ++pushes;
   }
@@ -21,18 +24,18 @@ std::vector<ServiceNotice> notices(const Odometer& now, const Odometer& done,
   std::vector<ServiceNotice> out;
   for (const ServiceThreshold& t : thresholds) {
     if (t.every_km && (now.distance_mm - done.distance_mm) / 1e6 >= *t.every_km) {
-      out.push_back({t.what, fmt::format("{}: {:.1f} km travelled since the last service (every "
-                                         "{:g} km)",
-                                         t.what, (now.distance_mm - done.distance_mm) / 1e6,
-                                         *t.every_km)});
+      out.push_back(
+          {t.what, fmt::format("{}: {:.1f} km travelled since the last service (every "
+                               "{:g} km)",
+                               t.what, (now.distance_mm - done.distance_mm) / 1e6, *t.every_km)});
     } else if (t.every_moves && double(now.moves - done.moves) >= *t.every_moves) {
       out.push_back({t.what, fmt::format("{}: {} moves since the last service (every {:g} moves)",
                                          t.what, now.moves - done.moves, *t.every_moves)});
     } else if (t.every_hours && (now.motion_s - done.motion_s) / 3600 >= *t.every_hours) {
-      out.push_back({t.what, fmt::format("{}: {:.1f} h in motion since the last service (every "
-                                         "{:g} h)",
-                                         t.what, (now.motion_s - done.motion_s) / 3600,
-                                         *t.every_hours)});
+      out.push_back(
+          {t.what, fmt::format("{}: {:.1f} h in motion since the last service (every "
+                               "{:g} h)",
+                               t.what, (now.motion_s - done.motion_s) / 3600, *t.every_hours)});
     }
   }
   return out;

@@ -3,8 +3,15 @@
 #include <fmt/format.h>
 #include <sqlite3.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
+#include <limits>
 #include <stdexcept>
 
 namespace lec6::serve::history {
@@ -75,6 +82,11 @@ class Stmt {
   sqlite3_stmt* s_ = nullptr;
 };
 
+class InUse : public std::runtime_error {  // another daemon holds the file's lock
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 class CorruptFile : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -86,7 +98,8 @@ CREATE TABLE IF NOT EXISTS motions (
   kind TEXT, step INTEGER, start_mm REAL, target_mm REAL, speed_mm_s REAL, accel_mm_s2 REAL,
   force_pct REAL, pushing_force_pct REAL, outcome TEXT, busy_up_s REAL, busy_down_s REAL,
   inp_s REAL, duration_s REAL, settle_s REAL, peak_thrust_pct REAL, mean_thrust_pct REAL,
-  peak_speed_mm_s REAL, overshoot_mm REAL, final_error_mm REAL, distance_mm REAL, alarms TEXT);
+  peak_speed_mm_s REAL, overshoot_mm REAL, final_error_mm REAL, distance_mm REAL, alarms TEXT,
+  duration_pm_s REAL);
 CREATE INDEX IF NOT EXISTS motions_axis_start ON motions (axis, start_ms);
 CREATE TABLE IF NOT EXISTS odometer (
   axis TEXT PRIMARY KEY, moves INTEGER, distance_mm REAL, motion_s REAL, pushes INTEGER,
@@ -94,13 +107,15 @@ CREATE TABLE IF NOT EXISTS odometer (
 CREATE TABLE IF NOT EXISTS services (
   axis TEXT, what TEXT, at_ms INTEGER, moves INTEGER, distance_mm REAL, motion_s REAL,
   pushes INTEGER, alarms INTEGER, PRIMARY KEY (axis, what));
+CREATE TABLE IF NOT EXISTS drift_groups (
+  axis TEXT, group_id INTEGER, state TEXT, PRIMARY KEY (axis, group_id));
 )";
 
 constexpr const char* kColumns =
     "id, start_ms, axis, source, kind, step, start_mm, target_mm, speed_mm_s, accel_mm_s2, "
     "force_pct, pushing_force_pct, outcome, busy_up_s, busy_down_s, inp_s, duration_s, settle_s, "
     "peak_thrust_pct, mean_thrust_pct, peak_speed_mm_s, overshoot_mm, final_error_mm, "
-    "distance_mm, alarms";
+    "distance_mm, alarms, duration_pm_s";
 
 std::string alarms_text(const std::vector<int>& codes) {
   std::string out;
@@ -141,7 +156,7 @@ MotionRecord record_of(const Stmt& s) {
   r.busy_up_s = s.opt(13);
   r.busy_down_s = s.opt(14);
   r.inp_s = s.opt(15);
-  r.duration_s = s.f64(16);
+  r.duration_s = s.opt(16).value_or(std::numeric_limits<double>::quiet_NaN());
   r.settle_s = s.opt(17);
   r.peak_thrust_pct = s.opt(18);
   r.mean_thrust_pct = s.opt(19);
@@ -150,6 +165,7 @@ MotionRecord record_of(const Stmt& s) {
   r.final_error_mm = s.opt(22);
   r.distance_mm = s.f64(23);
   r.alarms = alarms_of(s.text(24));
+  r.duration_pm_s = s.opt(25);
   return r;
 }
 
@@ -168,10 +184,21 @@ Odometer odometer_of(const Stmt& s, int first) {
 Store::Store(StoreConfig config, Log log) : config_(std::move(config)), log_(std::move(log)) {
   if (!config_.now_ms) config_.now_ms = system_ms;
   std::string why;
+  if (config_.file.empty()) {
+    stats_.disabled_reason =
+        "move history off: no state directory (no --state-dir, history.state_dir, "
+        "$STATE_DIRECTORY, $XDG_STATE_HOME or $HOME)";
+    log_(LogLevel::Warning, stats_.disabled_reason + " (the lines run without it)");
+    return;
+  }
+  bool in_use = false;
   for (int attempt = 0; attempt < 2; ++attempt) {
     bool corrupt = false;
     try {
       if (open(config_.file)) break;
+    } catch (const InUse& e) {
+      why = e.what();
+      in_use = true;
     } catch (const CorruptFile& e) {
       why = e.what();
       corrupt = true;
@@ -190,7 +217,10 @@ Store::Store(StoreConfig config, Log log) : config_(std::move(config)), log_(std
   if (!writer_) {
     stats_.disabled_reason =
         fmt::format("move history off: cannot use {}: {}", config_.file.string(), why);
-    log_(LogLevel::Error, stats_.disabled_reason + " (the lines run without it)");
+    log_(in_use ? LogLevel::Warning : LogLevel::Error,
+         stats_.disabled_reason +
+             " (the lines run without it; --state-dir DIR keeps it elsewhere, "
+             "--no-history turns it off)");
     return;
   }
   stats_.file_bytes = file_bytes();
@@ -206,17 +236,42 @@ Store::~Store() {
   if (thread_.joinable()) thread_.join();
   if (reader_) sqlite3_close_v2(reader_);
   if (writer_) sqlite3_close_v2(writer_);
+  if (lock_fd_ >= 0) ::close(lock_fd_);
+}
+
+// One daemon per file (issue 32: the history is on by default, and two
+// daemons of one user share the default directory): an exclusive lock on
+// <file>.lock, held while the store is open. The second gets a clear
+// "in use" and runs without history (store_test.cpp
+// ASecondStoreOnTheSameFileIsRefusedNotMixedIn).
+void Store::lock_file(const std::filesystem::path& file) {
+  if (lock_fd_ >= 0) return;
+  const std::string lock = file.string() + ".lock";
+  const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    throw std::runtime_error(fmt::format("cannot make {}: {}", lock, std::strerror(errno)));
+  }
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int e = errno;
+    ::close(fd);
+    if (e == EWOULDBLOCK) {
+      throw InUse(fmt::format("another lec serve keeps its history there (it holds {})", lock));
+    }
+    throw std::runtime_error(fmt::format("cannot lock {}: {}", lock, std::strerror(e)));
+  }
+  lock_fd_ = fd;
 }
 
 // Opens (or makes) the file and checks it. Throws saying what is wrong.
 bool Store::open(const std::filesystem::path& file) {
   std::error_code ec;
   std::filesystem::create_directories(file.parent_path(), ec);
+  lock_file(file);
   const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX;
   if (sqlite3_open_v2(file.c_str(), &writer_, flags, nullptr) != SQLITE_OK) {
     throw SqlError(writer_, "opening");
   }
-  sqlite3_busy_timeout(writer_, 5000);
+  sqlite3_busy_timeout(writer_, config_.busy_timeout_ms);
   // auto_vacuum only takes effect before the first table: a new file gets it.
   exec(writer_, "PRAGMA auto_vacuum = INCREMENTAL");
   {
@@ -226,13 +281,23 @@ bool Store::open(const std::filesystem::path& file) {
     }
   }
   exec(writer_, "PRAGMA journal_mode = WAL");
-  exec(writer_, "PRAGMA synchronous = NORMAL");
+  // FULL (issue 32, docs/history.md "Storage"): with WAL, NORMAL may lose the
+  // last committed records on a power cut; FULL syncs the WAL at each commit,
+  // one fsync per batch (a batch is a motion or a few), so a committed record
+  // survives a power cut too.
+  exec(writer_, "PRAGMA synchronous = FULL");
   // The WAL stays within a tenth of the size limit: checkpoints come that often.
   const uint64_t tenth = std::max<uint64_t>(config_.max_bytes / 10, 64 * 1024);
   exec(writer_, fmt::format("PRAGMA journal_size_limit = {}", tenth).c_str());
   exec(writer_,
        fmt::format("PRAGMA wal_autocheckpoint = {}", std::max<uint64_t>(tenth / 4096, 16)).c_str());
   exec(writer_, kSchema);
+  {  // a file of an older version: the column issue 32 added
+    bool has_pm = false;
+    Stmt cols(writer_, "PRAGMA table_info(motions)");
+    while (cols.step()) has_pm = has_pm || cols.text(1) == "duration_pm_s";
+    if (!has_pm) exec(writer_, "ALTER TABLE motions ADD COLUMN duration_pm_s REAL");
+  }
   if (sqlite3_open_v2(file.c_str(), &reader_, SQLITE_OPEN_READONLY | SQLITE_OPEN_NOMUTEX,
                       nullptr) != SQLITE_OK) {
     throw SqlError(reader_, "opening for queries");
@@ -268,11 +333,16 @@ void Store::load() {
     Stmt s(writer_, "SELECT axis, moves, distance_mm, motion_s, pushes, alarms FROM odometer");
     while (s.step()) odometers_[s.text(0)] = odometer_of(s, 1);
   }
-  Stmt s(writer_, "SELECT axis, what, moves, distance_mm, motion_s, pushes, alarms FROM services");
-  while (s.step()) services_[{s.text(0), s.text(1)}] = odometer_of(s, 2);
+  {
+    Stmt s(writer_,
+           "SELECT axis, what, moves, distance_mm, motion_s, pushes, alarms FROM services");
+    while (s.step()) services_[{s.text(0), s.text(1)}] = odometer_of(s, 2);
+  }
+  Stmt s(writer_, "SELECT axis, state FROM drift_groups ORDER BY axis, group_id");
+  while (s.step()) drift_states_[s.text(0)].push_back(s.text(1));
 }
 
-bool Store::append(MotionRecord record, Odometer odometer_after) {
+bool Store::append(MotionRecord record, Odometer odometer_after, std::vector<DriftRow> drift) {
   std::unique_lock lock(mutex_);
   if (!writer_ || stopping_) return false;
   if (queue_.size() >= config_.queue_capacity) {
@@ -289,7 +359,17 @@ bool Store::append(MotionRecord record, Odometer odometer_after) {
     return false;
   }
   const std::string axis = record.axis;
-  queue_.push_back({std::move(record), odometer_after, axis, {}});
+  queue_.push_back({std::move(record), odometer_after, axis, {}, std::move(drift)});
+  ++enqueued_;
+  lock.unlock();
+  wake_.notify_one();
+  return true;
+}
+
+bool Store::drift(const std::string& axis, std::vector<DriftRow> rows) {
+  std::unique_lock lock(mutex_);
+  if (!writer_ || stopping_ || rows.empty()) return false;
+  queue_.push_back({std::nullopt, Odometer{}, axis, {}, std::move(rows)});
   ++enqueued_;
   lock.unlock();
   wake_.notify_one();
@@ -299,7 +379,7 @@ bool Store::append(MotionRecord record, Odometer odometer_after) {
 bool Store::service(const std::string& axis, const std::string& what, const Odometer& at) {
   std::unique_lock lock(mutex_);
   if (!writer_ || stopping_) return false;
-  queue_.push_back({std::nullopt, at, axis, what});
+  queue_.push_back({std::nullopt, at, axis, what, {}});
   ++enqueued_;
   lock.unlock();
   wake_.notify_one();
@@ -322,7 +402,35 @@ void Store::writer_loop() {
     dropping_ = false;
     lock.unlock();
     const std::size_t n = batch.size();
-    write_batch(batch);
+    // Issue 32: a lock held past the busy timeout (a sqlite3 shell), a full
+    // disk: the same batch again after 0.5, 1 and 2 s before it is given up
+    // (and logged as such). Shutdown does not wait for the pauses.
+    std::string why;
+    for (int attempt = 0; !write_batch(batch, why); ++attempt) {
+      if (attempt == 3) {
+        log_(LogLevel::Error, fmt::format("move history: {} records not written to {} after 4 "
+                                          "attempts: {}",
+                                          n, config_.file.string(), why));
+        break;
+      }
+      log_(LogLevel::Warning, fmt::format("move history: writing {} records failed ({}); "
+                                          "trying again",
+                                          n, why));
+      lock.lock();
+      ++stats_.retried;
+      wake_.wait_for(lock, std::chrono::milliseconds(500 << attempt), [this] { return stopping_; });
+      lock.unlock();
+    }
+    try {  // after COMMIT: a failure here loses nothing written
+      const int64_t now = config_.now_ms();
+      const bool by_age = now - last_age_prune_ms_ > 3'600'000;
+      if (by_age || logical_bytes() > config_.max_bytes * 85 / 100) prune(by_age);
+    } catch (const std::exception& e) {
+      log_(LogLevel::Warning,
+           fmt::format("move history: retention could not delete old records (the new ones are "
+                       "written): {}",
+                       e.what()));
+    }
     lock.lock();
     committed_ += n;
     stats_.file_bytes = file_bytes();
@@ -330,20 +438,32 @@ void Store::writer_loop() {
   }
 }
 
-void Store::write_batch(std::deque<Item>& batch) {
+bool Store::write_batch(const std::deque<Item>& batch, std::string& why) {
   try {
     exec(writer_, "BEGIN");
     Stmt insert(writer_, fmt::format("INSERT OR REPLACE INTO motions ({}) VALUES ({})", kColumns,
-                                     "?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?"));
+                                     "?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?"));
     Stmt odo(writer_,
              "INSERT OR REPLACE INTO odometer (axis, moves, distance_mm, motion_s, pushes, alarms) "
              "VALUES (?,?,?,?,?,?)");
     Stmt svc(writer_,
              "INSERT OR REPLACE INTO services (axis, what, at_ms, moves, distance_mm, motion_s, "
              "pushes, alarms) VALUES (?,?,?,?,?,?,?,?)");
+    Stmt drift_put(writer_,
+                   "INSERT OR REPLACE INTO drift_groups (axis, group_id, state) VALUES (?,?,?)");
+    Stmt drift_gone(writer_, "DELETE FROM drift_groups WHERE axis = ? AND group_id = ?");
     std::map<std::string, Odometer> last;
     uint64_t records = 0;
     for (const Item& item : batch) {
+      for (const DriftRow& d : item.drift) {
+        Stmt& st = d.state.empty() ? drift_gone : drift_put;
+        st.bind(1, item.axis);
+        st.bind(2, int64_t{d.group_id});
+        if (!d.state.empty()) st.bind(3, d.state);
+        st.step();
+        st.reset();
+      }
+      if (!item.record && item.service_what.empty()) continue;  // drift rows alone
       if (!item.record) {
         svc.bind(1, item.axis);
         svc.bind(2, item.service_what);
@@ -384,6 +504,7 @@ void Store::write_batch(std::deque<Item>& batch) {
       insert.bind(i++, r.final_error_mm);
       insert.bind(i++, r.distance_mm);
       insert.bind(i++, alarms_text(r.alarms));
+      insert.bind(i++, r.duration_pm_s);
       insert.step();
       insert.reset();
       last[item.axis] = item.odometer;
@@ -400,17 +521,13 @@ void Store::write_batch(std::deque<Item>& batch) {
       odo.reset();
     }
     exec(writer_, "COMMIT");
-    {
-      std::lock_guard lock(mutex_);
-      stats_.written += records;
-    }
-    const int64_t now = config_.now_ms();
-    const bool by_age = now - last_age_prune_ms_ > 3'600'000;
-    if (by_age || logical_bytes() > config_.max_bytes * 85 / 100) prune(by_age);
+    std::lock_guard lock(mutex_);
+    stats_.written += records;
+    return true;
   } catch (const std::exception& e) {
     sqlite3_exec(writer_, "ROLLBACK", nullptr, nullptr, nullptr);
-    log_(LogLevel::Error, fmt::format("move history: {} records not written to {}: {}",
-                                      batch.size(), config_.file.string(), e.what()));
+    why = e.what();
+    return false;
   }
 }
 
@@ -476,9 +593,22 @@ std::vector<MotionRecord> Store::query(const HistoryQuery& q) const {
   if (q.outcome) sql += " AND outcome = ?";
   if (q.source) sql += " AND source LIKE ? ESCAPE '\\'";  // starts with
   if (q.step) sql += " AND step = ?";
-  if (q.before_id) sql += " AND id < ?";
-  sql += " ORDER BY id DESC LIMIT ?";
+  // Newest first by start_ms (issue 32): the (axis, start_ms) index holds the
+  // rowid (id) too, so it gives this order without a sort. Paging goes on
+  // from the page's last record: older start, or the same start and a lower id.
   std::lock_guard lock(reader_mutex_);
+  std::optional<int64_t> before_start;
+  if (q.before_id) {
+    Stmt b(reader_, "SELECT start_ms FROM motions WHERE id = ?");
+    b.bind(1, *q.before_id);
+    if (b.step()) before_start = b.i64(0);
+  }
+  if (before_start) {
+    sql += " AND (start_ms < ? OR (start_ms = ? AND id < ?))";
+  } else if (q.before_id) {
+    sql += " AND id < ?";  // the record is gone (retention): by id
+  }
+  sql += " ORDER BY start_ms DESC, id DESC LIMIT ?";
   Stmt s(reader_, sql);
   int i = 1;
   s.bind(i++, q.axis);
@@ -495,6 +625,10 @@ std::vector<MotionRecord> Store::query(const HistoryQuery& q) const {
     s.bind(i++, pattern + "%");
   }
   if (q.step) s.bind(i++, int64_t{*q.step});
+  if (before_start) {
+    s.bind(i++, *before_start);
+    s.bind(i++, *before_start);
+  }
   if (q.before_id) s.bind(i++, *q.before_id);
   s.bind(i++, static_cast<int64_t>(q.limit));
   while (s.step()) out.push_back(record_of(s));

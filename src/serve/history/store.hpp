@@ -49,6 +49,7 @@ struct StoreConfig {
   double max_age_days = 365;
   uint64_t max_bytes = 100ull << 20;
   std::size_t queue_capacity = 4096;
+  int busy_timeout_ms = 5000;  // another connection's lock: SQLite waits this long, then a retry
   std::function<int64_t()> now_ms;  // wall clock, Unix ms (tests set it)
 };
 
@@ -58,14 +59,22 @@ struct HistoryQuery {
   std::optional<std::string> kind, outcome;
   std::optional<std::string> source;  // starts with: "mqtt" matches "mqtt id 42"
   std::optional<int> step;
-  std::optional<int64_t> before_id;  // paging: records older than this id
-  std::size_t limit = 100;           // newest first
+  std::optional<int64_t>
+      before_id;            // paging: records after this one (older start, or same and lower id)
+  std::size_t limit = 100;  // newest first (start_ms, then id)
+};
+
+// A drift group's state (drift.hpp take_changed); an empty state: the group is gone.
+struct DriftRow {
+  int group_id = 0;
+  std::string state;  // JSON
 };
 
 struct StoreStats {
   uint64_t written = 0, dropped = 0, pruned = 0;
+  uint64_t retried = 0;  // batches written again after a failure (a lock, a full disk)
   std::size_t queued = 0;
-  uint64_t file_bytes = 0;  // the file and its WAL
+  uint64_t file_bytes = 0;      // the file and its WAL
   std::string disabled_reason;  // non-empty: the store is off
 };
 
@@ -87,7 +96,14 @@ class Store {
 
   // Queues the record with its axis' odometer after it. false: dropped (the
   // queue is full, or the store is off).
-  bool append(MotionRecord record, Odometer odometer_after);
+  // `drift`: the drift groups this record changed, written in its transaction.
+  bool append(MotionRecord record, Odometer odometer_after, std::vector<DriftRow> drift = {});
+  // Queues drift group states alone (a step-table edit rebases groups).
+  bool drift(const std::string& axis, std::vector<DriftRow> rows);
+  // The drift groups' states as the file had them when opened, per axis.
+  const std::map<std::string, std::vector<std::string>>& drift_states() const noexcept {
+    return drift_states_;
+  }
   // Queues "`what` was serviced on `axis` at this odometer".
   bool service(const std::string& axis, const std::string& what, const Odometer& at);
   // Waits until everything queued before it is committed (tests, shutdown).
@@ -101,24 +117,28 @@ class Store {
     std::optional<MotionRecord> record;
     Odometer odometer;
     std::string axis, service_what;
+    std::vector<DriftRow> drift;
   };
   bool open(const std::filesystem::path& file);
+  void lock_file(const std::filesystem::path& file);
   void move_aside(const std::string& why);
   void load();
   void writer_loop();
-  void write_batch(std::deque<Item>& batch);
+  bool write_batch(const std::deque<Item>& batch, std::string& why);  // false: rolled back
   void prune(bool by_age);
   uint64_t file_bytes() const;
   uint64_t logical_bytes() const;
 
   StoreConfig config_;
   Log log_;
+  int lock_fd_ = -1;  // <file>.lock, held exclusively while open
   sqlite3* writer_ = nullptr;
   sqlite3* reader_ = nullptr;
   mutable std::mutex reader_mutex_;
   int64_t first_free_id_ = 1;
   std::map<std::string, Odometer> odometers_;
   std::map<std::pair<std::string, std::string>, Odometer> services_;
+  std::map<std::string, std::vector<std::string>> drift_states_;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_, written_;

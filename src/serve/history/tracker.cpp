@@ -18,6 +18,23 @@ bool is_motion_op(const std::string& op) {
 
 }  // namespace
 
+void time_from_brackets(MotionRecord& r, double up_after_s, double down_after_s) {
+  const double up = (up_after_s + *r.busy_up_s) / 2, down = (down_after_s + *r.busy_down_s) / 2;
+  r.duration_s = down - up;
+  r.duration_pm_s = ((*r.busy_up_s - up_after_s) + (*r.busy_down_s - down_after_s)) / 2;
+}
+
+bool refused_before_start(const nlohmann::json& event, const std::string& op) {
+  // A move's result carries its timeline once its start was written (the
+  // client's MoveResult, ops/op_results.cpp); a 4xx without one is a
+  // refusal from the checks before the start (client/actuator.cpp:
+  // ready_to_move, soft limits, the step's validation) or from lec serve
+  // itself. A jog's result has no timeline: a jog's 4xx is an alarm while
+  // it ran, a motion.
+  const int status = event.value("status", 0);
+  return op != "jog" && status >= 400 && status < 500 && !event.contains("timeline");
+}
+
 std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event, TimePoint at,
                                                     int64_t wall_ms) {
   const std::string kind = event.value("event", "");
@@ -50,8 +67,15 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
   if (!is_motion_op(op) && op != "") return std::nullopt;
   Motion m = std::move(*motion_);
   motion_.reset();
-  wait_idle_ = true;
   MotionRecord& r = m.record;
+  if (refused_before_start(event, op)) {
+    // Nothing reached the wire that could move the axis (servo off, a soft
+    // limit, an alarm already active, a stop that came first): an event of
+    // the history, not a motion (no odometer move, no alarm count, no drift).
+    r.outcome = "refused";
+    return r;
+  }
+  wait_idle_ = true;
   r.outcome = event.value("outcome", event.value("ok", false) ? "reached" : "not_started");
   if (const auto it = event.find("timeline"); it != event.end() && it->is_object()) {
     r.busy_up_s = number(*it, "busy_up_s");
@@ -59,7 +83,18 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
     r.inp_s = number(*it, "inp_s");
   }
   const auto elapsed = number(event, "elapsed_s");
-  r.duration_s = r.busy_down_s.value_or(elapsed.value_or(to_seconds(at - m.started)));
+  std::optional<double> up_after, down_after;
+  if (const auto it = event.find("timeline"); it != event.end() && it->is_object()) {
+    up_after = number(*it, "busy_up_after_s");
+    down_after = number(*it, "busy_down_after_s");
+  }
+  if (r.busy_up_s && r.busy_down_s && up_after && down_after) {
+    time_from_brackets(r, *up_after, *down_after);
+  } else if (!r.busy_up_s && event.contains("timeline")) {
+    r.duration_s = kNoDuration;  // BUSY never seen: no duration (not the start window's)
+  } else {
+    r.duration_s = r.busy_down_s.value_or(elapsed.value_or(to_seconds(at - m.started)));
+  }
   if (r.busy_down_s && r.inp_s) r.settle_s = std::max(0.0, *r.inp_s - *r.busy_down_s);
   if (!r.target_mm || r.kind == "move" || r.kind == "run-step") {
     if (const auto t = number(event, "target_mm")) r.target_mm = t;
@@ -84,12 +119,14 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   if (state) {
     last_ = Sample{at, state->position_001mm / 100.0, double(state->speed_mm_s),
                    double(state->thrust_pct)};
-    if (motion_) motion_->samples.push_back(*last_);
+    if (motion_) keep(*motion_, *last_);
   }
   if (!flags) return std::nullopt;
   const bool busy = flags->busy();
   const bool rose = busy && !last_busy_;
   last_busy_ = busy;
+  const std::optional<TimePoint> flags_before = last_flags_at_;
+  last_flags_at_ = at;
   if (!busy) wait_idle_ = false;
   if (!motion_) {
     if (!rose || wait_idle_) return std::nullopt;
@@ -112,21 +149,45 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
       if (before && state) m.samples.push_back(*last_);
     }
     m.record.busy_up_s = 0;
+    if (flags_before) m.up_after_s = to_seconds(*flags_before - at);
     motion_ = std::move(m);
     return std::nullopt;
   }
   if (!motion_->by_telemetry) return std::nullopt;
   Motion& m = *motion_;
+  if (busy && !m.busy_down && state && before) {
+    const bool still = state->speed_mm_s == 0 &&
+                       std::abs(state->position_001mm / 100.0 - before->position_mm) < 0.02;
+    if (!still) {
+      m.rest_since.reset();
+    } else if (!m.rest_since) {
+      m.rest_since = before->at;
+    } else if (at - *m.rest_since >= kRestCloses) {
+      // Left at rest with BUSY on (a hold, a pause): the motion ended when
+      // the carriage stopped; what follows until BUSY falls is not motion.
+      MotionRecord& r = m.record;
+      r.busy_down_s = to_seconds(*m.rest_since - m.started);
+      r.duration_s = *r.busy_down_s;
+      r.outcome = "stopped";
+      Motion done = std::move(m);
+      motion_.reset();
+      wait_idle_ = true;
+      return finish(done, last_ ? std::optional<double>(last_->position_mm) : std::nullopt);
+    }
+  }
   if (state) m.record.target_mm = state->target_001mm / 100.0;
   if (!busy && !m.busy_down) {
     m.busy_down = at;
     m.record.busy_down_s = to_seconds(at - m.started);
+    if (flags_before) m.down_after_s = to_seconds(*flags_before - m.started);
   }
   if (!m.busy_down) return std::nullopt;
-  const bool settled = flags->inp() || flags->alarm() || at - *m.busy_down >= std::chrono::seconds(1);
+  const bool settled =
+      flags->inp() || flags->alarm() || at - *m.busy_down >= std::chrono::seconds(1);
   if (!settled) return std::nullopt;
   MotionRecord& r = m.record;
   r.duration_s = *r.busy_down_s;
+  if (m.up_after_s && m.down_after_s) time_from_brackets(r, *m.up_after_s, *m.down_after_s);
   if (flags->inp()) {
     r.inp_s = to_seconds(at - m.started);
     r.settle_s = *r.inp_s - *r.busy_down_s;
@@ -135,6 +196,22 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   Motion done = std::move(m);
   motion_.reset();
   return finish(done, last_ ? std::optional<double>(last_->position_mm) : std::nullopt);
+}
+
+void MotionTracker::keep(Motion& m, const Sample& s) {
+  m.samples.push_back(s);
+  if (m.samples.size() <= kMaxSamples) return;
+  // Merge pairs after the first (the start): the later one's time and
+  // position, the larger thrust and speed of the two.
+  std::vector<Sample> merged{m.samples.front()};
+  for (std::size_t i = 1; i + 1 < m.samples.size(); i += 2) {
+    Sample a = m.samples[i + 1];
+    a.thrust_pct = std::max(a.thrust_pct, m.samples[i].thrust_pct);
+    a.speed_mm_s = std::max(a.speed_mm_s, m.samples[i].speed_mm_s);
+    merged.push_back(a);
+  }
+  if (m.samples.size() % 2 == 0) merged.push_back(m.samples.back());
+  m.samples = std::move(merged);
 }
 
 MotionRecord MotionTracker::finish(Motion& m, std::optional<double> final_mm) {

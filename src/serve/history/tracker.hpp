@@ -18,6 +18,7 @@
 // Thread safety: none (History locks around it).
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,6 +32,24 @@
 
 namespace lec6::serve::history {
 
+// A finished event of a motion op that was refused before its start reached
+// the wire (servo off, soft limit, alarm already active, a stop first).
+bool refused_before_start(const nlohmann::json& event, const std::string& op);
+
+// A record's duration (BUSY's rise to its fall) from the brackets of its two
+// edges: each lies between `*_after_s` and the time it was seen.
+void time_from_brackets(MotionRecord& r, double up_after_s, double down_after_s);
+inline constexpr double kNoDuration = std::numeric_limits<double>::quiet_NaN();
+
+// Issue 32: a motion held for a weekend kept every sample (~55 MB per axis)
+// and was one 48 h motion. Samples past kMaxSamples merge in pairs (peaks
+// kept, tracker_test.cpp ALongMotionKeepsBoundedSamples); a motion seen in
+// the telemetry whose carriage stays still with BUSY on for kRestCloses ends
+// there, "stopped", and the rest of that BUSY is not another motion
+// (AMotionLeftAtRestIsClosedNotCountedForTheWholeHold).
+inline constexpr std::size_t kMaxSamples = 4096;
+inline constexpr Duration kRestCloses = std::chrono::seconds(60);
+
 class MotionTracker {
  public:
   explicit MotionTracker(std::string axis) : axis_(std::move(axis)) {}
@@ -38,10 +57,11 @@ class MotionTracker {
   // An operations event ("started" / "finished", operations.hpp) for this
   // axis. Returns the record of a motion that finished.
   std::optional<MotionRecord> op_event(const nlohmann::json& event, TimePoint at, int64_t wall_ms);
+  std::size_t samples_kept() const noexcept { return motion_ ? motion_->samples.size() : 0; }
   // A telemetry read of the axis: its state and flags as the cache has them.
   std::optional<MotionRecord> telemetry(const std::optional<lec::StateData>& state,
-                                        const std::optional<lec::StatusFlags>& flags,
-                                        TimePoint at, int64_t wall_ms);
+                                        const std::optional<lec::StatusFlags>& flags, TimePoint at,
+                                        int64_t wall_ms);
 
  private:
   struct Sample {
@@ -53,14 +73,18 @@ class MotionTracker {
     MotionRecord record;
     TimePoint started{};
     std::optional<TimePoint> busy_down;
+    std::optional<double> up_after_s, down_after_s;  // the brackets' early ends (telemetry)
+    std::optional<TimePoint> rest_since;             // BUSY on, the carriage still (a hold)
     std::vector<Sample> samples;
   };
   MotionRecord finish(Motion& m, std::optional<double> final_mm);
+  static void keep(Motion& m, const Sample& s);  // bounded: pairs merge past kMaxSamples
 
   std::string axis_;
   std::optional<Motion> motion_;
   std::optional<Sample> last_;
   bool last_busy_ = false;
+  std::optional<TimePoint> last_flags_at_;
   bool wait_idle_ = false;  // after an operation: BUSY must fall before telemetry starts one
 };
 

@@ -45,7 +45,10 @@ void add_move_details(nlohmann::json& body, const client::MoveResult& r) {
   if (!r.goal.kept.empty()) body["kept_from_controller"] = r.goal.kept;
   body["timeline"] = {{"busy_up_s", seconds_or_null(r.timeline.busy_up)},
                       {"busy_down_s", seconds_or_null(r.timeline.busy_down)},
-                      {"inp_s", seconds_or_null(r.timeline.inp)}};
+                      {"inp_s", seconds_or_null(r.timeline.inp)},
+                      // issue 32: each BUSY edge lies between *_after_s and its time
+                      {"busy_up_after_s", seconds_or_null(r.timeline.busy_up_after)},
+                      {"busy_down_after_s", seconds_or_null(r.timeline.busy_down_after)}};
 }
 
 // An error that ended a move: its state and timeline with the refusal.

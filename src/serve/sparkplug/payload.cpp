@@ -16,7 +16,7 @@ bool is_signed(DataType t) {
          t == DataType::Int64;
 }
 
-int64_t as_int(const Value& v) {
+int64_t value_as_int(const Value& v) {
   if (const auto* i = std::get_if<int64_t>(&v)) return *i;
   if (const auto* u = std::get_if<uint64_t>(&v)) return static_cast<int64_t>(*u);
   if (const auto* b = std::get_if<bool>(&v)) return *b ? 1 : 0;
@@ -31,15 +31,15 @@ void write_value(Pb::Metric& m, DataType t, const Value& v) {
   }
   switch (t) {
     case DataType::Boolean:
-      m.set_boolean_value(std::holds_alternative<bool>(v) ? std::get<bool>(v) : as_int(v) != 0);
+      m.set_boolean_value(std::holds_alternative<bool>(v) ? std::get<bool>(v) : value_as_int(v) != 0);
       return;
     case DataType::Float:
       m.set_float_value(static_cast<float>(
-          std::get_if<double>(&v) ? std::get<double>(v) : static_cast<double>(as_int(v))));
+          std::get_if<double>(&v) ? std::get<double>(v) : static_cast<double>(value_as_int(v))));
       return;
     case DataType::Double:
       m.set_double_value(std::get_if<double>(&v) ? std::get<double>(v)
-                                                 : static_cast<double>(as_int(v)));
+                                                 : static_cast<double>(value_as_int(v)));
       return;
     case DataType::String:
     case DataType::Text:
@@ -47,9 +47,9 @@ void write_value(Pb::Metric& m, DataType t, const Value& v) {
       return;
     default:
       if (is_small_int(t)) {
-        m.set_int_value(static_cast<uint32_t>(as_int(v)));
+        m.set_int_value(static_cast<uint32_t>(value_as_int(v)));
       } else {
-        m.set_long_value(static_cast<uint64_t>(as_int(v)));
+        m.set_long_value(static_cast<uint64_t>(value_as_int(v)));
       }
   }
 }

@@ -26,7 +26,8 @@ std::string error_of(const std::string& text) {
 
 TEST(HistoryConfig, OffWithoutTheSectionAndEveryKeyWhenGiven) {
   auto c = parse_config(kLines, "lec6.yaml");
-  EXPECT_FALSE(c.history);
+  EXPECT_FALSE(c.history);  // `lec serve` then keeps it in the default directory
+  EXPECT_FALSE(c.history_off);
   EXPECT_DOUBLE_EQ(c.lines[0].sim.wear_pct_per_m, 0.25);
   c = parse_config(std::string(kLines) + R"(history:
   state_dir: /var/lib/lec6
@@ -55,11 +56,22 @@ TEST(HistoryConfig, OffWithoutTheSectionAndEveryKeyWhenGiven) {
   c = parse_config(std::string(kLines) + "history: {state_dir: s}\n", "lec6.yaml");
   EXPECT_DOUBLE_EQ(c.history->max_size_mb, 100);
   EXPECT_DOUBLE_EQ(c.history->drift_threshold_pct, 10);
+  // Issue 32: without state_dir, the default directory; `false` turns it off.
+  c = parse_config(std::string(kLines) + "history: {max_size_mb: 5}\n", "lec6.yaml");
+  ASSERT_TRUE(c.history);
+  EXPECT_TRUE(c.history->state_dir.empty());
+  c = parse_config(std::string(kLines) + "history: true\n", "lec6.yaml");
+  ASSERT_TRUE(c.history);
+  EXPECT_TRUE(c.history->state_dir.empty());
+  c = parse_config(std::string(kLines) + "history: false\n", "lec6.yaml");
+  EXPECT_FALSE(c.history);
+  EXPECT_TRUE(c.history_off);
 }
 
 TEST(HistoryConfig, MistakesNameTheKey) {
   const std::string base(kLines);
-  EXPECT_THAT(error_of(base + "history: {max_size_mb: 5}\n"), HasSubstr("history.state_dir"));
+  EXPECT_THAT(error_of(base + "history: {state_dir: ''}\n"), HasSubstr("history.state_dir"));
+  EXPECT_THAT(error_of(base + "history: [1]\n"), HasSubstr("history"));
   EXPECT_THAT(error_of(base + "history: {state_dir: s, max_size_mb: -1}\n"),
               HasSubstr("history.max_size_mb"));
   EXPECT_THAT(error_of(base + "history: {state_dir: s, colour: red}\n"), HasSubstr("colour"));

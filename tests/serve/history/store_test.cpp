@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sqlite3.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -289,6 +290,109 @@ TEST(HistoryStore, KillMinus9DuringABurstLosesNothingCommittedAndTheOdometerMatc
   EXPECT_GE(in_file, committed);
   ASSERT_TRUE(s.odometers().count("x"));
   EXPECT_EQ(s.odometers().at("x").moves, in_file) << "the odometer row goes with its record";
+}
+
+TEST(HistoryStore, ASecondStoreOnTheSameFileIsRefusedNotMixedIn) {
+  // Two daemons of one user share the default directory (issue 32): the
+  // second would number its records from the same id and lose batches.
+  TempDir dir;
+  Logged log;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  {
+    Store first(c, log.log());
+    ASSERT_TRUE(first.ok());
+    Store second(c, log.log());
+    EXPECT_FALSE(second.ok());
+    EXPECT_NE(second.stats().disabled_reason.find("another lec serve"), std::string::npos)
+        << second.stats().disabled_reason;
+    EXPECT_TRUE(first.append(rec(1, kT0 + 1), Odometer{}));
+    first.flush();
+  }
+  Store after(c, log.log());  // the lock goes with the store
+  EXPECT_TRUE(after.ok()) << log.all();
+  EXPECT_EQ(after.first_free_id(), 2);
+}
+
+TEST(HistoryStore, ADirectoryThatCannotBeMadeIsAClearMessageAndNoStore) {
+  TempDir dir;
+  Logged log;
+  { std::ofstream(dir.path / "a-file") << "x"; }
+  StoreConfig c;
+  c.file = dir.path / "a-file" / "history.db";
+  Store s(c, log.log());
+  EXPECT_FALSE(s.ok());
+  EXPECT_NE(log.all().find("move history off: cannot use"), std::string::npos) << log.all();
+  EXPECT_NE(log.all().find("--no-history"), std::string::npos) << log.all();
+  EXPECT_FALSE(s.append(rec(1, kT0), Odometer{}));
+}
+
+TEST(HistoryStore, ABatchALockHeldElsewhereRefusedIsWrittenOnTheRetry) {
+  // Issue 32: a sqlite3 shell holding the lock past the busy timeout rolled
+  // the whole batch back, with no retry.
+  TempDir dir;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  c.busy_timeout_ms = 20;
+  sqlite3* shell = nullptr;
+  std::mutex m;
+  std::vector<std::string> lines;
+  Store s(c, [&](LogLevel, std::string_view t) {
+    std::lock_guard lock(m);
+    lines.emplace_back(t);
+    // The shell lets go when the store says it will try again.
+    if (shell && t.find("trying again") != std::string_view::npos) {
+      sqlite3_exec(shell, "COMMIT", nullptr, nullptr, nullptr);
+    }
+  });
+  ASSERT_TRUE(s.ok());
+  ASSERT_EQ(sqlite3_open(c.file.c_str(), &shell), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(shell, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr), SQLITE_OK);
+  ASSERT_TRUE(s.append(rec(1, kT0 + 1), Odometer{}));
+  s.flush();
+  sqlite3_close(shell);
+  EXPECT_EQ(s.stats().written, 1u);
+  EXPECT_GE(s.stats().retried, 1u);
+  HistoryQuery q;
+  q.axis = "x";
+  EXPECT_EQ(s.query(q).size(), 1u);
+  std::lock_guard lock(m);
+  for (const auto& l : lines) EXPECT_EQ(l.find("not written"), std::string::npos) << l;
+}
+
+TEST(HistoryStore, AFileOfTheVersionBeforeDurationUncertaintyOpensAndTakesNewRecords) {
+  TempDir dir;
+  StoreConfig c;
+  c.file = dir.path / "history.db";
+  sqlite3* old = nullptr;
+  ASSERT_EQ(sqlite3_open(c.file.c_str(), &old), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(old,
+                         "CREATE TABLE motions (id INTEGER PRIMARY KEY, start_ms INTEGER NOT NULL, "
+                         "axis TEXT NOT NULL, source TEXT, kind TEXT, step INTEGER, start_mm REAL, "
+                         "target_mm REAL, speed_mm_s REAL, accel_mm_s2 REAL, force_pct REAL, "
+                         "pushing_force_pct REAL, outcome TEXT, busy_up_s REAL, busy_down_s REAL, "
+                         "inp_s REAL, duration_s REAL, settle_s REAL, peak_thrust_pct REAL, "
+                         "mean_thrust_pct REAL, peak_speed_mm_s REAL, overshoot_mm REAL, "
+                         "final_error_mm REAL, distance_mm REAL, alarms TEXT);"
+                         "INSERT INTO motions (id, start_ms, axis, outcome, duration_s) "
+                         "VALUES (1, 1790000000001, 'x', 'reached', 1.5);",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(old);
+  Logged log;
+  Store s(c, log.log());
+  ASSERT_TRUE(s.ok()) << log.all();
+  auto r = rec(2, kT0 + 2);
+  r.duration_pm_s = 0.01;
+  ASSERT_TRUE(s.append(r, Odometer{}));
+  s.flush();
+  HistoryQuery q;
+  q.axis = "x";
+  const auto all = s.query(q);
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all.back().duration_s, 1.5);
+  EXPECT_FALSE(all.back().duration_pm_s);
+  EXPECT_EQ(all.front().duration_pm_s, 0.01);
 }
 
 }  // namespace

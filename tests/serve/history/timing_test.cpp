@@ -1,0 +1,135 @@
+// Issue 32, rule 1: a motion's duration from the completion rule's own polls
+// on a virtual timeline, bracketed between the poll before and the poll that
+// saw each BUSY edge, read by the history's tracker. A 60 ms move must read
+// within its bracket whatever the poll gap (20-80 ms) and phase; the bracket
+// is never wider than the gap; a move whose BUSY no poll saw has no duration.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "lec6/client/completion.hpp"
+#include "serve/history/odometer.hpp"
+#include "serve/history/tracker.hpp"
+
+namespace lec6::serve::history {
+namespace {
+
+using lec::StatusFlags;
+
+Duration ms(double v) {
+  return to_duration(FractionalMilliseconds(v));
+}
+
+StatusFlags flags(bool busy, bool inp) {
+  StatusFlags f;
+  f.set(StatusFlags::Svre, true);
+  f.set(StatusFlags::Seton, true);
+  f.set(StatusFlags::Busy, busy);
+  f.set(StatusFlags::Inp, inp);
+  return f;
+}
+
+lec::StateData state(int32_t pos, int32_t target) {
+  lec::StateData s;
+  s.position_001mm = pos;
+  s.target_001mm = target;
+  return s;
+}
+
+nlohmann::json seconds_or_null(const std::optional<Duration>& d) {
+  return d ? nlohmann::json(to_seconds(*d)) : nlohmann::json(nullptr);
+}
+
+// The finished event as ops/op_results.cpp writes it.
+nlohmann::json finished(const client::MoveResult& r) {
+  return {{"event", "finished"},
+          {"op", "move"},
+          {"status", 200},
+          {"ok", r.succeeded()},
+          {"outcome", std::string(client::outcome_name(r.outcome))},
+          {"elapsed_s", to_seconds(r.elapsed)},
+          {"timeline",
+           {{"busy_up_s", seconds_or_null(r.timeline.busy_up)},
+            {"busy_down_s", seconds_or_null(r.timeline.busy_down)},
+            {"inp_s", seconds_or_null(r.timeline.inp)},
+            {"busy_up_after_s", seconds_or_null(r.timeline.busy_up_after)},
+            {"busy_down_after_s", seconds_or_null(r.timeline.busy_down_after)}}}};
+}
+
+struct Read {
+  MotionRecord record;
+  double poll_end_duration_s;  // what the old rule said: start to the first BUSY = 0 poll
+};
+
+// One positioning move whose BUSY is up from `rise_ms` to rise_ms + `move_ms`
+// after the start's acknowledgement, polled every `gap_ms` from `phase_ms`.
+Read read_move(double rise_ms, double move_ms, double gap_ms, double phase_ms) {
+  const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
+  client::MoveGoal goal;
+  goal.target_001mm = 10000;
+  goal.in_position_001mm = 50;
+  client::Completion c({goal, flags(false, true), state(0, 0), false, t0},
+                       t0 + std::chrono::seconds(5));
+  MotionTracker t("x");
+  t.op_event({{"event", "started"}, {"op", "move"}, {"source", "test"}}, t0, 0);
+  for (double at = phase_ms;; at += gap_ms) {
+    const bool busy = at >= rise_ms && at < rise_ms + move_ms;
+    const bool done = at >= rise_ms + move_ms;
+    const auto r =
+        c.feed({flags(busy, done), done ? state(10000, 10000) : state(5000, 10000), t0 + ms(at)});
+    if (r) {
+      auto rec = t.op_event(finished(*r), t0 + ms(at), 0);
+      EXPECT_TRUE(rec);
+      return {*rec, r->timeline.busy_down ? to_seconds(*r->timeline.busy_down) : NAN};
+    }
+  }
+}
+
+TEST(Timing, ASixtyMsMoveReadsWithinItsBracketAtAnyPollGap) {
+  std::mt19937 rng(32);
+  std::uniform_real_distribution<double> unit(0, 1);
+  double worst_old = 0, worst_new = 0;
+  for (double gap = 20; gap <= 80; gap += 5) {
+    for (int i = 0; i < 200; ++i) {
+      const double rise = 2 + 10 * unit(rng);  // the controller's start latency
+      const double phase = gap * unit(rng);
+      const Read r = read_move(rise, 60, gap, phase);
+      const MotionRecord& m = r.record;
+      ASSERT_EQ(m.outcome, "reached");
+      if (!m.busy_up_s) {  // no poll saw BUSY (a gap near 60 ms can miss it): no duration
+        EXPECT_TRUE(std::isnan(m.duration_s)) << "gap " << gap;
+        EXPECT_FALSE(m.duration_pm_s);
+        continue;
+      }
+      ASSERT_TRUE(m.duration_pm_s);
+      EXPECT_LE(std::abs(m.duration_s - 0.060), *m.duration_pm_s + 1e-9)
+          << "gap " << gap << " phase " << phase << ": " << m.duration_s << " ± "
+          << *m.duration_pm_s;
+      EXPECT_LE(*m.duration_pm_s, gap / 1000 + 1e-9);
+      worst_new = std::max(worst_new, std::abs(m.duration_s - 0.060));
+      worst_old = std::max(worst_old, std::abs(r.poll_end_duration_s - 0.060));
+    }
+  }
+  // The old reading (start to the first poll that saw BUSY = 0) was off by up
+  // to a whole gap plus the start latency; the bracket's middle is closer.
+  EXPECT_LT(worst_new, worst_old);
+  RecordProperty("worst_error_ms_bracketed", std::to_string(worst_new * 1000));
+  RecordProperty("worst_error_ms_poll_end", std::to_string(worst_old * 1000));
+}
+
+TEST(Timing, AMoveWhoseBusyNoPollSawHasNoDurationAndAddsNoMotionTime) {
+  // 10 ms of BUSY between two polls 40 ms apart, then INP at the target.
+  const Read r = read_move(15, 10, 40, 0);
+  EXPECT_FALSE(r.record.busy_up_s);
+  EXPECT_TRUE(std::isnan(r.record.duration_s));
+  Odometer o;
+  o.add(r.record);
+  EXPECT_EQ(o.moves, 1);
+  EXPECT_DOUBLE_EQ(o.motion_s, 0);
+  EXPECT_TRUE(to_json(r.record)["duration_s"].is_null());
+}
+
+}  // namespace
+}  // namespace lec6::serve::history
