@@ -265,7 +265,15 @@ EdgeSession::Reaction EdgeSession::state(std::string_view payload, uint64_t now_
     return r;
   }
   const bool online = j["online"].get<bool>();
-  const uint64_t ts = j.value("timestamp", uint64_t{0});
+  // Anyone may publish on the STATE topic: a timestamp that is not an
+  // unsigned number is a note, never an exception on the MQTT thread.
+  const auto stamp = j.find("timestamp");
+  if (stamp != j.end() && !stamp->is_number_unsigned()) {
+    r.note = fmt::format("STATE of host '{}' ignored: its timestamp is not a number of ms",
+                         config_.primary_host_id);
+    return r;
+  }
+  const uint64_t ts = stamp == j.end() ? 0 : stamp->get<uint64_t>();
   // tck-id-operational-behavior-edge-node-termination-host-offline-timestamp
   if (host_state_ms_ && ts < *host_state_ms_) {
     r.note =
@@ -320,6 +328,24 @@ EdgeSession::Reaction EdgeSession::dcmd(std::size_t d, std::string_view payload,
   if (!p) return refuse(p.error());
   if (p->metrics.empty()) return refuse("a DCMD without metrics");
   DeviceCommand c{d, {}};
+  // A stop goes whatever else the DCMD holds, a bad metric included (the
+  // one stop rule: a stop never waits for, nor falls with, anything else).
+  for (const Metric& m : p->metrics) {
+    std::optional<std::size_t> index;
+    if (m.alias) {
+      const uint64_t base = alias_base_[d];
+      if (*m.alias >= base && *m.alias < base + def.metrics.size()) index = *m.alias - base;
+    } else if (m.name) {
+      for (std::size_t i = 0; i < def.metrics.size(); ++i)
+        if (def.metrics[i].name == *m.name) index = i;
+    }
+    const auto* on = std::get_if<bool>(&m.value);
+    if (index && def.metrics[*index].name == "Command/Stop" && on && *on) {
+      c.writes.push_back({*index, m.value});
+      r.command = std::move(c);
+      return r;
+    }
+  }
   for (const Metric& m : p->metrics) {
     std::optional<std::size_t> index;
     if (m.alias) {

@@ -254,6 +254,24 @@ TEST(SparkplugSession, PrimaryHostStateGatesBirthsAndEndsTheSession) {
   EXPECT_EQ(s.received(topic, state(true, 3000), true, clock.tick()).out.size(), 2u);
 }
 
+// Anyone may publish on the STATE topic: a malformed timestamp is a note,
+// never an exception that would end lec serve.
+TEST(SparkplugSession, AStateWithAMalformedTimestampIsIgnoredNotThrown) {
+  VirtualClock clock;
+  EdgeSession s(config("scada"), std::nullopt);
+  s.will();
+  s.connected(clock.tick());
+  const std::string topic = "spBv1.0/STATE/scada";
+  for (const char* bad : {R"({"online":false,"timestamp":null})",
+                          R"({"online":true,"timestamp":"soon"})",
+                          R"({"online":true,"timestamp":-5})", R"({"online":true,"timestamp":[1]})"}) {
+    EdgeSession::Reaction r;
+    EXPECT_NO_THROW(r = s.received(topic, bad, true, clock.tick())) << bad;
+    EXPECT_TRUE(r.out.empty()) << bad;
+    EXPECT_FALSE(r.note.empty()) << bad;
+  }
+}
+
 Payload dcmd(std::optional<uint64_t> alias, std::optional<std::string> name,
              std::optional<DataType> type, Value v) {
   Payload p;
@@ -298,6 +316,13 @@ TEST(SparkplugSession, DcmdResolvedOrRefusedWithAReason) {
   refused(dcmd(stop, std::nullopt, DataType::Boolean, true), "retained", true);
   const auto x = b.s.received(t, "\xff\xff\xff", false, 0);
   ASSERT_TRUE(x.refused);
+  // A stop goes whatever else the DCMD holds, a bad metric included.
+  Payload both = dcmd(9999, std::nullopt, DataType::Boolean, true);
+  both.metrics.push_back(dcmd(stop, std::nullopt, DataType::Boolean, true).metrics[0]);
+  const auto y = b.s.received(t, encode(both), false, 0);
+  ASSERT_TRUE(y.command) << "the stop fell with the unknown metric beside it";
+  ASSERT_EQ(y.command->writes.size(), 1u);
+  EXPECT_EQ(y.command->writes[0].metric, 2u);
   // A DCMD for a device the node does not have is ignored.
   EXPECT_FALSE(b.s.received("spBv1.0/plant/DCMD/box7/axis9",
                             encode(dcmd(stop, std::nullopt, DataType::Boolean, true)), false, 0)
