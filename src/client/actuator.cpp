@@ -243,8 +243,7 @@ void Actuator::hold(bool on) {
 }
 
 void Actuator::stop() {
-  client_.write_coil(Coil::RESET, false);  // an edge needs a 0 first (a 1 over a 1 is none)
-  pulse(Coil::RESET);
+  pulse(Coil::RESET);  // stop(kind, policy) judges it, and pulses again if it was no edge
 }
 
 std::vector<uint8_t> Actuator::reset_alarms() {

@@ -15,7 +15,7 @@ using lec::Coil;
 
 // Reads that fail in a row before the judgement gives up on a controller
 // that does not answer (each already had its own attempts).
-constexpr int kFailedReadsGiveUp = 3;
+constexpr int kFailedReadsGiveUp = 2;
 
 std::string joined(const std::vector<std::string>& actions) {
   std::string out;
@@ -105,10 +105,6 @@ StopReport Actuator::stop(StopKind kind, const StopPolicy& policy) {
     if (attempt([&] { client_.write_coil(Coil::HOLD, true); }))
       report.actions.push_back("HOLD <- 1");
   } else {
-    // RESET <- 0 first, whatever it reads (a 1 over a 1 is no edge: an HMI's
-    // maintained button); a release of RESET does nothing else.
-    if (attempt([&] { client_.write_coil(Coil::RESET, false); }))
-      report.actions.push_back("RESET <- 0 (an edge needs a 0 first)");
     const bool sent = attempt([&] { client_.write_coil(Coil::RESET, true); });
     // Released whatever happened: a 1 heard with its reply lost would spoil the next edge.
     attempt([&] { client_.write_coil(Coil::RESET, false); });
@@ -116,6 +112,15 @@ StopReport Actuator::stop(StopKind kind, const StopPolicy& policy) {
   }
   // 2. The axis says whether it stopped.
   bool rest = watch(kind, policy, began + policy.margin, deadline, report);
+  // 2b. Still moving after the pulse: RESET may have been at 1 before it
+  // (another client's maintained button: a 1 over a 1 is no edge). Our
+  // pulse left it at 0, so a second one is an edge.
+  if (!rest && report.answered && kind == StopKind::Stop && clock.now() < deadline) {
+    const bool sent = attempt([&] { client_.write_coil(Coil::RESET, true); });
+    attempt([&] { client_.write_coil(Coil::RESET, false); });
+    if (sent) report.actions.push_back("RESET pulse again (RESET may have been left at 1)");
+    rest = watch(kind, policy, clock.now() + policy.margin, deadline, report);
+  }
   // 3. Escalation, by the policy.
   if (!rest && report.answered && kind == StopKind::Stop && policy.escalate_hold &&
       clock.now() < deadline) {

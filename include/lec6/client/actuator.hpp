@@ -148,9 +148,8 @@ class Actuator {
   MoveResult jog(bool plus, TimePoint until, TimePoint deadline, const WaitOptions& wait = {});
   void hold(bool on);
   // Decelerating stop: a RESET pulse with no alarm active cancels the
-  // operation. RESET <- 0 first (a 1 over a 1 is no edge), then 1, then 0;
-  // nothing is checked afterwards: prefer stop(kind, policy), which watches
-  // the axis.
+  // operation. Nothing is checked afterwards (a RESET another client left at
+  // 1 makes it no edge): prefer stop(kind, policy), which watches the axis.
   void stop();
   // A stop judged by the axis (stop.hpp): the edge, then reads until the
   // axis is at rest, escalating by `policy`. Never throws for a line fault:

@@ -3,9 +3,12 @@
 // docs/protocol-decisions.md, "A stop is judged by the axis").
 //
 // RESET and HOLD act on their edge: a write of 1 over a 1 (an HMI or a PLC
-// that left the coil set) is no edge and stops nothing. So a stop writes
-// RESET <- 0, 1, 0 (nothing read first: a read would wait behind other
-// clients on a shared line); a hold writes HOLD <- 1 and never HOLD <- 0
+// that left the coil set) is no edge and stops nothing. So a stop pulses
+// RESET (1 then 0, nothing read first: a read would wait behind other
+// clients, and a 0 first would cost a controller whose replies are lost a
+// whole write's attempts); if the axis still moves, RESET was at 1 before
+// it, and the pulse left it at 0: a second pulse is an edge. A hold writes
+// HOLD <- 1 and never HOLD <- 0
 // (that would resume a held operation: a HOLD left at 1 with the axis still
 // moving is reported, and escalated by the policy). Then it watches the axis:
 // "stopped at X mm" only when a read shows it at rest

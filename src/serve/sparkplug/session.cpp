@@ -230,6 +230,9 @@ std::vector<Message> EdgeSession::device_values(std::size_t d, bool online,
 
 Message EdgeSession::goodbye(uint64_t now_ms) {
   born_ = false;
+  // Nothing births after the node's own NDEATH until the next connect (a
+  // STATE online processed before the DISCONNECT must not birth again).
+  connected_ = false;
   for (Device& d : devices_) d.born = false;
   return ndeath(now_ms);
 }

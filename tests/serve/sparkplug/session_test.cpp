@@ -262,9 +262,9 @@ TEST(SparkplugSession, AStateWithAMalformedTimestampIsIgnoredNotThrown) {
   s.will();
   s.connected(clock.tick());
   const std::string topic = "spBv1.0/STATE/scada";
-  for (const char* bad : {R"({"online":false,"timestamp":null})",
-                          R"({"online":true,"timestamp":"soon"})",
-                          R"({"online":true,"timestamp":-5})", R"({"online":true,"timestamp":[1]})"}) {
+  for (const char* bad :
+       {R"({"online":false,"timestamp":null})", R"({"online":true,"timestamp":"soon"})",
+        R"({"online":true,"timestamp":-5})", R"({"online":true,"timestamp":[1]})"}) {
     EdgeSession::Reaction r;
     EXPECT_NO_THROW(r = s.received(topic, bad, true, clock.tick())) << bad;
     EXPECT_TRUE(r.out.empty()) << bad;
