@@ -345,26 +345,21 @@ void Scheduler::fail_queued(uint8_t id, Failure why, const std::string& text, Ti
   }
 }
 
+// Answers a queued job that will not reach the wire.
+void Scheduler::fail_one(Queued& x, Failure why, const std::string& text, TimePoint now) {
+  JobResult r;
+  r.failure = why;
+  r.error_kind = TransportErrorKind::Port;
+  r.error = text;
+  r.submitted = x.submitted;
+  r.started = r.finished = now;
+  complete(x.job, std::move(r));
+}
+
 void Scheduler::fail_all_queued(Failure why, const std::string& text, TimePoint now) {
-  for (Queued& x : lane_.take_all()) {
-    JobResult r;
-    r.failure = why;
-    r.error_kind = TransportErrorKind::Port;
-    r.error = text;
-    r.submitted = x.submitted;
-    r.started = r.finished = now;
-    complete(x.job, std::move(r));
-  }
+  for (Queued& x : lane_.take_all()) fail_one(x, why, text, now);
   for (auto& q : queues_) {
-    for (auto& x : q) {
-      JobResult r;
-      r.failure = why;
-      r.error_kind = TransportErrorKind::Port;
-      r.error = text;
-      r.submitted = x.submitted;
-      r.started = r.finished = now;
-      complete(x.job, std::move(r));
-    }
+    for (auto& x : q) fail_one(x, why, text, now);
     q.clear();
   }
   for (auto& [id, t] : telemetry_) t.pass.clear();
@@ -383,15 +378,7 @@ void Scheduler::line_up(TimePoint now) {
 void Scheduler::begin_shutdown(TimePoint now) {
   shutting_down_ = true;
   for (auto& q : queues_) {
-    for (auto& x : q) {
-      JobResult r;
-      r.failure = Failure::ShuttingDown;
-      r.error_kind = TransportErrorKind::Port;
-      r.error = "lec serve is shutting down";
-      r.submitted = x.submitted;
-      r.started = r.finished = now;
-      complete(x.job, std::move(r));
-    }
+    for (auto& x : q) fail_one(x, Failure::ShuttingDown, "lec serve is shutting down", now);
     q.clear();
   }
   for (auto& [id, t] : telemetry_) t.pass.clear();

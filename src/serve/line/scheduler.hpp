@@ -242,6 +242,7 @@ class Scheduler {
   bool note_failure(uint8_t id, const std::string& why, TimePoint now);
   void fail_queued(uint8_t id, Failure why, const std::string& text, TimePoint now);
   void fail_all_queued(Failure why, const std::string& text, TimePoint now);
+  void fail_one(Queued& x, Failure why, const std::string& text, TimePoint now);
   std::optional<JobResult> refuse_now(const Job& job, TimePoint now) const;
   bool answer_from_cache(Job& job, TimePoint submitted, TimePoint now);
   void complete(Job& job, JobResult result);
