@@ -10,6 +10,7 @@
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/sim/controller.hpp"
 #include "lec6/twin/field_profile.hpp"
+#include "test_time.hpp"
 
 namespace lec6::sim {
 namespace {
@@ -18,11 +19,9 @@ using lec::Coil;
 using lec::StatusFlags;
 using std::chrono::milliseconds;
 
-Duration ms(double v) {
-  return to_duration(FractionalMilliseconds(v));
-}
+using testing::ms;
 
-lec::StepData positioning(int32_t pos_001mm) {
+lec::StepData assumed_step(int32_t pos_001mm) {
   lec::StepData s;
   s.movement_mode = lec::MovementMode::Absolute;
   s.speed_mm_s = 200;
@@ -115,7 +114,7 @@ TEST_F(Assumptions, SetonOnARehomeIsKeptOrCleared) {
     cfg.seton_on_rehome = mode;
     make(cfg, 10.0);
     home();
-    direct(positioning(20000));
+    direct(assumed_step(20000));
     t += std::chrono::seconds(2);
     coil(Coil::SETUP, true);
     t += ms(10);
@@ -151,12 +150,12 @@ TEST_F(Assumptions, RetargetReplansOrStopsFirst) {
     cfg.retarget = mode;
     make(cfg, 10.0);
     home();
-    direct(positioning(30000));
+    direct(assumed_step(30000));
     t += ms(600);  // cruising at 200 mm/s
     ASSERT_NEAR(c->physical(t).velocity, 200.0, 1e-6);
     double slowest = 1e9;
     for (int i = 1; i <= 5; ++i) {
-      direct(positioning(30000 + i * 1000));
+      direct(assumed_step(30000 + i * 1000));
       for (int k = 0; k < 10; ++k) {  // a retarget every 100 ms
         t += ms(10);
         slowest = std::min(slowest, std::abs(c->physical(t).velocity));
@@ -178,7 +177,7 @@ TEST_F(Assumptions, AlarmPolarityInvertsX4FOnly) {
   cfg.alarm_polarity = ActuatorConfig::AlarmPolarity::ActiveLow;
   make(cfg, 10.0);
   EXPECT_TRUE(flags().alarm()) << "no alarm: X4F = 1 on an inverted controller";
-  direct(positioning(10000));  // ABS before homing: alarm 99
+  direct(assumed_step(10000));  // ABS before homing: alarm 99
   EXPECT_FALSE(flags().alarm()) << "alarm present: X4F = 0";
   EXPECT_EQ(c->eeprom().alarms.groups[0].codes[0], lec::alarm::kNotHomed);
 }
@@ -191,10 +190,10 @@ TEST_F(Assumptions, SetupLeftHighRefusesStartsOrNot) {
     make(cfg, 10.0);
     coil(Coil::SETUP, true);  // and never cleared
     until([](StatusFlags f) { return f.seton() && !f.busy(); }, std::chrono::seconds(60));
-    direct(positioning(5000));
+    direct(assumed_step(5000));
     EXPECT_EQ(flags().busy(), mode == ActuatorConfig::SetupLeftHigh::Ignored);
     coil(Coil::SETUP, false);
-    direct(positioning(5000));
+    direct(assumed_step(5000));
     EXPECT_TRUE(flags().busy()) << "SETUP cleared: starts work";
   }
 }
