@@ -22,7 +22,7 @@ Duration ms(double v) {
   return to_duration(FractionalMilliseconds(v));
 }
 
-StatusFlags flags(bool busy, bool inp) {
+StatusFlags ready_flags(bool busy, bool inp) {
   StatusFlags f;
   f.set(StatusFlags::Svre, true);
   f.set(StatusFlags::Seton, true);
@@ -70,15 +70,15 @@ Read read_move(double rise_ms, double move_ms, double gap_ms, double phase_ms) {
   client::MoveGoal goal;
   goal.target_001mm = 10000;
   goal.in_position_001mm = 50;
-  client::Completion c({goal, flags(false, true), state(0, 0), false, t0},
+  client::Completion c({goal, ready_flags(false, true), state(0, 0), false, t0},
                        t0 + std::chrono::seconds(5));
   MotionTracker t("x");
   t.op_event({{"event", "started"}, {"op", "move"}, {"source", "test"}}, t0, 0);
   for (double at = phase_ms;; at += gap_ms) {
     const bool busy = at >= rise_ms && at < rise_ms + move_ms;
     const bool done = at >= rise_ms + move_ms;
-    const auto r =
-        c.feed({flags(busy, done), done ? state(10000, 10000) : state(5000, 10000), t0 + ms(at)});
+    const auto r = c.feed(
+        {ready_flags(busy, done), done ? state(10000, 10000) : state(5000, 10000), t0 + ms(at)});
     if (r) {
       auto rec = t.op_event(finished(*r), t0 + ms(at), 0);
       EXPECT_TRUE(rec);

@@ -14,9 +14,9 @@ namespace {
 
 using namespace scheduler_testing;
 
-const modbus::Request kResetOn = modbus::WriteCoilRequest{0x1B, modbus::kCoilOn};
-const modbus::Request kHoldOn = modbus::WriteCoilRequest{0x18, modbus::kCoilOn};
-const modbus::Request kServoOff = modbus::WriteCoilRequest{0x19, modbus::kCoilOff};
+const modbus::Request kLaneResetOn = modbus::WriteCoilRequest{0x1B, modbus::kCoilOn};
+const modbus::Request kLaneHoldOn = modbus::WriteCoilRequest{0x18, modbus::kCoilOn};
+const modbus::Request kLaneServoOff = modbus::WriteCoilRequest{0x19, modbus::kCoilOff};
 
 constexpr Duration kAnswered = 10ms;  // the harness's answered exchange
 constexpr Duration kDead = 65ms;      // and its unanswered one
@@ -41,18 +41,18 @@ TEST(EmergencyLane, ADeadNeighboursStopsCostAnotherAxisAtMostOneDeadExchange) {
     while (h.clock.now() < end) {
       const TimePoint now = h.clock.now();
       if (now >= next_plc) {
-        h.s.submit(h.job(Priority::Emergency, 2, kServoOff), now);
+        h.s.submit(h.job(Priority::Emergency, 2, kLaneServoOff), now);
         next_plc = now + 100ms;
       }
       if (now >= next_hold) {
-        h.s.submit(h.job(Priority::Emergency, 3, kHoldOn), now);
+        h.s.submit(h.job(Priority::Emergency, 3, kLaneHoldOn), now);
         next_hold = now + 30ms;
       }
       if (h.s.queue_depth()[index(Priority::Command)] < 50) {
         h.s.submit(h.job(Priority::Command, 1 + 2 * (rng() % 2)), now);
       }
       if (now >= next_stop) {
-        operator_stops[h.s.submit(h.job(Priority::Emergency, 1, kResetOn), now)] = now;
+        operator_stops[h.s.submit(h.job(Priority::Emergency, 1, kLaneResetOn), now)] = now;
         next_stop = now + std::chrono::milliseconds(200 + rng() % 800);
       }
       auto d = h.s.next(now);
@@ -84,8 +84,9 @@ TEST(EmergencyLane, IdenticalStopsToOneControllerCoalesceAndAllAreAnswered) {
   Harness h;
   h.s.submit(h.job(Priority::Command, 5), h.clock.now());
   ASSERT_TRUE(h.s.next(h.clock.now()));  // something on the wire
-  for (int i = 0; i < 100; ++i) h.s.submit(h.job(Priority::Emergency, 2, kServoOff), h.clock.now());
-  h.s.submit(h.job(Priority::Emergency, 2, kHoldOn), h.clock.now());
+  for (int i = 0; i < 100; ++i)
+    h.s.submit(h.job(Priority::Emergency, 2, kLaneServoOff), h.clock.now());
+  h.s.submit(h.job(Priority::Emergency, 2, kLaneHoldOn), h.clock.now());
   EXPECT_EQ(h.s.queue_depth()[index(Priority::Emergency)], 2u) << "one SVON write, one HOLD";
   h.clock.advance(10ms);
   h.s.completed(answer(Dispatch{0, {5, kReadState}, Priority::Command}), h.clock.now() - 10ms,
@@ -102,12 +103,12 @@ TEST(EmergencyLane, AnAnsweringControllersStopsNeverStarveADeadOnes) {
   SchedulerConfig c;
   c.emergency_attempts = 3;
   Harness h(c);
-  const JobId dead_stop = h.s.submit(h.job(Priority::Emergency, 2, kHoldOn), h.clock.now());
+  const JobId dead_stop = h.s.submit(h.job(Priority::Emergency, 2, kLaneHoldOn), h.clock.now());
   (void)dead_stop;
   int dead_attempts = 0;
   for (int i = 0; i < 400 && h.results.size() < 200; ++i) {
     // A stream of distinct stops to ID 1, always one queued.
-    h.s.submit(h.job(Priority::Emergency, 1, i % 2 ? kResetOn : kHoldOn), h.clock.now());
+    h.s.submit(h.job(Priority::Emergency, 1, i % 2 ? kLaneResetOn : kLaneHoldOn), h.clock.now());
     if (auto d = h.step({2})) {
       dead_attempts += d->frame.id == 2;
     } else {
@@ -119,11 +120,11 @@ TEST(EmergencyLane, AnAnsweringControllersStopsNeverStarveADeadOnes) {
 
 TEST(EmergencyLane, AnAcceptedStopIsNeverCancelled) {
   Harness h;
-  const JobId stop = h.s.submit(h.job(Priority::Emergency, 1, kHoldOn), h.clock.now());
+  const JobId stop = h.s.submit(h.job(Priority::Emergency, 1, kLaneHoldOn), h.clock.now());
   EXPECT_FALSE(h.s.cancel(stop, h.clock.now())) << "its connection closed: the HOLD stays";
   const auto d = h.step();
   ASSERT_TRUE(d);
-  EXPECT_EQ(d->frame.pdu, kHoldOn);
+  EXPECT_EQ(d->frame.pdu, kLaneHoldOn);
   ASSERT_EQ(h.results.size(), 1u);
   EXPECT_EQ(h.results[0].failure, Failure::None);
 }
@@ -133,10 +134,10 @@ TEST(EmergencyLane, StopsAreTakenAndSentWhileTheLineShutsDown) {
   c.axes = {{1, 100ms}};
   Harness h(c);
   h.s.submit(h.job(Priority::Command, 1), h.clock.now());
-  h.s.submit(h.job(Priority::Emergency, 1, kHoldOn), h.clock.now());
+  h.s.submit(h.job(Priority::Emergency, 1, kLaneHoldOn), h.clock.now());
   h.s.begin_shutdown(h.clock.now());
   h.s.submit(h.job(Priority::Completion, 1), h.clock.now());
-  h.s.submit(h.job(Priority::Emergency, 1, kResetOn), h.clock.now());
+  h.s.submit(h.job(Priority::Emergency, 1, kLaneResetOn), h.clock.now());
   for (auto& x : h.s.take_completions()) x.done(x.result);
   ASSERT_EQ(h.results.size(), 2u) << "the read queued and the poll submitted: refused";
   for (const auto& r : h.results) EXPECT_EQ(r.failure, Failure::ShuttingDown);
@@ -144,12 +145,12 @@ TEST(EmergencyLane, StopsAreTakenAndSentWhileTheLineShutsDown) {
   const auto a = h.step();
   const auto b = h.step();
   ASSERT_TRUE(a && b);
-  EXPECT_EQ(a->frame.pdu, kHoldOn);
-  EXPECT_EQ(b->frame.pdu, kResetOn);
+  EXPECT_EQ(a->frame.pdu, kLaneHoldOn);
+  EXPECT_EQ(b->frame.pdu, kLaneResetOn);
   EXPECT_FALSE(h.step()) << "no telemetry while shutting down";
   EXPECT_TRUE(h.s.drained());
   h.s.shut_down(h.clock.now());
-  h.s.submit(h.job(Priority::Emergency, 1, kResetOn), h.clock.now());
+  h.s.submit(h.job(Priority::Emergency, 1, kLaneResetOn), h.clock.now());
   for (auto& x : h.s.take_completions()) x.done(x.result);
   EXPECT_EQ(h.results.back().failure, Failure::ShuttingDown) << "the line has closed";
 }
