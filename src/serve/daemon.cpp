@@ -65,8 +65,11 @@ Daemon::Daemon(ServeConfig config, Log log)
   }
   if (config_.sparkplug) {  // issue 35: bdSeq kept beside the history when there is one
     SparkplugConfig sp = *config_.sparkplug;
-    if (sp.bdseq_file.empty() && config_.history)
-      sp.bdseq_file = config_.history->state_dir / "sparkplug-bdseq";
+    const std::filesystem::path dir = history_ ? history_->state_dir() : std::filesystem::path();
+    if (sp.bdseq_file.empty() && !dir.empty()) {  // one file per node: ids may change
+      sp.bdseq_file =
+          dir / fmt::format("sparkplug-{}-{}.bdseq", sp.group_id, sparkplug_edge_node_id(sp));
+    }
     sparkplug_ = std::make_unique<SparkplugNode>(io_, *directory_, *ops_, sp, log_);
     sparkplug_->start();
   }
@@ -158,9 +161,9 @@ void Daemon::start_listeners() {
   for (const LineConfig& lc : config_.lines) {
     Line& line = *lines_.at(lc.name);
     if (lc.modbus_tcp) {
-      modbus_.push_back(std::make_unique<ModbusTcpServer>(
-          io_, *lc.modbus_tcp, ModbusTcpServer::Framing::Mbap, line, policy_of(lc, *lc.modbus_tcp),
-          log_));
+      modbus_.push_back(std::make_unique<ModbusTcpServer>(io_, *lc.modbus_tcp,
+                                                          ModbusTcpServer::Framing::Mbap, line,
+                                                          policy_of(lc, *lc.modbus_tcp), log_));
     }
     if (lc.rtu_tcp) {
       modbus_.push_back(std::make_unique<ModbusTcpServer>(

@@ -17,6 +17,9 @@ const NODE = 'box7';
 const HOST_ID = 'scada';
 const ck = new Checks();
 const dir = tmpdir();
+// Every lec serve started here keeps its default state (history, bdSeq) in this run's directory.
+process.env.XDG_STATE_HOME = `${dir}/xdg`;
+delete process.env.STATE_DIRECTORY;
 const procs = [];
 
 const is = (verb, device) => (m) => m.verb === verb && (device === undefined || m.device === device);
@@ -185,6 +188,18 @@ async function main() {
   await refuse('axis1', writes(view, 'axis1', { 'Command/Move/Speed mm/s': ['Int32', 70000] }), 'speed', 'a speed out of range');
   ck.check('lec6-never-half-applied', view.value('axis1', 'Command/Move/Speed mm/s') === null, 'the refused speed was not kept', view.value('axis1', 'Command/Move/Speed mm/s'));
   await refuse('axis1', writes(view, 'axis1', { 'Command/Home': ['Boolean', true], 'Command/Reset': ['Boolean', true] }), 'one action', 'two actions in one DCMD');
+  // A move the axis refuses before anything reaches the wire (servo off) keeps none of its settings.
+  await runCmd('axis1', { 'Command/Servo': ['Boolean', false] }, ['done'], 'axis1 servo off');
+  const refusedMove = await runCmd('axis1', {
+    'Command/Move/Position mm': ['Double', 123], 'Command/Move/Speed mm/s': ['Int32', 33], 'Command/Move/Execute': ['Boolean', true],
+  }, ['failed', 'done'], 'a move with the servo off');
+  view.sync();
+  ck.check('lec6-never-half-applied-by-the-axis', refusedMove === 'failed' && view.value('axis1', 'Command/Move/Speed mm/s') === null &&
+    view.value('axis1', 'Command/Move/Position mm') === null,
+    `a move refused by the axis (${view.value('axis1', 'Command/Message')}) kept none of its settings`,
+    [view.value('axis1', 'Command/Move/Position mm'), view.value('axis1', 'Command/Move/Speed mm/s')]);
+  await runCmd('axis1', { 'Command/Servo': ['Boolean', true] }, ['done'], 'axis1 servo on again');
+  await waitValue(host, view, 'axis1', 'Flags/SVRE', (v) => v === true, 5000, 'axis1 SVRE again');
 
   // ---- both axes moving: seq wraps; DCMD stop stops a moving axis ------------------
   mark = host.mark();
@@ -248,14 +263,28 @@ async function main() {
   const nd = await host.waitFor(is('NDEATH'), 5000, 'NDEATH on host offline', mark);
   ck.check('tck-id-operational-behavior-edge-node-termination-host-offline', metric(nd, 'bdSeq')?.value === 0,
     'NDEATH (bdSeq 0) when the primary host goes offline');
+  // While the node is not born, a DCMD other than a stop is refused (and said so in the next DBIRTH).
+  await host.command('DCMD', NODE, 'axis1', writes(view, 'axis1', { 'Command/Servo': ['Boolean', false] }));
   await sleep(1500);
   ck.check('tck-id-operational-behavior-edge-node-birth-sequence-wait', host.since(mark, is('NBIRTH')).length === 0,
     'no births again until the host is back');
+  const [, axis1Now] = await http(httpPort, 'GET', '/api/axes/axis1');
+  ck.check('lec6-no-command-while-not-born', (axis1Now?.telemetry?.flags ?? axis1Now?.flags)?.svre === true,
+    'a servo-off DCMD sent while the node was not born did not run', axis1Now?.telemetry?.flags ?? axis1Now?.flags);
   mark = host.mark();
   await host.state(true);
   const nb2 = await host.waitFor(is('NBIRTH'), 5000, 'NBIRTH after the host is back', mark);
   ck.check('tck-id-message-flow-edge-node-birth-publish-nbirth-payload-bdSeq', metric(nb2, 'bdSeq')?.value === 1,
     'reconnected with the next bdSeq (1)', metric(nb2, 'bdSeq'));
+  const db2 = await host.waitFor(is('DBIRTH', 'axis1'), 5000, 'DBIRTH axis1 after the host is back', mark);
+  ck.check('lec6-not-born-refusal-said', metric(db2, 'Command/Outcome')?.value === 'refused' && String(metric(db2, 'Command/Message')?.value).includes('not born'),
+    'the DBIRTH says why the DCMD sent while not born was refused', metric(db2, 'Command/Message')?.value);
+  // A rebirth in this second MQTT session keeps its bdSeq (1), not 0 and not 2.
+  mark = host.mark();
+  await host.command('NCMD', NODE, null, [{ name: 'Node Control/Rebirth', type: 'Boolean', value: true }]);
+  const rb2 = await host.waitFor(is('NBIRTH'), 5000, 'NBIRTH on the second rebirth', mark);
+  ck.check('tck-id-operational-behavior-data-commands-rebirth-action-3', metric(rb2, 'bdSeq')?.value === 1 && rb2.p.seq === 0 &&
+    host.since(mark, is('NDEATH')).length === 0, 'rebirth after a reconnect: seq 0, the same bdSeq (1), no NDEATH', metric(rb2, 'bdSeq')?.value);
 
   // ---- kill -9: the broker publishes the will; a restart births with the next bdSeq --
   mark = host.mark();
@@ -270,7 +299,7 @@ async function main() {
   procs.push(serve);
   const nb3 = await host.waitFor(is('NBIRTH'), 10000, 'NBIRTH after the restart', mark);
   ck.check('tck-id-topics-nbirth-bdseq-increment', metric(nb3, 'bdSeq')?.value === 2, 'the restart births with bdSeq 2', metric(nb3, 'bdSeq'));
-  ck.check('lec6-bdseq-file', fs.readFileSync(path.join(stateDir, 'sparkplug-bdseq'), 'utf8').trim() === '2',
+  ck.check('lec6-bdseq-file', fs.readFileSync(path.join(stateDir, `sparkplug-${GROUP}-${NODE}.bdseq`), 'utf8').trim() === '2',
     'bdSeq kept in the history\'s state_dir');
   const odo = metric(await host.waitFor(is('DBIRTH', 'axis1'), 5000, 'DBIRTH axis1 after the restart', mark), 'History/Odometer m');
   ck.check('lec6-history-metrics', odo && odo.value > 0.05, `the odometer survives the restart (${odo?.value} m)`);
@@ -326,6 +355,15 @@ async function main() {
     `flag changes reach the broker at once (${lags.join(', ')} ms; the node compares every 5 s)`);
   slow.kill('SIGTERM');
 
+  // One NDEATH per bdSeq of each node: a death is never said twice (the
+  // node's own NDEATH and the broker's will for the same session).
+  const deaths = new Map();
+  for (const m of host.since(0, (x) => x.verb === 'NDEATH')) {
+    const k = `${m.topic}#${metric(m, 'bdSeq')?.value}`;
+    deaths.set(k, (deaths.get(k) ?? 0) + 1);
+  }
+  ck.check('lec6-one-ndeath-per-bdseq', [...deaths.values()].every((n) => n === 1) && deaths.size >= 3,
+    `one NDEATH per node and bdSeq (${[...deaths.entries()].map(([k, n]) => `${k.split('/').at(-1)}: ${n}`).join(', ')})`);
   ck.check('sparkplug-payload decodes every message', host.undecodable.length === 0,
     `Tahu's codec decoded all ${host.messages.length} messages`, host.undecodable.slice(0, 3));
   await host.close();

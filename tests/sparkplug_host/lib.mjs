@@ -159,7 +159,9 @@ export class Host {
     });
     await new Promise((r, j) => { this.client.once('connect', r); this.client.once('error', j); });
     this.client.on('message', (topic, payload, packet) => this.onMessage(topic, payload, packet));
-    await this.client.subscribeAsync([`spBv1.0/${this.group}/#`], { qos: 1 });
+    // Retain as published: a node that retained a message is seen doing it
+    // (a live message is otherwise always delivered with retain = 0).
+    await this.client.subscribeAsync([`spBv1.0/${this.group}/#`], { qos: 1, rap: true });
   }
 
   onMessage(topic, payload, packet) {

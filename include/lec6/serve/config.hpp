@@ -173,8 +173,8 @@ struct SparkplugConfig {
   double telemetry_hz = 10;  // values compared per second (report by exception)
   unsigned keepalive_s = 30;
   unsigned reconnect_max_s = 30;
-  // Where bdSeq is kept across restarts; default: sparkplug-bdseq in the
-  // history's state_dir when the history is on, else none (bdSeq starts at 0).
+  // Where bdSeq is kept across restarts; default: sparkplug-GROUP-NODE.bdseq
+  // in the history's state_dir when the history is on, else none (bdSeq starts at 0).
   std::filesystem::path bdseq_file;
 
   BrokerUrl url() const { return parse_broker_url(broker); }
@@ -187,7 +187,7 @@ struct ServeConfig {
   std::vector<LineConfig> lines;
   std::optional<HttpConfig> http;
   std::optional<MqttConfig> mqtt;
-  std::optional<HistoryConfig> history;      // issue 26
+  std::optional<HistoryConfig> history;  // issue 26
   bool history_off = false;  // `history: false`: none, not even in the default directory
   std::optional<SparkplugConfig> sparkplug;  // issue 35
 

@@ -71,6 +71,10 @@ History::History(const HistoryConfig& config, std::vector<std::string> axes, Log
 
 History::~History() = default;
 
+std::filesystem::path History::state_dir() const {
+  return store_->ok() ? config_.state_dir : std::filesystem::path();
+}
+
 void History::add_listener(Listener l) {
   std::lock_guard lock(mutex_);
   listeners_.push_back(std::move(l));

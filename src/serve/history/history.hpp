@@ -15,6 +15,7 @@
 //
 // Thread safety: every public member may be called from any thread.
 
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -61,6 +62,8 @@ class History {
   // `trend`: each group's recent moves too ({"id", "start_ms", duration_s,
   // peak_thrust_pct, settle_s}, up to 300 per group), for the dashboard's plot.
   nlohmann::json health(const std::string& axis, bool trend = false) const;
+  // Where the history is kept (the default one resolved), empty when it keeps nothing.
+  std::filesystem::path state_dir() const;
   // Sees every record finished before it (waits for the store to commit
   // what is queued): call it off the I/O thread, e.g. through query_async.
   std::vector<MotionRecord> query(const HistoryQuery& q) const;

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <mosquitto.h>
 #include <mqtt_protocol.h>
+#include <pthread.h>
 
 #include <cerrno>
 #include <condition_variable>
@@ -68,8 +69,11 @@ struct MqttClient::Impl {
   bool stop_now = false;  // leave the loop
   bool stopped = false;
   bool connected = false;
-  bool failing = false;      // the last attempt failed (report failures once)
-  bool redial = false;       // reconnect() under way: connect again at once
+  bool failing = false;  // the last attempt failed (report failures once)
+  bool redial = false;   // reconnect() under way: connect again at once
+  // reconnect() asked: DISCONNECT once what was queued is delivered (or at the deadline).
+  bool redial_asked = false;
+  std::chrono::steady_clock::time_point redial_deadline{};
   std::size_t reserved = 0;  // publishes between the bound check and their id
   PendingWindow window;
   std::unordered_set<int> awaited;  // stop()'s last messages
@@ -163,11 +167,24 @@ void MqttClient::Impl::run() {
     int saved_errno = errno;
     first = false;
     while (rc == MOSQ_ERR_SUCCESS) {
+      bool disconnect = false, draining = false;
       {
         std::lock_guard lock(mutex);
         if (stop_now) return;
+        if (redial_asked) {
+          // libmosquitto sends a QoS 1 message again on the next connection
+          // when its PUBACK has not come: a Sparkplug NDEATH would be said
+          // twice. So the DISCONNECT waits for what is in flight.
+          disconnect = window.size() == 0 || std::chrono::steady_clock::now() >= redial_deadline;
+          draining = !disconnect;
+          if (disconnect) {
+            redial_asked = false;
+            redial = true;
+          }
+        }
       }
-      rc = mosquitto_loop(mosq, 200, 1);
+      if (disconnect) mosquitto_disconnect_v5(mosq, MQTT_RC_NORMAL_DISCONNECTION, nullptr);
+      rc = mosquitto_loop(mosq, draining ? 10 : 200, 1);
       saved_errno = errno;
     }
     {
@@ -197,6 +214,7 @@ void MqttClient::Impl::on_connect(mosquitto*, void* obj, int rc, int, const mosq
     std::lock_guard lock(self->mutex);
     self->connected = true;
     self->failing = false;
+    self->redial_asked = false;  // a new connection: what reconnect() wanted is done
     ++self->stats.connects;
     self->window.reset();
   }
@@ -279,7 +297,10 @@ MqttClient::~MqttClient() {
 void MqttClient::start() {
   std::lock_guard lock(impl_->mutex);
   if (impl_->thread.joinable() || impl_->stopped) return;
-  impl_->thread = std::thread([this] { impl_->run(); });
+  impl_->thread = std::thread([this] {
+    ::pthread_setname_np(::pthread_self(), impl_->o.thread_name.substr(0, 15).c_str());
+    impl_->run();
+  });
 }
 
 bool MqttClient::publish(const std::string& topic, std::string_view payload, int qos, bool retain,
@@ -363,12 +384,10 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
 }
 
 void MqttClient::reconnect() {
-  {
-    std::lock_guard lock(impl_->mutex);
-    if (!impl_->connected || impl_->stopped) return;
-    impl_->redial = true;
-  }
-  mosquitto_disconnect_v5(impl_->mosq, MQTT_RC_NORMAL_DISCONNECTION, nullptr);
+  std::lock_guard lock(impl_->mutex);
+  if (!impl_->connected || impl_->stopped || impl_->redial_asked) return;
+  impl_->redial_asked = true;
+  impl_->redial_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
 }
 
 bool MqttClient::connected() const {

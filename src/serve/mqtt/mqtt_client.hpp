@@ -49,6 +49,7 @@ struct MqttClientOptions {
   unsigned reconnect_max_s = 30;
   std::string will_topic, will_payload;  // retained, QoS 1
   std::size_t max_pending = 8192;
+  std::string thread_name = "lec-mqtt";  // the network thread's, ≤ 15 characters (top -H, /proc)
   // Sparkplug B (src/serve/sparkplug/): its NDEATH will and its last message
   // are not retained; the will's payload changes before every CONNECT (a new
   // bdSeq: will_update, called on the client's thread); and STATE, a retained
@@ -115,7 +116,9 @@ class MqttClient final : public MqttSession {
   bool connected() const override;
   MqttClientStats stats() const;
   // Ends this connection (DISCONNECT) and connects again at once, with a
-  // fresh will (Sparkplug: the primary host went offline).
+  // fresh will (Sparkplug: the primary host went offline). The DISCONNECT
+  // waits (≤ 2 s) for what is in flight, so no QoS 1 message is sent again on
+  // the next connection (integration.sparkplug_host: lec6-one-ndeath-per-bdseq).
   void reconnect();
 
  private:

@@ -37,6 +37,7 @@ struct MoveSettings {
   std::optional<double> position_mm;
   std::optional<int64_t> speed_mm_s, accel_mm_s2, decel_mm_s2, force_pct;
   bool relative = false;
+  bool operator==(const MoveSettings&) const = default;
 };
 
 // What the device publishes of its commands.
@@ -46,6 +47,10 @@ struct CommandState {
   std::string message;
   int64_t status = 0;  // the HTTP-style status of ops/operations.hpp (0: none yet)
   int64_t count = 0;   // DCMDs handled: every one changes it, so each gets a DDATA
+  // The settings before the DCMD numbered `settings_from` changed them, given
+  // back if Operations refuses that DCMD's action before the wire.
+  MoveSettings settings_before;
+  int64_t settings_from = 0;
 };
 
 // The writable metrics, in the order axis_metrics() lists them.

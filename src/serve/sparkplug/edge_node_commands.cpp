@@ -3,11 +3,27 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "sparkplug/edge_node_core.hpp"
 
 namespace lec6::serve {
 
 using namespace sparkplug;
+
+namespace {
+
+// Operations refused it before anything reached the wire (ops/operations.hpp):
+// bad arguments, the axis' state, the line down or the daemon stopping.
+bool refused_before_the_wire(int status) {
+  return status == 400 || status == 409 || status == 503;
+}
+
+}  // namespace
+
+int64_t SparkplugNode::Core::number(std::size_t i) {
+  return ++*numbered[i];
+}
 
 void SparkplugNode::Core::command(const DeviceCommand& c) {
   const std::size_t i = c.device;
@@ -29,15 +45,27 @@ void SparkplugNode::Core::command(const DeviceCommand& c) {
   }
   if (!plan_ok) return refuse(i, why);
   Plan& p = *plan_ok;
-  // A stop runs before anything is published or logged.
-  int64_t count = 0;
-  if (p.command) {
+  const int64_t count = number(i);
+  {
+    // The settings are kept now and given back if Operations refuses the
+    // action before the wire (finished()): a refused DCMD keeps nothing.
     std::lock_guard lock(mutex);
     CommandState& s = commands[i];
-    count = ++s.count;
-    s.outcome = "running";
-    s.message = std::string(op_name(p.command->op)) + (p.note.empty() ? "" : ": " + p.note);
-    s.status = 0;
+    s.count = std::max(s.count, count);
+    if (!(p.move == s.move)) {
+      s.settings_before = s.move;
+      s.settings_from = count;
+      s.move = p.move;
+    }
+    if (p.command) {
+      s.outcome = "running";
+      s.message = std::string(op_name(p.command->op)) + (p.note.empty() ? "" : ": " + p.note);
+      s.status = 0;
+    } else {
+      s.outcome = "set";
+      s.message = "move settings kept";
+      s.status = 200;
+    }
   }
   if (p.command) {
     ops.run(axes[i], *p.command, "sparkplug DCMD", [weak = weak_from_this(), i, count](OpResult r) {
@@ -48,22 +76,38 @@ void SparkplugNode::Core::command(const DeviceCommand& c) {
                                   p.command ? op_name(p.command->op) : "move settings",
                                   p.note.empty() ? "" : " (" + p.note + ")"));
   std::lock_guard lock(mutex);
+  sample_axis(i, sparkplug_unix_ms());
+}
+
+// The stop goes to Operations (the emergency lane) before any lock is taken;
+// its number is an atomic's, so even a result that comes back at once is its own.
+void SparkplugNode::Core::stop_now(std::size_t i) {
+  const int64_t count = number(i);
+  Command stop;
+  stop.op = Op::Stop;
+  ops.run(axes[i], stop, "sparkplug DCMD", [weak = weak_from_this(), i, count](OpResult r) {
+    if (auto self = weak.lock()) self->finished(i, count, r);
+  });
+  log(LogLevel::Info, fmt::format("sparkplug: DCMD for {}: stop", axes[i].name));
+  CpuSpan cpu(cpu_ns);
+  std::lock_guard lock(mutex);
   CommandState& s = commands[i];
-  s.move = p.move;
-  if (!p.command) {
-    ++s.count;
-    s.outcome = "set";
-    s.message = "move settings kept";
-    s.status = 200;
+  if (count > s.count) {  // not already finished, nor overtaken by a later DCMD
+    s.count = count;
+    s.outcome = "running";
+    s.message = "stop";
+    s.status = 0;
   }
   sample_axis(i, sparkplug_unix_ms());
 }
 
 void SparkplugNode::Core::refuse(std::size_t i, const std::string& why) {
   log(LogLevel::Warning, fmt::format("sparkplug: DCMD for {} refused: {}", axes[i].name, why));
+  const int64_t count = number(i);
   std::lock_guard lock(mutex);
   CommandState& s = commands[i];
-  ++s.count;
+  if (count < s.count) return;
+  s.count = count;
   s.outcome = "refused";
   s.message = why;
   s.status = 400;
@@ -76,10 +120,16 @@ void SparkplugNode::Core::finished(std::size_t i, int64_t count, const OpResult&
   if (stopped) return;
   std::lock_guard lock(mutex);
   CommandState& s = commands[i];
-  if (s.count != count) return;
-  s.outcome = r.status == 200 ? "done" : "failed";
-  s.status = r.status;
-  s.message = r.body.value("message", r.body.value("error", std::string()));
+  if (s.settings_from == count && refused_before_the_wire(r.status)) {
+    s.move = s.settings_before;
+    s.settings_from = 0;
+  }
+  if (count >= s.count) {
+    s.count = count;
+    s.outcome = r.status == 200 ? "done" : "failed";
+    s.status = r.status;
+    s.message = r.body.value("message", r.body.value("error", std::string()));
+  }
   sample_axis(i, sparkplug_unix_ms());
 }
 

@@ -43,6 +43,9 @@ struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
   void on_connected();
   void on_message(const MqttMessage& m);
   void command(const DeviceCommand& c);
+  // A DCMD stop, found without the mutex: to the emergency lane first.
+  void stop_now(std::size_t axis);
+  int64_t number(std::size_t axis);  // the next DCMD number of the axis (lock-free)
   void refuse(std::size_t axis, const std::string& why);
   void finished(std::size_t axis, int64_t count, const OpResult& r);
 
@@ -58,12 +61,32 @@ struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
   asio::steady_timer timer;
   std::chrono::steady_clock::time_point next_tick{}, next_node{};
   std::vector<std::unique_ptr<std::atomic<bool>>> woken;
+  std::vector<std::unique_ptr<std::atomic<int64_t>>> numbered;  // DCMDs per axis
   std::atomic<bool> stopped{false};
 
   std::mutex mutex;  // the session, the command states, the caches; held while publishing
   std::unique_ptr<EdgeSession> session;
   std::vector<CommandState> commands;
   std::vector<std::optional<nlohmann::json>> health;  // per axis, refreshed with the node's metrics
+  bool rebirth_due = false;  // a numbered message was not queued: births again at the next tick
+  // The node's own CPU (sampling, encoding, queueing), for the benchmark and the stop's log line.
+  std::atomic<uint64_t> cpu_ns{0};
+  std::atomic<uint64_t> published{0};
+};
+
+// CPU time of the calling thread, in ns.
+uint64_t sparkplug_thread_cpu_ns();
+
+// Adds the calling thread's CPU time from construction to destruction to `total`.
+struct CpuSpan {
+  explicit CpuSpan(std::atomic<uint64_t>& total) : total_(total), t0_(sparkplug_thread_cpu_ns()) {}
+  ~CpuSpan() { total_ += sparkplug_thread_cpu_ns() - t0_; }
+  CpuSpan(const CpuSpan&) = delete;
+  CpuSpan& operator=(const CpuSpan&) = delete;
+
+ private:
+  std::atomic<uint64_t>& total_;
+  uint64_t t0_;
 };
 
 uint64_t sparkplug_unix_ms();

@@ -244,14 +244,11 @@ EdgeSession::Reaction EdgeSession::received(std::string_view t, std::string_view
     return state(payload, now_ms);
   }
   if (t == topic("NCMD")) return ncmd(payload, retained, now_ms);
-  const std::string dcmd_prefix = topic("DCMD") + "/";
-  if (t.starts_with(dcmd_prefix)) {
-    const std::string_view id = t.substr(dcmd_prefix.size());
-    for (std::size_t d = 0; d < config_.devices.size(); ++d) {
-      if (config_.devices[d].id == id) return dcmd(d, payload, retained);
-    }
+  if (t.starts_with(topic("DCMD") + "/")) {
+    if (const auto d = device_of_dcmd(t)) return dcmd(*d, payload, retained);
     Reaction r;
-    r.note = fmt::format("DCMD for an unknown device '{}' ignored", id);
+    r.note =
+        fmt::format("DCMD for an unknown device '{}' ignored", t.substr(topic("DCMD").size() + 1));
     return r;
   }
   Reaction r;
@@ -310,7 +307,7 @@ EdgeSession::Reaction EdgeSession::ncmd(std::string_view payload, bool retained,
   }
   for (const Metric& m : p->metrics) {
     if (m.name == kRebirth && std::holds_alternative<bool>(m.value) && std::get<bool>(m.value)) {
-      if (born_) r.out = births(now_ms);  // same bdSeq: the MQTT session goes on
+      r.out = rebirth(now_ms);  // same bdSeq: the MQTT session goes on
       r.note = "rebirth requested";
       return r;
     }
@@ -334,31 +331,19 @@ EdgeSession::Reaction EdgeSession::dcmd(std::size_t d, std::string_view payload,
   // A stop goes whatever else the DCMD holds, a bad metric included (the
   // one stop rule: a stop never waits for, nor falls with, anything else).
   for (const Metric& m : p->metrics) {
-    std::optional<std::size_t> index;
-    if (m.alias) {
-      const uint64_t base = alias_base_[d];
-      if (*m.alias >= base && *m.alias < base + def.metrics.size()) index = *m.alias - base;
-    } else if (m.name) {
-      for (std::size_t i = 0; i < def.metrics.size(); ++i)
-        if (def.metrics[i].name == *m.name) index = i;
-    }
-    const auto* on = std::get_if<bool>(&m.value);
-    if (index && def.metrics[*index].name == "Command/Stop" && on && *on) {
-      c.writes.push_back({*index, m.value});
+    if (is_stop(d, m)) {
+      c.writes.push_back({*metric_index(d, m), m.value});
       r.command = std::move(c);
       return r;
     }
   }
+  if (!born_) {
+    return refuse(
+        "the edge node is not born (not connected, or waiting for the primary host): only a "
+        "stop is taken");
+  }
   for (const Metric& m : p->metrics) {
-    std::optional<std::size_t> index;
-    if (m.alias) {
-      const uint64_t base = alias_base_[d];
-      if (*m.alias >= base && *m.alias < base + def.metrics.size()) index = *m.alias - base;
-    } else if (m.name) {
-      for (std::size_t i = 0; i < def.metrics.size(); ++i) {
-        if (def.metrics[i].name == *m.name) index = i;
-      }
-    }
+    const std::optional<std::size_t> index = metric_index(d, m);
     const std::string label = m.name    ? "'" + *m.name + "'"
                               : m.alias ? fmt::format("alias {}", *m.alias)
                                         : std::string("a metric without name or alias");
@@ -380,6 +365,55 @@ EdgeSession::Reaction EdgeSession::dcmd(std::size_t d, std::string_view payload,
   }
   r.command = std::move(c);
   return r;
+}
+
+std::optional<std::size_t> EdgeSession::device_of_dcmd(std::string_view t) const {
+  const std::string prefix = topic("DCMD") + "/";
+  if (!t.starts_with(prefix)) return std::nullopt;
+  const std::string_view id = t.substr(prefix.size());
+  for (std::size_t d = 0; d < config_.devices.size(); ++d) {
+    if (config_.devices[d].id == id) return d;
+  }
+  return std::nullopt;
+}
+
+std::optional<std::size_t> EdgeSession::metric_index(std::size_t d, const Metric& m) const {
+  const DeviceDef& def = config_.devices[d];
+  if (m.alias) {
+    const uint64_t base = alias_base_[d];
+    if (*m.alias >= base && *m.alias < base + def.metrics.size()) return *m.alias - base;
+    return std::nullopt;
+  }
+  if (m.name) {
+    for (std::size_t i = 0; i < def.metrics.size(); ++i) {
+      if (def.metrics[i].name == *m.name) return i;
+    }
+  }
+  return std::nullopt;
+}
+
+bool EdgeSession::is_stop(std::size_t d, const Metric& m) const {
+  const auto index = metric_index(d, m);
+  const auto* on = std::get_if<bool>(&m.value);
+  return index && config_.devices[d].metrics[*index].name == "Command/Stop" && on && *on;
+}
+
+std::optional<std::size_t> EdgeSession::stop_request(std::string_view t, std::string_view payload,
+                                                     bool retained) const {
+  if (retained) return std::nullopt;
+  const auto d = device_of_dcmd(t);
+  if (!d) return std::nullopt;
+  const auto p = decode(payload);
+  if (!p) return std::nullopt;
+  for (const Metric& m : p->metrics) {
+    if (is_stop(*d, m)) return d;
+  }
+  return std::nullopt;
+}
+
+std::vector<Message> EdgeSession::rebirth(uint64_t now_ms) {
+  if (!born_) return {};
+  return births(now_ms);
 }
 
 }  // namespace lec6::serve::sparkplug

@@ -25,9 +25,15 @@
 //     STATE online=false (not older than the last one seen) means NDEATH and
 //     reconnect.
 //   - DCMD: every metric resolved (alias or name), writable, of a compatible
-//     type, or the whole command is refused with the reason.
+//     type, or the whole command is refused with the reason. A stop
+//     (Command/Stop = true) goes whatever else the DCMD holds and whether or
+//     not the node is born; any other DCMD is refused while the node is not
+//     born (not connected, or waiting for the primary host).
+//   - rebirth(): the births again (same bdSeq, seq 0), for a node that lost
+//     a message it had numbered (a publish the client could not queue).
 //
-// Thread safety: none; one owner.
+// Thread safety: none; one owner, except stop_request(), which reads only
+// what the constructor set and may be called from any thread at any time.
 
 #include <cstdint>
 #include <optional>
@@ -115,6 +121,14 @@ class EdgeSession {
   Reaction received(std::string_view topic, std::string_view payload, bool retained,
                     uint64_t now_ms);
 
+  // A DCMD on `topic` holding Command/Stop = true (not retained): its device.
+  // Const and lock-free, so a stop is found without waiting for the owner.
+  std::optional<std::size_t> stop_request(std::string_view topic, std::string_view payload,
+                                          bool retained) const;
+
+  // The births again when born (NBIRTH with the same bdSeq, seq 0, then DBIRTHs).
+  std::vector<Message> rebirth(uint64_t now_ms);
+
   // The values now (one per metric, in the definitions' order); what changed is published.
   std::vector<Message> node_values(std::vector<Value> values, uint64_t now_ms);
   std::vector<Message> device_values(std::size_t device, bool online, std::vector<Value> values,
@@ -136,6 +150,9 @@ class EdgeSession {
   Reaction state(std::string_view payload, uint64_t now_ms);
   Reaction ncmd(std::string_view payload, bool retained, uint64_t now_ms);
   Reaction dcmd(std::size_t d, std::string_view payload, bool retained);
+  std::optional<std::size_t> device_of_dcmd(std::string_view topic) const;
+  std::optional<std::size_t> metric_index(std::size_t d, const Metric& m) const;
+  bool is_stop(std::size_t d, const Metric& m) const;
   uint64_t next_seq();
 
   SessionConfig config_;

@@ -329,6 +329,56 @@ TEST(SparkplugSession, DcmdResolvedOrRefusedWithAReason) {
                    .command);
 }
 
+// A stop is found without the session's owner (stop_request is const and
+// reads only what the constructor set), and is taken while the node is not
+// born; any other DCMD is refused then.
+TEST(SparkplugSession, AStopIsTakenWhenNotBornAndFoundWithoutTheOwner) {
+  VirtualClock clock;
+  EdgeSession s(config("scada"), std::nullopt);
+  s.device_values(1, true, axis(20), clock.ms);
+  s.will();
+  EXPECT_TRUE(s.connected(clock.tick()).empty());  // waiting for the host
+  const std::string t = "spBv1.0/plant/DCMD/box7/axis2";
+  const uint64_t stop = s.alias_of(1, 2);
+  Payload stop_and_more = dcmd(std::nullopt, "Command/Run Step", DataType::Int32, int64_t{3});
+  stop_and_more.metrics.push_back(dcmd(stop, std::nullopt, DataType::Boolean, true).metrics[0]);
+  EXPECT_EQ(s.stop_request(t, encode(stop_and_more), false), std::optional<std::size_t>(1));
+  EXPECT_EQ(s.stop_request(t, encode(stop_and_more), true), std::nullopt) << "a retained stop";
+  EXPECT_EQ(s.stop_request(t, encode(dcmd(stop, std::nullopt, DataType::Boolean, false)), false),
+            std::nullopt);
+  EXPECT_EQ(s.stop_request("spBv1.0/plant/DCMD/box7/axis9", encode(stop_and_more), false),
+            std::nullopt);
+  EXPECT_EQ(s.stop_request("spBv1.0/plant/DCMD/box7/axis1", "\xff", false), std::nullopt);
+  auto r = s.received(t, encode(stop_and_more), false, clock.tick());
+  ASSERT_TRUE(r.command) << "a stop waited for the node's birth";
+  r = s.received(t, encode(dcmd(std::nullopt, "Command/Run Step", DataType::Int32, int64_t{3})),
+                 false, clock.tick());
+  EXPECT_FALSE(r.command) << "a run-step taken before the node was born";
+  ASSERT_TRUE(r.refused);
+  EXPECT_NE(r.refused->why.find("not born"), std::string::npos) << r.refused->why;
+}
+
+// tck-id-operational-behavior-data-commands-rebirth-action-3 with a bdSeq
+// other than 0: the rebirth keeps the session's bdSeq, after a reconnect too.
+TEST(SparkplugSession, RebirthKeepsTheBdSeqOfTheCurrentConnect) {
+  VirtualClock clock;
+  EdgeSession s(config(), uint8_t{41});
+  s.device_values(0, true, axis(10), clock.ms);
+  s.will();
+  s.connected(clock.tick());
+  s.disconnected();
+  s.will();  // reconnect: 43
+  ASSERT_EQ(s.connected(clock.tick()).size(), 2u);
+  s.device_values(0, true, axis(12), clock.tick());  // seq 1
+  const auto again = s.rebirth(clock.tick());
+  ASSERT_EQ(again.size(), 2u);
+  EXPECT_EQ(decoded(again[0]).seq, 0u);
+  EXPECT_EQ(std::get<int64_t>(find(decoded(again[0]), "bdSeq")->value), 43);
+  EXPECT_EQ(decoded(again[1]).seq, 1u);
+  s.disconnected();
+  EXPECT_TRUE(s.rebirth(clock.tick()).empty()) << "births while not connected";
+}
+
 TEST(SparkplugPayload, RoundTripsEveryTypeItWrites) {
   Payload p;
   p.timestamp_ms = 1234;
