@@ -251,6 +251,11 @@ LineStatsSnapshot Line::stats() const {
   return scheduler_.stats(clock_.now());
 }
 
+DeviceCounters Line::device_counters(uint8_t id) const {
+  std::lock_guard lock(mutex_);
+  return scheduler_.device_counters(id);
+}
+
 DeviceHealth Line::health(uint8_t id) const {
   std::lock_guard lock(mutex_);
   return scheduler_.health(id);

@@ -97,6 +97,9 @@ class Line {
   bool is_down() const;
   std::string down_reason() const;
   LineStatsSnapshot stats() const;
+  // One controller's counters, without the line's percentiles (held under the
+  // line's lock: telemetry views call this per axis and per sample).
+  DeviceCounters device_counters(uint8_t id) const;
   DeviceHealth health(uint8_t id) const;
   AxisSnapshot snapshot(uint8_t id) const;
   std::optional<Duration> age(uint8_t id, Block block) const;

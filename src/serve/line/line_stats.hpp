@@ -78,6 +78,11 @@ class LineStats {
 
   LineStatsSnapshot snapshot(TimePoint now,
                              const std::array<std::size_t, kPriorities>& queue_depth) const;
+  // One controller's counters alone: no percentiles (cheap enough for every sample).
+  DeviceCounters device(uint8_t id) const {
+    const auto it = devices_.find(id);
+    return it == devices_.end() ? DeviceCounters{} : it->second;
+  }
 
  private:
   struct Sample {

@@ -195,6 +195,7 @@ class Scheduler {
   const TelemetryCache& cache() const noexcept { return cache_; }
   DeviceHealth health(uint8_t id) const;
   LineStatsSnapshot stats(TimePoint now) const;
+  DeviceCounters device_counters(uint8_t id) const { return stats_.device(id); }
   std::array<std::size_t, kPriorities> queue_depth() const;
   const SchedulerConfig& config() const noexcept { return config_; }
 

@@ -46,7 +46,6 @@ nlohmann::json alarm_list(const std::vector<uint8_t>& codes) {
 // the share of exchanges that failed.
 void health_into(nlohmann::json& j, const AxisRef& axis) {
   const auto h = axis.line->health(axis.id);
-  const auto stats = axis.line->stats();
   j["online"] = !h.offline && !axis.line->is_down();
   if (h.offline) {
     j["offline_reason"] = fmt::format(
@@ -54,10 +53,9 @@ void health_into(nlohmann::json& j, const AxisRef& axis) {
         "every {:.1f} s",
         h.consecutive_failures, h.last_error, axis.line_config->probe_interval_ms / 1000.0);
   }
-  const auto d = stats.devices.find(axis.id);
+  const DeviceCounters c = axis.line->device_counters(axis.id);
   double error_rate = 0;
-  if (d != stats.devices.end() && d->second.transactions > 0) {
-    const auto& c = d->second;
+  if (c.transactions > 0) {
     error_rate = static_cast<double>(c.timeouts + c.crc_errors + c.framing_errors) /
                  static_cast<double>(c.transactions);
   }

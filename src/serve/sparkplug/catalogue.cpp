@@ -112,10 +112,17 @@ std::vector<MetricDef> axis_metrics(bool history) {
 }
 
 std::vector<Value> axis_values(const AxisNow& now, bool history) {
+  // Parsed once: every axis is sampled at telemetry_hz.
+  static const std::vector<json::json_pointer> pointers = [] {
+    std::vector<json::json_pointer> p;
+    for (const Telemetry& t : kTelemetry) p.emplace_back(t.pointer);
+    return p;
+  }();
   std::vector<Value> v;
-  for (const Telemetry& t : kTelemetry) {
-    const json::json_pointer p(t.pointer);
-    v.push_back(now.telemetry.contains(p) ? from_json(now.telemetry.at(p), t.type) : Value{});
+  v.reserve(64);
+  for (std::size_t i = 0; i < pointers.size(); ++i) {
+    const json* at = now.telemetry.contains(pointers[i]) ? &now.telemetry.at(pointers[i]) : nullptr;
+    v.push_back(at ? from_json(*at, kTelemetry[i].type) : Value{});
   }
   // Alarms with their meanings: the first one's code and meaning, and all of them.
   const json alarms = now.telemetry.value("alarms", json::array());
@@ -138,7 +145,9 @@ std::vector<Value> axis_values(const AxisNow& now, bool history) {
         odometer = from_json(o["distance_m"], T::Double);
     }
     v.push_back(odometer);
-    v.emplace_back(now.health ? now.health->dump() : std::string());
+    v.emplace_back(now.health_text ? *now.health_text
+                   : now.health    ? now.health->dump()
+                                   : std::string());
   }
   static const CommandState kNone;
   const CommandState& c = now.command ? *now.command : kNone;

@@ -36,10 +36,11 @@ std::vector<Value> node_values(const std::vector<LineNow>& lines);
 std::vector<MetricDef> axis_metrics(bool history);
 
 struct AxisNow {
-  nlohmann::json telemetry;              // telemetry_json()
-  std::optional<nlohmann::json> health;  // the move history's health of the axis
-  std::string running;                   // the operation under way ("" when none)
-  std::optional<nlohmann::json> last;    // the last operation's result
+  nlohmann::json telemetry;                  // telemetry_json()
+  std::optional<nlohmann::json> health;      // the move history's health of the axis
+  const std::string* health_text = nullptr;  // health, dumped (once per refresh, not per sample)
+  std::string running;                       // the operation under way ("" when none)
+  std::optional<nlohmann::json> last;        // the last operation's result
   const CommandState* command = nullptr;
 };
 std::vector<Value> axis_values(const AxisNow& now, bool history);

@@ -89,7 +89,8 @@ SparkplugNode::Core::Core(asio::io_context& io_context, const AxisDirectory& d, 
       history_on(d.history() != nullptr),
       timer(io_context),
       commands(axes.size()),
-      health(axes.size()) {
+      health(axes.size()),
+      health_text(axes.size()) {
   SessionConfig s;
   s.group_id = config.group_id;
   s.edge_node_id = sparkplug_edge_node_id(config);
@@ -204,6 +205,7 @@ void SparkplugNode::Core::sample_axis(std::size_t i, uint64_t now_ms) {
   if (const auto r = ops.running(a)) now.running = r->op;
   now.last = ops.last_result(a.name);
   now.health = health[i];
+  if (health[i]) now.health_text = &health_text[i];
   now.command = &commands[i];
   const bool online = now.telemetry.value("online", false) && now.telemetry.contains("flags");
   publish(session->device_values(i, online, axis_values(now, history_on), now_ms));
@@ -239,7 +241,11 @@ void SparkplugNode::Core::tick() {
     std::lock_guard lock(mutex);
     const uint64_t ms = unix_ms();
     if (node_due) {
-      if (!fresh.empty()) health = std::move(fresh);
+      if (!fresh.empty()) {
+        health = std::move(fresh);
+        for (std::size_t i = 0; i < health.size(); ++i)
+          health_text[i] = health[i] ? health[i]->dump() : std::string();
+      }
       sample_node(ms);
       next_node = now + std::chrono::seconds(1);
     } else if (rebirth_due) {

@@ -68,6 +68,7 @@ struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
   std::unique_ptr<EdgeSession> session;
   std::vector<CommandState> commands;
   std::vector<std::optional<nlohmann::json>> health;  // per axis, refreshed with the node's metrics
+  std::vector<std::string> health_text;               // the same, dumped
   bool rebirth_due = false;  // a numbered message was not queued: births again at the next tick
   // The node's own CPU (sampling, encoding, queueing), for the benchmark and the stop's log line.
   std::atomic<uint64_t> cpu_ns{0};

@@ -31,7 +31,8 @@ void write_value(Pb::Metric& m, DataType t, const Value& v) {
   }
   switch (t) {
     case DataType::Boolean:
-      m.set_boolean_value(std::holds_alternative<bool>(v) ? std::get<bool>(v) : value_as_int(v) != 0);
+      m.set_boolean_value(std::holds_alternative<bool>(v) ? std::get<bool>(v)
+                                                          : value_as_int(v) != 0);
       return;
     case DataType::Float:
       m.set_float_value(static_cast<float>(
