@@ -95,21 +95,47 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
     frames();
   }
 
-  // Frames read but not yet handed to the line: a connection that is full
-  // keeps reading (up to this many waiting) so that a stop behind its other
-  // requests is seen and sent at once (issue 31 rule 4).
+  // Frames read but not yet handed to the line (up to waiting_cap() of them,
+  // stops besides). A connection keeps reading however full it is, so that a
+  // stop behind any number of its other requests is seen and sent at once
+  // (issue 31 rule 4): beyond the cap, a frame that is not a stop is refused
+  // at once with exception 06 (server busy), a stop is taken. Only replies the
+  // master does not read stop its socket being read.
   struct Waiting {
     uint16_t transaction = 0;
     uint8_t unit = 0;
     GatewayDecision decision;
   };
   std::size_t waiting_cap() const { return std::max<std::size_t>(server_.limits_.max_queued, 1); }
-  bool stalled() const {
-    return waiting_.size() >= waiting_cap() || writes_.size() >= waiting_cap();
-  }
+  bool stalled() const { return writes_.size() >= waiting_cap(); }
 
   void arrived(uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu) {
-    waiting_.push_back({transaction, unit, decide(server_.policy_, unit, pdu)});
+    GatewayDecision d = decide(server_.policy_, unit, pdu);
+    if (waiting_.size() - stops_waiting() < waiting_cap() || is_stop(d) ||
+        std::holds_alternative<LocalAnswer>(d)) {
+      waiting_.push_back({transaction, unit, std::move(d)});
+      return;
+    }
+    // Over the cap: answered at once (MBAP matches it by its transaction id;
+    // an RTU master hears nothing, as from a controller that is busy).
+    if (!refusing_) {
+      refusing_ = true;
+      server_.log_(LogLevel::Warning,
+                   fmt::format("Modbus TCP {}: {} sent more than {} requests ahead of their "
+                               "answers: the rest are refused with exception 06 (server busy) "
+                               "until answers go out; stops are still taken",
+                               server_.url(), peer_, 2 * waiting_cap()));
+    }
+    const uint8_t raw = pdu.empty() ? 0 : pdu[0];
+    const auto fc = static_cast<modbus::FunctionCode>(raw & 0x7F);
+    answer(transaction, unit,
+           modbus::ExceptionResponse{fc, raw, modbus::ExceptionCode::ServerBusy});
+  }
+
+  std::size_t stops_waiting() const {
+    std::size_t n = 0;
+    for (const Waiting& w : waiting_) n += is_stop(w.decision) ? 1 : 0;
+    return n;
   }
 
   static bool is_stop(const GatewayDecision& d) {
@@ -136,16 +162,18 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
       waiting_.pop_front();
       handle(w.transaction, w.unit, w.decision);
     }
+    if (waiting_.empty()) refusing_ = false;
   }
 
   // Handles the frames read.
   void frames() {
     if (closed_) return;
     if (server_.framing_ == Framing::Mbap) {
-      while (waiting_.size() < waiting_cap()) {
+      for (;;) {
         auto adu = mbap_.next();
         if (!adu) break;
         arrived(adu->header.transaction, adu->header.unit, adu->pdu);
+        dispatch();  // to the line while it has room, before the next frame is judged
       }
       dispatch();
       if (mbap_.status() == modbus::MbapFramer::Status::Broken) {
@@ -166,7 +194,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   // unknown function is all that arrived (devices servers send a frame per
   // segment) and gets exception 01 if its CRC holds.
   void rtu_frames() {
-    while (rtu_.size() >= 4 && waiting_.size() < waiting_cap()) {
+    while (rtu_.size() >= 4) {
       const auto length = modbus::request_length(rtu_);
       std::size_t size = rtu_.size();
       if (length.status == modbus::FrameLength::Status::NeedMore) return;
@@ -182,6 +210,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
       const uint8_t unit = frame[0];
       arrived(0, unit, frame.subspan(1, size - 3));
       rtu_.erase(rtu_.begin(), rtu_.begin() + static_cast<std::ptrdiff_t>(size));
+      dispatch();
     }
   }
 
@@ -268,6 +297,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
                         self->writes_.pop_front();
                         self->write_next();
                         self->close_if_done();
+                        self->read();  // room again for a master that was not reading replies
                       });
   }
 
@@ -286,6 +316,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   bool reading_ = false;
   bool closing_ = false;
   bool closed_ = false;
+  bool refusing_ = false;  // over the cap since the last time it drained (logged once)
 };
 
 ModbusTcpServer::ModbusTcpServer(asio::io_context& io, const ListenerConfig& config,

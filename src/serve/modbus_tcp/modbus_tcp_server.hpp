@@ -12,11 +12,13 @@
 // on the wire completes and its reply is dropped.
 //
 // Bounded (ModbusTcpLimits): a connection holds at most `max_queued`
-// requests queued plus replies unwritten; beyond that, frames read wait (at
-// most `max_queued` of them; then its socket is not read) until answers go
-// out, except stops, which go to the line at once however full the
-// connection is (issue 31 rule 4; tests/serve/modbus_tcp/
-// modbus_tcp_stop_test.cpp); at most
+// requests queued on the line plus replies unwritten, and as many frames read
+// waiting for room; a frame beyond those that is not a stop is answered at
+// once with exception 06 (server busy). Stops are always taken and go to the
+// line at once, with the frames read before them in order, however full the
+// connection is (issue 31 rule 4:
+// ModbusTcpServer.AStopBehindAFloodOfPipelinedRequestsGoesAtOnce). Only
+// replies the master does not read stop its socket being read; at most
 // `max_connections` connections (more are closed at once, with a log line);
 // a connection with no request for `idle_timeout` and nothing owed is closed;
 // running out of file descriptors at accept retries after 100 ms, never in a
