@@ -184,12 +184,14 @@ void SparkplugNode::Core::stop() {
   if (stopped.exchange(true)) return;
   timer.cancel();
   if (!client) return;
-  Message bye;
+  std::optional<Message> bye;
   {
     std::lock_guard lock(mutex);
     bye = session->goodbye(unix_ms());
   }
-  client->stop({{bye.topic, bye.payload}}, kStopGrace);
+  std::vector<std::pair<std::string, std::string>> last;
+  if (bye) last.emplace_back(bye->topic, bye->payload);
+  client->stop(last, kStopGrace);
   const uint64_t n = published.load();
   log(LogLevel::Info,
       fmt::format("sparkplug: NDEATH published, disconnected; {} messages published, the node's "

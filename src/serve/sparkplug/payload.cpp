@@ -1,5 +1,8 @@
 #include "sparkplug/payload.hpp"
 
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/wire_format_lite.h>
+
 #include "sparkplug_b.pb.h"
 
 namespace lec6::serve::sparkplug {
@@ -79,6 +82,17 @@ Value read_value(const Pb::Metric& m, std::optional<DataType> t) {
   }
 }
 
+Metric from_pb(const Pb::Metric& m) {
+  Metric out;
+  if (m.has_name()) out.name = m.name();
+  if (m.has_alias()) out.alias = m.alias();
+  if (m.has_timestamp()) out.timestamp_ms = m.timestamp();
+  if (m.has_datatype()) out.datatype = static_cast<DataType>(m.datatype());
+  out.has_value = m.value_case() != Pb::Metric::VALUE_NOT_SET;
+  out.value = m.is_null() ? Value{} : read_value(m, out.datatype);
+  return out;
+}
+
 }  // namespace
 
 std::string_view type_name(DataType t) noexcept {
@@ -140,17 +154,30 @@ Expected<Payload, std::string> decode(std::string_view bytes) {
   Payload p;
   if (pb.has_timestamp()) p.timestamp_ms = pb.timestamp();
   if (pb.has_seq()) p.seq = pb.seq();
-  for (const auto& m : pb.metrics()) {
-    Metric out;
-    if (m.has_name()) out.name = m.name();
-    if (m.has_alias()) out.alias = m.alias();
-    if (m.has_timestamp()) out.timestamp_ms = m.timestamp();
-    if (m.has_datatype()) out.datatype = static_cast<DataType>(m.datatype());
-    out.has_value = m.value_case() != Pb::Metric::VALUE_NOT_SET;
-    out.value = m.is_null() ? Value{} : read_value(m, out.datatype);
-    p.metrics.push_back(std::move(out));
-  }
+  for (const auto& m : pb.metrics()) p.metrics.push_back(from_pb(m));
   return p;
+}
+
+// Our own walk of the outer message (protobuf's parser takes a message
+// whole or not at all): field 2, length-delimited, is a metric.
+std::vector<Metric> decode_metrics_leniently(std::string_view bytes) {
+  using google::protobuf::internal::WireFormatLite;
+  std::vector<Metric> out;
+  google::protobuf::io::CodedInputStream in(reinterpret_cast<const uint8_t*>(bytes.data()),
+                                            static_cast<int>(bytes.size()));
+  for (uint32_t tag = in.ReadTag(); tag != 0; tag = in.ReadTag()) {
+    if (WireFormatLite::GetTagFieldNumber(tag) == 2 &&
+        WireFormatLite::GetTagWireType(tag) == WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
+      uint32_t length = 0;
+      std::string sub;
+      if (!in.ReadVarint32(&length) || !in.ReadString(&sub, static_cast<int>(length))) break;
+      Pb::Metric m;
+      if (m.ParseFromString(sub)) out.push_back(from_pb(m));
+      continue;
+    }
+    if (!WireFormatLite::SkipField(&in, tag)) break;
+  }
+  return out;
 }
 
 }  // namespace lec6::serve::sparkplug

@@ -67,5 +67,10 @@ std::string encode(const Payload& p);
 // one; without one, as the field present holds it. A payload that is not
 // Sparkplug protobuf: the reason.
 Expected<Payload, std::string> decode(std::string_view bytes);
+// The metrics that parse, each on its own: a metric that is not well-formed,
+// or a payload cut short, costs only itself (what follows a broken length
+// is lost). For finding a stop among siblings that decode() would refuse
+// whole (session.hpp: a stop never falls with anything else).
+std::vector<Metric> decode_metrics_leniently(std::string_view bytes);
 
 }  // namespace lec6::serve::sparkplug

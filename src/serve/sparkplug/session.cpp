@@ -105,6 +105,7 @@ Message EdgeSession::ndeath(std::optional<uint64_t> now_ms) const {
 Message EdgeSession::will() {
   bdseq_ = last_bdseq_ ? static_cast<uint8_t>(*last_bdseq_ + 1) : 0;
   last_bdseq_ = bdseq_;
+  death_said_ = false;
   // The broker publishes it at a moment nobody can number: no seq, no timestamp.
   return ndeath(std::nullopt);
 }
@@ -228,12 +229,14 @@ std::vector<Message> EdgeSession::device_values(std::size_t d, bool online,
   return {{topic("DDATA", &def.id), encode(p), 0, false}};
 }
 
-Message EdgeSession::goodbye(uint64_t now_ms) {
+std::optional<Message> EdgeSession::goodbye(uint64_t now_ms) {
   born_ = false;
   // Nothing births after the node's own NDEATH until the next connect (a
   // STATE online processed before the DISCONNECT must not birth again).
   connected_ = false;
   for (Device& d : devices_) d.born = false;
+  if (death_said_) return std::nullopt;
+  death_said_ = true;
   return ndeath(now_ms);
 }
 
@@ -286,7 +289,7 @@ EdgeSession::Reaction EdgeSession::state(std::string_view payload, uint64_t now_
     return r;
   }
   if (born_) {
-    r.out.push_back(goodbye(now_ms));
+    if (auto bye = goodbye(now_ms)) r.out.push_back(std::move(*bye));
     r.reconnect = true;
     r.note =
         fmt::format("primary host '{}' is offline: NDEATH, reconnecting", config_.primary_host_id);
@@ -324,19 +327,20 @@ EdgeSession::Reaction EdgeSession::dcmd(std::size_t d, std::string_view payload,
     return r;
   };
   if (retained) return refuse("a retained DCMD is refused: its age cannot be known");
-  auto p = decode(payload);
-  if (!p) return refuse(p.error());
-  if (p->metrics.empty()) return refuse("a DCMD without metrics");
   DeviceCommand c{d, {}};
-  // A stop goes whatever else the DCMD holds, a bad metric included (the
-  // one stop rule: a stop never waits for, nor falls with, anything else).
-  for (const Metric& m : p->metrics) {
+  // A stop goes whatever else the DCMD holds, a bad metric (even one that
+  // is not well-formed protobuf) included: the one stop rule, a stop never
+  // waits for, nor falls with, anything else.
+  for (const Metric& m : decode_metrics_leniently(payload)) {
     if (is_stop(d, m)) {
       c.writes.push_back({*metric_index(d, m), m.value});
       r.command = std::move(c);
       return r;
     }
   }
+  auto p = decode(payload);
+  if (!p) return refuse(p.error());
+  if (p->metrics.empty()) return refuse("a DCMD without metrics");
   if (!born_) {
     return refuse(
         "the edge node is not born (not connected, or waiting for the primary host): only a "
@@ -403,9 +407,7 @@ std::optional<std::size_t> EdgeSession::stop_request(std::string_view t, std::st
   if (retained) return std::nullopt;
   const auto d = device_of_dcmd(t);
   if (!d) return std::nullopt;
-  const auto p = decode(payload);
-  if (!p) return std::nullopt;
-  for (const Metric& m : p->metrics) {
+  for (const Metric& m : decode_metrics_leniently(payload)) {
     if (is_stop(*d, m)) return d;
   }
   return std::nullopt;

@@ -135,8 +135,10 @@ class EdgeSession {
                                      uint64_t now_ms);
 
   // An intentional end (tck-id-operational-behavior-edge-node-intentional-disconnect-ndeath):
-  // the NDEATH to publish before the DISCONNECT. The session is no longer born.
-  Message goodbye(uint64_t now_ms);
+  // the NDEATH to publish before the DISCONNECT, unless this bdSeq's death was
+  // said already (the primary host went offline just before): a session dies
+  // once. The session is no longer born.
+  std::optional<Message> goodbye(uint64_t now_ms);
 
  private:
   struct Device {
@@ -162,6 +164,7 @@ class EdgeSession {
   uint8_t seq_ = 0;
   bool connected_ = false;
   bool born_ = false;
+  bool death_said_ = false;                // goodbye() published this bdSeq's NDEATH
   std::optional<uint64_t> host_state_ms_;  // the newest STATE timestamp seen
   std::vector<Value> node_now_, node_sent_;
   std::vector<Device> devices_;

@@ -248,8 +248,17 @@ TEST(SparkplugSession, PrimaryHostStateGatesBirthsAndEndsTheSession) {
   EXPECT_EQ(r.out[0].topic, "spBv1.0/plant/NDEATH/box7");
   EXPECT_EQ(std::get<int64_t>(decoded(r.out[0]).metrics[0].value), 0);
   EXPECT_TRUE(r.reconnect);
+  // A stop of the daemon now says nothing more: this session died once.
+  EXPECT_FALSE(s.goodbye(clock.tick())) << "a second NDEATH for bdSeq 0";
   s.disconnected();
   EXPECT_EQ(std::get<int64_t>(decoded(s.will()).metrics[0].value), 1);
+  {
+    // The next session's death is its own.
+    EdgeSession copy = s;
+    const auto bye = copy.goodbye(clock.ms);
+    ASSERT_TRUE(bye);
+    EXPECT_EQ(std::get<int64_t>(decoded(*bye).metrics[0].value), 1);
+  }
   EXPECT_TRUE(s.connected(clock.tick()).empty());
   EXPECT_EQ(s.received(topic, state(true, 3000), true, clock.tick()).out.size(), 2u);
 }
