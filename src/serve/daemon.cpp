@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "history/history.hpp"
+#include "history/state_dir.hpp"
 #include "http/api/http_api.hpp"
 #include "http/http_server.hpp"
 #include "lec6/transport/capture_file.hpp"
@@ -65,7 +66,21 @@ Daemon::Daemon(ServeConfig config, Log log)
   }
   if (config_.sparkplug) {  // issue 35: bdSeq kept beside the history when there is one
     SparkplugConfig sp = *config_.sparkplug;
-    const std::filesystem::path dir = history_ ? history_->state_dir() : std::filesystem::path();
+    // bdSeq is kept beside the history, else in the default state directory
+    // (history off): a restart, after kill -9 too, births with the next one.
+    std::filesystem::path dir = history_ ? history_->state_dir() : std::filesystem::path();
+    if (dir.empty() && sp.bdseq_file.empty()) {
+      if (const auto d = history::default_state_dir()) {
+        std::error_code ec;
+        std::filesystem::create_directories(d->dir, ec);
+        if (!ec) dir = d->dir;
+      }
+      if (dir.empty()) {
+        log_(LogLevel::Warning,
+             "sparkplug: no state directory to keep bdSeq in: every start births with bdSeq 0 "
+             "(set sparkplug.bdseq_file)");
+      }
+    }
     if (sp.bdseq_file.empty() && !dir.empty()) {  // one file per node: ids may change
       sp.bdseq_file =
           dir / fmt::format("sparkplug-{}-{}.bdseq", sp.group_id, sparkplug_edge_node_id(sp));

@@ -5,6 +5,7 @@
 #include <mqtt_protocol.h>
 #include <pthread.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <condition_variable>
 #include <cstdlib>
@@ -335,15 +336,23 @@ bool MqttClient::publish(const std::string& topic, std::string_view payload, int
 }
 
 void MqttClient::subscribe(const std::vector<std::string>& filters) {
-  std::vector<char*> subs;
-  for (const auto& f : filters) subs.push_back(const_cast<char*>(f.c_str()));
   // Retain-as-published: a retained command is seen as one. Never the
-  // retained messages already stored: a stale command must not arrive.
-  mosquitto_subscribe_multiple(impl_->mosq, nullptr, static_cast<int>(subs.size()), subs.data(), 1,
-                               MQTT_SUB_OPT_RETAIN_AS_PUBLISHED |
-                                   (impl_->o.subscribe_retained ? MQTT_SUB_OPT_SEND_RETAIN_ALWAYS
-                                                                : MQTT_SUB_OPT_SEND_RETAIN_NEVER),
-                               nullptr);
+  // retained messages already stored (a stale command must not arrive),
+  // except on the filters that ask for them (retained_filters).
+  for (const bool retained : {false, true}) {
+    std::vector<char*> subs;
+    for (const auto& f : filters) {
+      const auto& keep = impl_->o.retained_filters;
+      if ((std::find(keep.begin(), keep.end(), f) != keep.end()) == retained)
+        subs.push_back(const_cast<char*>(f.c_str()));
+    }
+    if (subs.empty()) continue;
+    mosquitto_subscribe_multiple(
+        impl_->mosq, nullptr, static_cast<int>(subs.size()), subs.data(), 1,
+        MQTT_SUB_OPT_RETAIN_AS_PUBLISHED |
+            (retained ? MQTT_SUB_OPT_SEND_RETAIN_ALWAYS : MQTT_SUB_OPT_SEND_RETAIN_NEVER),
+        nullptr);
+  }
 }
 
 void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& last,

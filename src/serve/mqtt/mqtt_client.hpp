@@ -53,11 +53,13 @@ struct MqttClientOptions {
   // Sparkplug B (src/serve/sparkplug/): its NDEATH will and its last message
   // are not retained; the will's payload changes before every CONNECT (a new
   // bdSeq: will_update, called on the client's thread); and STATE, a retained
-  // message, must be delivered on subscribe (integration.sparkplug_host).
+  // message, must be delivered on subscribe (integration.sparkplug_host):
+  // the filters in `retained_filters` get the retained messages stored,
+  // every other filter never does (a stale command must not arrive).
   bool will_retain = true;
   std::function<std::string()> will_update;
   bool last_retain = true;  // stop()'s last messages
-  bool subscribe_retained = false;
+  std::vector<std::string> retained_filters;
 };
 
 struct MqttClientHandlers {

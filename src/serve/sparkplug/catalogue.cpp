@@ -107,6 +107,10 @@ std::vector<MetricDef> axis_metrics(bool history) {
   m.push_back({"Command/Message", T::String, false});
   m.push_back({"Command/Status", T::Int32, false});
   m.push_back({"Command/Count", T::Int64, false});
+  // The last stop's own result: a stop followed at once by another DCMD
+  // still says whether the axis stopped.
+  m.push_back({"Command/Stop Outcome", T::String, false});
+  m.push_back({"Command/Stop Message", T::String, false});
   for (MetricDef& c : command_metrics()) m.push_back(std::move(c));
   return m;
 }
@@ -155,6 +159,8 @@ std::vector<Value> axis_values(const AxisNow& now, bool history) {
   v.emplace_back(c.message);
   v.emplace_back(c.status);
   v.emplace_back(c.count);
+  v.emplace_back(c.stop_outcome);
+  v.emplace_back(c.stop_message);
   // The writable metrics: actions read back false (they are momentary), the
   // move settings as last written (null until then).
   auto opt = [](const auto& o) { return o ? Value{*o} : Value{}; };

@@ -169,4 +169,46 @@ Expected<Plan, std::string> plan(const std::vector<Write>& writes, const MoveSet
   return p;
 }
 
+namespace {
+
+// The six settings as one shape, so that each can be compared and given back.
+template <typename F>
+void each_field(MoveSettings& a, const MoveSettings& b, F f) {
+  f(0, a.position_mm, b.position_mm);
+  f(1, a.speed_mm_s, b.speed_mm_s);
+  f(2, a.accel_mm_s2, b.accel_mm_s2);
+  f(3, a.decel_mm_s2, b.decel_mm_s2);
+  f(4, a.force_pct, b.force_pct);
+  f(5, a.relative, b.relative);
+}
+
+}  // namespace
+
+void record_settings(CommandState& s, int64_t count, const MoveSettings& next) {
+  if (next == s.move) return;
+  auto& p = s.provenance;
+  p.before[count] = {s.move, p.set_by};
+  each_field(s.move, next, [&](std::size_t i, auto& now, const auto& to) {
+    if (now != to) {
+      now = to;
+      p.set_by[i] = count;
+    }
+  });
+}
+
+void settle_settings(CommandState& s, int64_t count, bool refused) {
+  auto& p = s.provenance;
+  const auto it = p.before.find(count);
+  if (it == p.before.end()) return;
+  if (refused) {
+    const auto& [before, setters] = it->second;
+    each_field(s.move, before, [&](std::size_t i, auto& now, const auto& old) {
+      if (p.set_by[i] != count) return;  // a later DCMD set it since: its value stands
+      now = old;
+      p.set_by[i] = setters[i];
+    });
+  }
+  p.before.erase(it);
+}
+
 }  // namespace lec6::serve::sparkplug

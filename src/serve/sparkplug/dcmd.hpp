@@ -24,6 +24,8 @@
 //
 // Thread safety: pure functions.
 
+#include <array>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -47,11 +49,24 @@ struct CommandState {
   std::string message;
   int64_t status = 0;  // the HTTP-style status of ops/operations.hpp (0: none yet)
   int64_t count = 0;   // DCMDs handled: every one changes it, so each gets a DDATA
-  // The settings before the DCMD numbered `settings_from` changed them, given
-  // back if Operations refuses that DCMD's action before the wire.
-  MoveSettings settings_before;
-  int64_t settings_from = 0;
+  // The last stop's result: none, running, done, failed.
+  std::string stop_outcome = "none";
+  std::string stop_message;
+  int64_t stop_count = 0;  // the DCMD number of that stop
+  // Which DCMD set each move setting last, and the value and setter before
+  // it: a DCMD whose action Operations refuses before the wire gives back
+  // the settings it set that no later DCMD has set since (restore()).
+  struct Provenance {
+    std::array<int64_t, 6> set_by{};  // position, speed, accel, decel, force, relative
+    std::map<int64_t, std::pair<MoveSettings, std::array<int64_t, 6>>> before;  // per DCMD
+  } provenance;
 };
+
+// The settings `s` took from DCMD `count` (its plan made them `next`).
+void record_settings(CommandState& s, int64_t count, const MoveSettings& next);
+// DCMD `count` was refused before the wire (true) or ran (false): its settings
+// are given back or kept for good.
+void settle_settings(CommandState& s, int64_t count, bool refused);
 
 // The writable metrics, in the order axis_metrics() lists them.
 std::vector<MetricDef> command_metrics();

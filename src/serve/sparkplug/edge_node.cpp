@@ -44,15 +44,19 @@ std::optional<uint8_t> read_bdseq(const std::filesystem::path& file) {
   return static_cast<uint8_t>(v);
 }
 
-void write_bdseq(const std::filesystem::path& file, uint8_t v) {
-  if (file.empty()) return;
+// False when the file could not be written (the directory gone, the disk full).
+bool write_bdseq(const std::filesystem::path& file, uint8_t v) {
+  if (file.empty()) return true;
   const auto tmp = file.string() + ".tmp";
   {
     std::ofstream out(tmp, std::ios::trunc);
     out << static_cast<int>(v) << "\n";
+    out.flush();
+    if (!out) return false;
   }
   std::error_code ec;
   std::filesystem::rename(tmp, file, ec);
+  return !ec;
 }
 
 }  // namespace
@@ -100,6 +104,7 @@ SparkplugNode::Core::Core(asio::io_context& io_context, const AxisDirectory& d, 
     s.devices.push_back({a.name, axis_metrics(history_on)});
     woken.push_back(std::make_unique<std::atomic<bool>>(false));
     numbered.push_back(std::make_unique<std::atomic<int64_t>>(0));
+    stops.push_back(std::make_unique<std::atomic<uint64_t>>(0));
   }
   command_offset = axis_metrics(history_on).size() - command_metrics().size();
   session = std::make_unique<EdgeSession>(std::move(s), read_bdseq(config.bdseq_file));
@@ -136,13 +141,22 @@ void SparkplugNode::Core::start() {
   o.will_topic = session->topic("NDEATH");
   o.will_retain = false;
   o.last_retain = false;
-  o.subscribe_retained = true;  // the primary host's STATE is retained
+  // The primary host's STATE is retained, and only it: a retained command
+  // (refused anyway) is not delivered again at every reconnect.
+  if (!config.primary_host_id.empty())
+    o.retained_filters = {fmt::format("{}/STATE/{}", kNamespace, config.primary_host_id)};
   o.will_update = [weak] {
     auto c = weak.lock();
     if (!c) return std::string();
     std::lock_guard lock(c->mutex);
     Message will = c->session->will();  // a new bdSeq for this CONNECT
-    write_bdseq(c->config.bdseq_file, c->session->bdseq());
+    if (!write_bdseq(c->config.bdseq_file, c->session->bdseq()) && !c->bdseq_warned) {
+      c->bdseq_warned = true;  // once: the connection goes on, a restart births with 0
+      c->log(LogLevel::Warning,
+             fmt::format("sparkplug: cannot write bdSeq to {}: a restart will not birth with the "
+                         "next bdSeq",
+                         c->config.bdseq_file.string()));
+    }
     return will.payload;
   };
   MqttClientHandlers h;
@@ -285,6 +299,7 @@ void SparkplugNode::Core::wake(std::size_t i) {
 void SparkplugNode::Core::on_connected() {
   if (stopped) return;
   std::lock_guard lock(mutex);
+  rebirth_due = false;  // the births follow: a failure of the last connection is owed nothing
   client->subscribe(session->subscriptions());
   publish(session->connected(unix_ms()));
   log(LogLevel::Info,
@@ -294,13 +309,25 @@ void SparkplugNode::Core::on_connected() {
           session->born() ? "" : fmt::format(", waiting for host {}", config.primary_host_id)));
 }
 
+// On the client's thread: a DCMD stop goes at once; everything else is
+// handled on the event loop's thread, so the client's thread is free for the
+// next message (a stop behind a burst of 2000 DCMDs waited for all of them).
 void SparkplugNode::Core::on_message(const MqttMessage& m) {
-  if (stopped) return;
-  // A stop first, before the mutex a tick may hold (session.hpp: stop_request).
+  // A stop first, before the mutex a tick may hold (session.hpp:
+  // stop_request), and while the node is stopping too (Operations takes stops then).
   if (const auto axis = session->stop_request(m.topic, m.payload, m.retain)) {
     stop_now(*axis);
     return;
   }
+  if (stopped) return;
+  std::vector<uint64_t> seen;
+  for (const auto& n : stops) seen.push_back(n->load());
+  asio::post(io, [weak = weak_from_this(), m, seen = std::move(seen)]() mutable {
+    if (auto c = weak.lock(); c && !c->stopped) c->handle(m, std::move(seen));
+  });
+}
+
+void SparkplugNode::Core::handle(const MqttMessage& m, std::vector<uint64_t> stops_seen) {
   CpuSpan cpu(cpu_ns);
   std::optional<DeviceCommand> cmd;
   std::optional<Refusal> refused;
@@ -316,7 +343,8 @@ void SparkplugNode::Core::on_message(const MqttMessage& m) {
   }
   if (reconnect) client->reconnect();
   if (refused) refuse(refused->device, refused->why);
-  if (cmd) command(*cmd);
+  if (!cmd) return;
+  command(*cmd, stops_seen[cmd->device]);
 }
 
 // ---- the node ---------------------------------------------------------------------

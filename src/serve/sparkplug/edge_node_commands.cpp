@@ -25,8 +25,11 @@ int64_t SparkplugNode::Core::number(std::size_t i) {
   return ++*numbered[i];
 }
 
-void SparkplugNode::Core::command(const DeviceCommand& c) {
+void SparkplugNode::Core::command(const DeviceCommand& c, uint64_t stops_seen) {
   const std::size_t i = c.device;
+  // A command sent before a stop of its axis never runs after that stop.
+  auto overtaken = [&] { return stops[i]->load() != stops_seen; };
+  if (overtaken()) return refuse(i, "a stop sent after this DCMD came first: not run");
   std::vector<Write> writes;
   for (const Write& w : c.writes) {
     if (w.metric < command_offset) return refuse(i, "only Command/... metrics are writable");
@@ -45,6 +48,9 @@ void SparkplugNode::Core::command(const DeviceCommand& c) {
   }
   if (!plan_ok) return refuse(i, why);
   Plan& p = *plan_ok;
+  // Checked again as late as can be: a stop that came while this was planned wins.
+  if (p.command && p.command->op != Op::Stop && overtaken())
+    return refuse(i, "a stop sent after this DCMD came first: not run");
   const int64_t count = number(i);
   {
     // The settings are kept now and given back if Operations refuses the
@@ -52,11 +58,8 @@ void SparkplugNode::Core::command(const DeviceCommand& c) {
     std::lock_guard lock(mutex);
     CommandState& s = commands[i];
     s.count = std::max(s.count, count);
-    if (!(p.move == s.move)) {
-      s.settings_before = s.move;
-      s.settings_from = count;
-      s.move = p.move;
-    }
+    record_settings(s, count, p.move);
+    if (!p.command) settle_settings(s, count, false);  // settings alone: kept
     if (p.command) {
       s.outcome = "running";
       s.message = std::string(op_name(p.command->op)) + (p.note.empty() ? "" : ": " + p.note);
@@ -68,9 +71,11 @@ void SparkplugNode::Core::command(const DeviceCommand& c) {
     }
   }
   if (p.command) {
-    ops.run(axes[i], *p.command, "sparkplug DCMD", [weak = weak_from_this(), i, count](OpResult r) {
-      if (auto self = weak.lock()) self->finished(i, count, r);
-    });
+    const bool is_stop = p.command->op == Op::Stop;
+    ops.run(axes[i], *p.command, "sparkplug DCMD",
+            [weak = weak_from_this(), i, count, is_stop](OpResult r) {
+              if (auto self = weak.lock()) self->finished(i, count, r, is_stop);
+            });
   }
   log(LogLevel::Info, fmt::format("sparkplug: DCMD for {}: {}{}", axes[i].name,
                                   p.command ? op_name(p.command->op) : "move settings",
@@ -85,8 +90,9 @@ void SparkplugNode::Core::stop_now(std::size_t i) {
   const int64_t count = number(i);
   Command stop;
   stop.op = Op::Stop;
+  ++*stops[i];  // DCMDs received before it and not yet handled will not run after it
   ops.run(axes[i], stop, "sparkplug DCMD", [weak = weak_from_this(), i, count](OpResult r) {
-    if (auto self = weak.lock()) self->finished(i, count, r);
+    if (auto self = weak.lock()) self->finished(i, count, r, true);
   });
   log(LogLevel::Info, fmt::format("sparkplug: DCMD for {}: stop", axes[i].name));
   CpuSpan cpu(cpu_ns);
@@ -97,6 +103,11 @@ void SparkplugNode::Core::stop_now(std::size_t i) {
     s.outcome = "running";
     s.message = "stop";
     s.status = 0;
+  }
+  if (count > s.stop_count) {
+    s.stop_count = count;
+    s.stop_outcome = "running";
+    s.stop_message = "stop";
   }
   sample_axis(i, sparkplug_unix_ms());
 }
@@ -116,19 +127,23 @@ void SparkplugNode::Core::refuse(std::size_t i, const std::string& why) {
 
 // From an operation's thread: the result as metrics, unless a later DCMD has
 // taken the device's command state since.
-void SparkplugNode::Core::finished(std::size_t i, int64_t count, const OpResult& r) {
+void SparkplugNode::Core::finished(std::size_t i, int64_t count, const OpResult& r, bool stop) {
   if (stopped) return;
   std::lock_guard lock(mutex);
   CommandState& s = commands[i];
-  if (s.settings_from == count && refused_before_the_wire(r.status)) {
-    s.move = s.settings_before;
-    s.settings_from = 0;
-  }
+  settle_settings(s, count, refused_before_the_wire(r.status));
+  const std::string outcome = r.status == 200 ? "done" : "failed";
+  const std::string message = r.body.value("message", r.body.value("error", std::string()));
   if (count >= s.count) {
     s.count = count;
-    s.outcome = r.status == 200 ? "done" : "failed";
+    s.outcome = outcome;
     s.status = r.status;
-    s.message = r.body.value("message", r.body.value("error", std::string()));
+    s.message = message;
+  }
+  if (stop && count >= s.stop_count) {
+    s.stop_count = count;
+    s.stop_outcome = outcome;
+    s.stop_message = message;
   }
   sample_axis(i, sparkplug_unix_ms());
 }

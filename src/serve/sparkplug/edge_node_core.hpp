@@ -42,12 +42,17 @@ struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
   void publish(const std::vector<Message>& out);
   void on_connected();
   void on_message(const MqttMessage& m);
-  void command(const DeviceCommand& c);
+  // `stops_seen`: the axis' stop count when the DCMD arrived (nothing runs
+  // after a stop that came later).
+  void command(const DeviceCommand& c, uint64_t stops_seen);
   // A DCMD stop, found without the mutex: to the emergency lane first.
   void stop_now(std::size_t axis);
   int64_t number(std::size_t axis);  // the next DCMD number of the axis (lock-free)
   void refuse(std::size_t axis, const std::string& why);
-  void finished(std::size_t axis, int64_t count, const OpResult& r);
+  void finished(std::size_t axis, int64_t count, const OpResult& r, bool stop = false);
+  // A message that is not a DCMD stop, on the event loop's thread (posted by
+  // on_message); `stops_seen`: the axis' stop count when it arrived.
+  void handle(const MqttMessage& m, std::vector<uint64_t> stops_seen);
 
   asio::io_context& io;
   const AxisDirectory& directory;
@@ -62,6 +67,7 @@ struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
   std::chrono::steady_clock::time_point next_tick{}, next_node{};
   std::vector<std::unique_ptr<std::atomic<bool>>> woken;
   std::vector<std::unique_ptr<std::atomic<int64_t>>> numbered;  // DCMDs per axis
+  std::vector<std::unique_ptr<std::atomic<uint64_t>>> stops;    // DCMD stops per axis
   std::atomic<bool> stopped{false};
 
   std::mutex mutex;  // the session, the command states, the caches; held while publishing
@@ -69,7 +75,8 @@ struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
   std::vector<CommandState> commands;
   std::vector<std::optional<nlohmann::json>> health;  // per axis, refreshed with the node's metrics
   std::vector<std::string> health_text;               // the same, dumped
-  bool rebirth_due = false;  // a numbered message was not queued: births again at the next tick
+  bool bdseq_warned = false;  // the bdSeq file could not be written (said once)
+  bool rebirth_due = false;   // a numbered message was not queued: births again at the next tick
   // The node's own CPU (sampling, encoding, queueing), for the benchmark and the stop's log line.
   std::atomic<uint64_t> cpu_ns{0};
   std::atomic<uint64_t> published{0};
