@@ -43,12 +43,15 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<double> waits;
+  std::vector<std::pair<double, uint64_t>> worst;  // a seed's longest stop wait
   uint64_t failed = 0;
   std::size_t jobs = 0, stops = 0;
   for (uint64_t seed = first; seed < last; ++seed) {
     const auto r = run_line_sim(seed, trace);
     if (trace) fmt::print("{}\n{}", r.plant, r.trace);
     waits.insert(waits.end(), r.stop_wait_ms.begin(), r.stop_wait_ms.end());
+    if (!r.stop_wait_ms.empty())
+      worst.emplace_back(*std::max_element(r.stop_wait_ms.begin(), r.stop_wait_ms.end()), seed);
     jobs += r.jobs;
     stops += r.stops;
     if (!r.violations.empty()) {
@@ -68,5 +71,12 @@ int main(int argc, char** argv) {
       "{} stops): p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms\n",
       last - first - failed, failed, jobs, stops, waits.size(), at(0.5), at(0.99),
       waits.empty() ? 0.0 : waits.back());
+  std::sort(worst.rbegin(), worst.rend());
+  if (!trace && !worst.empty()) {
+    fmt::print("longest waits:");
+    for (std::size_t i = 0; i < std::min<std::size_t>(5, worst.size()); ++i)
+      fmt::print(" seed {} ({:.0f} ms)", worst[i].second, worst[i].first);
+    fmt::print("\n");
+  }
   return failed == 0 ? 0 : 1;
 }
