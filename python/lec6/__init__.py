@@ -65,7 +65,8 @@ __all__ = [
 
 
 def connect(port, baud=38400, *, retries=2, timeout_margin_ms=50.0, silent_interval=1,
-            delay_ms=5.0, silence_wait=True, echo=False, rs485=False, trace=None):
+            delay_ms=5.0, silence_wait=True, echo=False, rs485=False, trace=None,
+            alarm_polarity="active-high"):
     """Opens a bus and returns it (a lec6.Bus; use bus.axis(id)).
 
     port: a serial device ("/dev/ttyUSB0"), "tcp://host:502" (Modbus TCP, e.g.
@@ -79,9 +80,13 @@ def connect(port, baud=38400, *, retries=2, timeout_margin_ms=50.0, silent_inter
     echo: the adapter echoes what it sends (2-wire): verify and discard the echo.
     rs485: switch the port to kernel RS485 mode.
     trace: called with a dict (direction, time_s, bytes, hex, explanation) per frame.
+    alarm_polarity: how the controllers report X4F ALARM: "active-high" (the manual:
+      1 = alarm) or "active-low" (inverted, as some controllers do; `lec status` says
+      when X4F and the alarm code disagree). bus.axis(id, alarm_polarity=...) per axis.
     """
     if isinstance(port, Twin):
-        return port.connect(retries=retries)
+        return port.connect(retries=retries, alarm_polarity=alarm_polarity)
     return _open_bus(_os.fspath(port), baud, retries=retries, timeout_margin_ms=timeout_margin_ms,
                      silent_interval=silent_interval, delay_ms=delay_ms,
-                     silence_wait=silence_wait, echo=echo, rs485=rs485, trace=trace)
+                     silence_wait=silence_wait, echo=echo, rs485=rs485, trace=trace,
+                     alarm_polarity=alarm_polarity)

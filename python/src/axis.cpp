@@ -303,6 +303,11 @@ void bind_motion(py::class_<Axis>& c) {
 
 void bind_axis(py::module_& m) {
   py::class_<Axis> c(m, "Axis", "One controller on a bus: lec6.connect(...).axis(id).");
+  c.def_property_readonly(
+      "alarm_polarity",
+      [](const Axis& a) { return std::string(lec::to_string(a.options.alarm_polarity)); },
+      "How this controller reports X4F ALARM ('active-high' or 'active-low'): every read of the "
+      "flags, status(), alarms() and the waits read ALARM with it.");
   c.def_property_readonly("id", &Axis::id).def("__repr__", [](const Axis& a) {
     return fmt::format("Axis({} on {})", a.id(), a.line->describe());
   });

@@ -48,7 +48,8 @@ client::TraceSink trace_sink(py::object trace) {
 
 Bus open_bus(const std::string& port, uint32_t baud, int retries, double timeout_margin_ms,
              unsigned silent_interval, double delay_ms, bool silence_wait, bool echo, bool rs485,
-             py::object trace) {
+             py::object trace, const std::string& alarm_polarity) {
+  const lec::AlarmPolarity polarity = parse_polarity(alarm_polarity);
   if (!transport::is_supported_baud(baud)) {
     throw client::InvalidRequest(fmt::format(
         "baud={}: the controller supports 9600, 19200, 38400, 57600, 115200 and 230400", baud));
@@ -74,10 +75,19 @@ Bus open_bus(const std::string& port, uint32_t baud, int retries, double timeout
   }
   for (const auto& w : opened->warnings()) PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
   auto& master = opened->master();
-  return Bus{std::make_shared<SharedLine>(std::move(opened), master, line_clock()), retries};
+  return Bus{std::make_shared<SharedLine>(std::move(opened), master, line_clock()), retries,
+             polarity};
 }
 
 }  // namespace
+
+lec::AlarmPolarity parse_polarity(const std::string& text) {
+  if (const auto p = lec::parse_alarm_polarity(text)) return *p;
+  throw client::InvalidRequest(
+      fmt::format("alarm_polarity='{}': active-high (the manual: X4F = 1 is an alarm) or "
+                  "active-low (X4F = 0 is an alarm)",
+                  text));
+}
 
 void bind_bus(py::module_& m) {
   bind_axis(m);
@@ -86,7 +96,7 @@ void bind_bus(py::module_& m) {
                   "take turns on the line, one transaction at a time, in arrival order.")
       .def(
           "axis",
-          [](const Bus& b, int id) {
+          [](const Bus& b, int id, std::optional<std::string> alarm_polarity) {
             if (id < 1 || id > 255) {
               throw client::InvalidRequest(
                   fmt::format("axis id {}: controller IDs are 1-255 (0 is broadcast)", id));
@@ -94,9 +104,16 @@ void bind_bus(py::module_& m) {
             client::ClientOptions o;
             o.id = static_cast<uint8_t>(id);
             o.retries = b.retries;
+            o.alarm_polarity = alarm_polarity ? parse_polarity(*alarm_polarity) : b.alarm_polarity;
             return Axis{b.line, o, std::nullopt};
           },
-          py::arg("id") = 1, "The controller with this ID (1-255).")
+          py::arg("id") = 1, py::kw_only(), py::arg("alarm_polarity") = py::none(),
+          "The controller with this ID (1-255). alarm_polarity: how it reports X4F ALARM "
+          "('active-high', the manual's, or 'active-low'); default: the bus's.")
+      .def_property_readonly(
+          "alarm_polarity",
+          [](const Bus& b) { return std::string(lec::to_string(b.alarm_polarity)); },
+          "How the bus's controllers report X4F ALARM, unless an axis says otherwise.")
       .def_property_readonly("port", [](const Bus& b) { return b.line->describe(); })
       .def_property_readonly("closed", [](const Bus& b) { return b.line->closed(); })
       .def(
@@ -130,7 +147,7 @@ void bind_bus(py::module_& m) {
         py::arg("retries") = 2, py::arg("timeout_margin_ms") = 50.0,
         py::arg("silent_interval") = 1u, py::arg("delay_ms") = 5.0, py::arg("silence_wait") = true,
         py::arg("echo") = false, py::arg("rs485") = false, py::arg("trace") = py::none(),
-        "The port behind lec6.connect() (see there).");
+        py::arg("alarm_polarity") = "active-high", "The port behind lec6.connect() (see there).");
 }
 
 }  // namespace lec6::python

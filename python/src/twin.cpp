@@ -70,12 +70,13 @@ class Twin {
   }
   ~Twin() { close(); }
 
-  Bus connect(int retries) {
+  Bus connect(int retries, const std::string& alarm_polarity) {
     if (closed_)
       throw client::TransportError(client::TransportErrorKind::Port, "the twin was closed");
-    if (line_) return Bus{line_, retries};
+    if (line_) return Bus{line_, retries, parse_polarity(alarm_polarity)};
     auto open_bus = py::module_::import("lec6._lec6").attr("open_bus");
     return open_bus(port(), settings_.line.line.baud, py::arg("retries") = retries,
+                    py::arg("alarm_polarity") = alarm_polarity,
                     py::arg("silence_wait") = settings_.line.timing != sim::Timing::Fast)
         .cast<Bus>();
   }
@@ -222,7 +223,8 @@ void bind_twin(py::module_& m) {
            py::arg("baud") = 38400, py::arg("pty") = false)
       // keep_alive: the twin lives as long as a bus to it, so that
       // `lec6.Twin().connect()` does not close the twin under its bus.
-      .def("connect", &Twin::connect, py::kw_only(), py::arg("retries") = 2, py::keep_alive<0, 1>(),
+      .def("connect", &Twin::connect, py::kw_only(), py::arg("retries") = 2,
+           py::arg("alarm_polarity") = "active-high", py::keep_alive<0, 1>(),
            "A Bus to this twin (in process: all share one line).")
       .def_property_readonly("port", &Twin::port,
                              "The pty path to open (pty twins), or 'in-process'.")

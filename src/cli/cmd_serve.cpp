@@ -101,6 +101,11 @@ serve::ServeConfig make_config_of(const GlobalOptions& g, const ServeArgs& a) {
     if (!g.port.empty()) {
       throw UsageError("give either --config FILE or --port with --ids, not both");
     }
+    if (g.alarm_polarity != "active-high") {
+      throw UsageError(
+          "--alarm-polarity (LEC_ALARM_POLARITY) with --config: set alarm_polarity: in the file, "
+          "per line or per axis (docs/serve.md)");
+    }
     auto c = serve::load_config(a.config);
     if (!a.state_dir.empty()) {  // --state-dir wins over the file's history.state_dir
       if (!c.history) c.history = serve::HistoryConfig{};
@@ -123,6 +128,10 @@ serve::ServeConfig make_config_of(const GlobalOptions& g, const ServeArgs& a) {
   f.token = a.token;
   f.fast_sim = a.sim_timing == "fast";
   f.state_dir = a.state_dir;
+  // The global --alarm-polarity (LEC_ALARM_POLARITY): every axis of the line;
+  // a --config gives it per line or axis (`alarm_polarity:`).
+  f.alarm_polarity =
+      lec::parse_alarm_polarity(g.alarm_polarity).value_or(lec::AlarmPolarity::ActiveHigh);
   auto c = serve::config_from_flags(f);
   if (!a.mqtt.empty()) {
     serve::MqttConfig m;

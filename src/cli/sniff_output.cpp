@@ -53,7 +53,18 @@ std::optional<std::string> foreign_function(const modbus::Bytes& b, bool reply) 
   }
 }
 
+// A frame of a function code no table sizes (framed by its CRC).
+std::string unknown_function(const SniffEvent& e) {
+  const bool reply = e.kind == SniffKind::Reply;
+  return fmt::format(
+      "ID {} unknown function {:02X}h {}, {} bytes: not a function of the LEC nor one lec6 "
+      "sizes; framed by its CRC{}",
+      e.bytes[0], e.bytes[1], reply ? "reply" : "query", e.bytes.size(),
+      reply ? "" : " (the LEC answers exception 01)");
+}
+
 std::string explain(const SniffEvent& e) {
+  if (e.has(modbus::kSniffUnknownFunction)) return unknown_function(e);
   switch (e.kind) {
     case SniffKind::Query: {
       if (const auto q = modbus::decode_request(e.bytes)) return lec::explain_request(*q);
@@ -166,6 +177,7 @@ std::string flag_words(const SniffEvent& e) {
   add(modbus::kSniffUnsolicited, "a reply nobody asked for");
   add(modbus::kSniffSecondMaster, "a second master? this query came within the previous one's Tx");
   add(modbus::kSniffBroadcast, "broadcast");
+  add(modbus::kSniffUnknownFunction, "unknown function code");
   return out;
 }
 
@@ -245,7 +257,8 @@ void SniffPrinter::event(const SniffEvent& e) {
                                      {modbus::kSniffUnsolicited, "unsolicited"},
                                      {modbus::kSniffSecondMaster, "second_master"},
                                      {modbus::kSniffBadCrc, "bad_crc"},
-                                     {modbus::kSniffBroadcast, "broadcast"}}) {
+                                     {modbus::kSniffBroadcast, "broadcast"},
+                                     {modbus::kSniffUnknownFunction, "unknown_function"}}) {
       if (e.has(flag)) f.push_back(name);
     }
     j["flags"] = f;
@@ -310,6 +323,7 @@ void SniffPrinter::stats(const modbus::SniffStats& s, const modbus::SnifferOptio
                           {"short_silences", s.short_silences},
                           {"second_master", s.second_master},
                           {"untimed", s.untimed},
+                          {"unknown_functions", s.unknown_functions},
                           {"lumpy", s.lumpy},
                           {"ids", ids}}}};
     fmt::print("{}\n", dump_json(j));
@@ -318,8 +332,10 @@ void SniffPrinter::stats(const modbus::SniffStats& s, const modbus::SnifferOptio
   }
   fmt::print(
       "statistics: {} frames, {} noise bursts ({} bytes), {} queries without Ts, {} over "
-      "another master's transaction\n",
-      s.frames, s.noise_bursts, s.noise_bytes, s.short_silences, s.second_master);
+      "another master's transaction{}\n",
+      s.frames, s.noise_bursts, s.noise_bytes, s.short_silences, s.second_master,
+      s.unknown_functions ? fmt::format(", {} of an unknown function code", s.unknown_functions)
+                          : "");
   if (s.lumpy)
     fmt::print(
         "timing: partly not judged, the adapter delivered frames in lumps (set its latency "

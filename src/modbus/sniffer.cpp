@@ -198,10 +198,34 @@ void Sniffer::emit_no_reply() {
   events_.push_back(std::move(e));
 }
 
-void Sniffer::emit_query(std::size_t length) {
+// A frame of a function code no table sizes (see the header): its length
+// from its CRC, checked where the frame must end.
+std::optional<std::size_t> Sniffer::unknown_frame(std::span<const uint8_t> head,
+                                                  bool settle) const {
+  constexpr std::size_t kShortest = 4, kLongest = 256;
+  if (head.size() < kShortest || head[0] > 247 || head[1] == 0 || (head[1] & kExceptionFlag))
+    return std::nullopt;
+  uint16_t crc = crc16(head.first(kShortest - 2));
+  for (std::size_t length = kShortest; length <= std::min(head.size(), kLongest); ++length) {
+    if (length > kShortest) crc = crc16_update(crc, head.subspan(length - 3, 1));
+    if (head[length - 2] != (crc & 0xFFU) || head[length - 1] != (crc >> 8)) continue;
+    // Where it ends: its chunk's end (or a settled end), or a confirmed frame.
+    if ((marks_[head_ + length - 1] & kChunkLast) || (settle && length == head.size()))
+      return length;
+    std::size_t next = 0;
+    const auto rest = head.subspan(length);
+    if (try_query(rest, next) == Reading::Confirmed || try_reply(rest, next) == Reading::Confirmed)
+      return length;
+  }
+  return std::nullopt;
+}
+
+void Sniffer::emit_query(std::size_t length, uint32_t flags) {
   flush_noise();
   note_frame_boundary(head_);
   SniffEvent e = make_event(SniffKind::Query, head_, length);
+  e.flags |= flags;
+  if (flags & kSniffUnknownFunction) ++stats_.unknown_functions;
   const bool timed = timed_frame(head_, length);
   const TimePoint start = e.last_byte - options_.timing.wire_time(length);
   if (pending_) {
@@ -232,7 +256,9 @@ void Sniffer::emit_query(std::size_t length) {
   if (id == kBroadcastId) {
     e.flags |= kSniffBroadcast;
   } else {
-    pending_ = Pending{e.bytes, e.query_number, e.last_byte, timed, reply_length_for(e.bytes)};
+    // A function no table sizes: its normal reply may be any length.
+    pending_ = Pending{e.bytes, e.query_number, e.last_byte, timed,
+                       (flags & kSniffUnknownFunction) ? 0 : reply_length_for(e.bytes)};
   }
   previous_end_ = e.last_byte;
   previous_timed_ = timed;
@@ -240,10 +266,12 @@ void Sniffer::emit_query(std::size_t length) {
   events_.push_back(std::move(e));
 }
 
-void Sniffer::emit_reply(std::size_t length, bool paired) {
+void Sniffer::emit_reply(std::size_t length, bool paired, uint32_t flags) {
   flush_noise();
   note_frame_boundary(head_);
   SniffEvent e = make_event(SniffKind::Reply, head_, length);
+  e.flags |= flags;
+  if (flags & kSniffUnknownFunction) ++stats_.unknown_functions;
   const bool timed = timed_frame(head_, length);
   const uint8_t id = e.bytes[0];
   SniffIdStats& s = stats_.ids[id];
@@ -328,6 +356,17 @@ void Sniffer::scan(bool settle) {
         continue;
       }
       if (r == Reading::Incomplete && !settle) return;
+    }
+    // No table knows this function code: a frame of unknown kind, if its CRC says so.
+    if (q == Reading::Failed && r == Reading::Failed) {
+      if (const auto length = unknown_frame(head, settle)) {
+        if (pending_ && head[0] == pending_->query[0] && head[1] == pending_->query[1]) {
+          emit_reply(*length, true, kSniffUnknownFunction);
+        } else {
+          emit_query(*length, kSniffUnknownFunction);
+        }
+        continue;
+      }
     }
     // No reading confirms a frame here: this byte is noise.
     if (noise_length_ == 0) {

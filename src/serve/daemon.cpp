@@ -114,6 +114,13 @@ void Daemon::start_lines() {
         log_(LogLevel::Info,
              fmt::format("line {}: kept the earlier capture {} as {}", lc.name, lc.record, *kept));
       auto rec = std::make_shared<twin::LineRecorder>(lc.record, "serve", lc.baud, lc.port, kClock);
+      // A write that fails (a full disk) is said once; the line keeps working.
+      rec->on_error([log = log_, name = lc.name](const std::string& why) {
+        log(LogLevel::Error,
+            fmt::format("line {}: recording stopped: {}; the line keeps working, its frames are no "
+                        "longer recorded",
+                        name, why));
+      });
       record = [rec, tap = rec->tap()](transport::LineChunk&& c) { tap(std::move(c)); };
       log_(LogLevel::Info, fmt::format("line {}: recording every frame to {}", lc.name, lc.record));
     }

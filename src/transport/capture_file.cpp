@@ -13,6 +13,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "lec6/transport/file.hpp"
 
 namespace lec6::transport {
@@ -25,7 +27,9 @@ modbus::Capture read_capture_file(const std::string& path) {
 
 std::optional<std::string> keep_earlier_capture(const std::string& path) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0 || st.st_size == 0) return std::nullopt;
+  // Only a regular file is an earlier capture (not /dev/full, a FIFO, a tty).
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_size == 0)
+    return std::nullopt;
   for (unsigned n = 1;; ++n) {
     const std::string kept = fmt::format("{}.{}", path, n);
     struct stat other {};
@@ -59,8 +63,22 @@ void CaptureWriter::write(const modbus::CaptureRecord& record) {
   std::string line = modbus::encode_capture_record(record);
   std::lock_guard lock(mutex_);
   if (closed_ || stop_) throw Error(fmt::format("{}: the capture is already closed", path_));
+  if (!error_.empty()) {  // the file failed: nothing more is kept (memory stays bounded)
+    ++dropped_;
+    return;
+  }
   pending_ += line;
   ++records_;
+}
+
+void CaptureWriter::on_error(std::function<void(const std::string&)> handler) {
+  std::lock_guard lock(mutex_);
+  on_error_ = std::move(handler);
+}
+
+std::size_t CaptureWriter::records_dropped() const {
+  std::lock_guard lock(mutex_);
+  return dropped_;
 }
 
 std::size_t CaptureWriter::records_written() const {
@@ -87,8 +105,18 @@ void CaptureWriter::write_out(std::unique_lock<std::mutex>& lock) {
   }
   lock.lock();
   writing_ = false;
-  if (!failure.empty() && error_.empty()) error_ = failure;
+  const bool first_failure = !failure.empty() && error_.empty();
+  if (first_failure) {
+    error_ = failure;
+    dropped_ += static_cast<std::size_t>(std::count(chunk.begin(), chunk.end(), '\n'));
+  }
   written_.notify_all();
+  if (first_failure && on_error_) {
+    const auto handler = on_error_;
+    lock.unlock();
+    handler(failure);
+    lock.lock();
+  }
 }
 
 void CaptureWriter::run() {

@@ -37,12 +37,16 @@ transport::LineTap LineRecorder::tap() {
     if (c.sent) {
       r.dir = modbus::CaptureDir::Query;
     } else {
-      r.dir = modbus::decode_response(c.bytes) ? modbus::CaptureDir::Reply
-                                               : modbus::CaptureDir::Noise;
+      r.dir =
+          modbus::decode_response(c.bytes) ? modbus::CaptureDir::Reply : modbus::CaptureDir::Noise;
     }
     r.bytes = std::move(c.bytes);
     writer_->write(r);
   };
+}
+
+void LineRecorder::on_error(std::function<void(const std::string&)> handler) {
+  writer_->on_error(std::move(handler));
 }
 
 void LineRecorder::flush() {

@@ -51,4 +51,23 @@ expect_exit 0 "sniff an FC06 HMI" -- lec sniff --read "$tmp/fc06.jsonl"
 contains "FC06 named" "write single register (06h) D9100 <- 0100h (256)"
 contains "its exception" "exception 01"
 
+# ---- lec sniff frames an unknown function code and resynchronises -----------------------------
+# A SCADA scan's 0x2B (read device identification), its exception 01, the scan again in one chunk
+# with the next read (resent: no reply), and the read's reply.
+cat >"$tmp/fc2b.jsonl" <<'JSONL'
+{"format":"lec6-capture","version":1,"source":"sniff","started_utc":"2026-11-27T00:00:00.000000Z","line":{"baud":38400,"parity":"N","data_bits":8,"stop_bits":1},"port":"scada","tool":"test"}
+{"t_us":1000,"end_us":2900,"dir":"query","hex":"012b0e01007077"}
+{"t_us":8000,"end_us":9300,"dir":"reply","hex":"01ab019ef0"}
+{"t_us":20000,"end_us":24000,"dir":"query","hex":"012b0e01007077010390000001a90a"}
+{"t_us":30000,"end_us":32000,"dir":"reply","hex":"0103020064b9af"}
+JSONL
+expect_exit 0 "sniff an unknown function code" -- lec sniff --read "$tmp/fc2b.jsonl"
+contains "FC 2Bh shown as unknown, with its bytes" \
+  "01 2B 0E 01 00 70 77  | ID 1 unknown function 2Bh query, 7 bytes"
+contains "its exception pairs with it" "ID 1 exception 01 (illegal function) to function 2Bh"
+contains "the read after it in the same chunk is found" "ID 1 read D9000 current position"
+contains "and its reply" "D9000 current position = 100"
+contains "no noise" "0 noise bursts (0 bytes)"
+contains "counted" "2 of an unknown function code"
+
 finish

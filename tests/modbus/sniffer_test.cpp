@@ -329,5 +329,65 @@ TEST(Sniffer, SizesAnFc17ReplyFromTheReadCount) {
   EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
 }
 
+// A CRC-valid frame of a function code no table sizes (a SCADA scan's 0x2B
+// read device identification) is a frame of unknown kind, framed by its CRC,
+// and its exception reply pairs with it; the frames after it are all found,
+// whether they share its chunk or not (issue 33).
+TEST(Sniffer, AnUnknownFunctionIsAFrameAndTheLineResynchronises) {
+  const Bytes scan = frame({0x01, 0x2B, 0x0E, 0x01, 0x00});  // read device identification
+  const Bytes refused = frame({0x01, 0xAB, 0x01});           // exception 01 to it
+  for (const bool one_chunk : {true, false}) {
+    Line l;
+    if (one_chunk) {
+      l.at(t0 + 1ms, cat({scan, refused, kRead, kReadReply}));
+    } else {
+      l.at(t0 + 1ms, scan);
+      l.at(t0 + 3ms, refused);
+      l.at(t0 + 10ms, kRead);
+      l.at(t0 + 12ms, kReadReply);
+    }
+    const auto e = l.done(t0 + 2s);
+    ASSERT_EQ(e.size(), 4u) << one_chunk;
+    EXPECT_EQ(e[0].kind, SniffKind::Query);
+    EXPECT_EQ(e[0].bytes, scan);
+    EXPECT_TRUE(e[0].has(kSniffUnknownFunction));
+    EXPECT_EQ(e[1].kind, SniffKind::Reply);
+    EXPECT_EQ(e[1].query, scan) << "the exception pairs with the unknown query";
+    EXPECT_FALSE(e[1].has(kSniffUnsolicited));
+    EXPECT_EQ(e[2].bytes, kRead);
+    EXPECT_FALSE(e[2].has(kSniffUnknownFunction));
+    EXPECT_EQ(e[3].query, kRead);
+    EXPECT_EQ(l.sniffer.stats().noise_bytes, 0u);
+    EXPECT_EQ(l.sniffer.stats().unknown_functions, 1u);
+    EXPECT_EQ(l.sniffer.stats().ids.at(1).exceptions, 1u);
+  }
+}
+
+// A device that does answer an unknown function: its reply (same ID and
+// code, any length) pairs with the query; a user-defined code 0x41 between
+// noise bytes is found too, and the noise stays noise.
+TEST(Sniffer, AnUnknownFunctionsReplyPairsAndNoiseAroundItStaysNoise) {
+  const Bytes query = frame({0x02, 0x41, 0x00, 0x07});
+  const Bytes answer = frame({0x02, 0x41, 0x03, 0x10, 0x20, 0x30});
+  Line l;
+  l.at(t0 + 1ms, cat({Bytes{0xFF, 0xFE}, query}));
+  l.at(t0 + 4ms, answer);
+  l.at(t0 + 10ms, cat({Bytes{0xFA}, kRead, kReadReply}));
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 6u);
+  EXPECT_EQ(e[0].kind, SniffKind::Noise);
+  EXPECT_EQ(e[0].bytes, (Bytes{0xFF, 0xFE}));
+  EXPECT_EQ(e[1].bytes, query);
+  EXPECT_TRUE(e[1].has(kSniffUnknownFunction));
+  EXPECT_EQ(e[2].kind, SniffKind::Reply);
+  EXPECT_EQ(e[2].bytes, answer);
+  EXPECT_EQ(e[2].query, query);
+  EXPECT_TRUE(e[2].has(kSniffUnknownFunction));
+  EXPECT_EQ(e[3].bytes, Bytes{0xFA});
+  EXPECT_EQ(e[4].bytes, kRead);
+  EXPECT_EQ(e[5].query, kRead);
+  EXPECT_EQ(l.sniffer.stats().unknown_functions, 2u);
+}
+
 }  // namespace
 }  // namespace lec6::modbus

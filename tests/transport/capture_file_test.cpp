@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -52,8 +53,11 @@ TEST_F(CaptureFileTest, WrittenRecordsReadBack) {
   {
     CaptureWriter w(path, header(), std::chrono::milliseconds(5));
     for (int i = 0; i < 1000; ++i)
-      w.write({i * 10, i * 10 + 5, i % 2 ? modbus::CaptureDir::Reply : modbus::CaptureDir::Query,
-               {static_cast<uint8_t>(i), 0x03}, ""});
+      w.write({i * 10,
+               i * 10 + 5,
+               i % 2 ? modbus::CaptureDir::Reply : modbus::CaptureDir::Query,
+               {static_cast<uint8_t>(i), 0x03},
+               ""});
     EXPECT_EQ(w.records_written(), 1000u);
   }  // the destructor writes out the rest
   const modbus::Capture c = read_capture_file(path);
@@ -115,6 +119,37 @@ TEST_F(CaptureFileTest, AnUncreatableFileIsAClearError) {
   } catch (const InvalidArgument& e) {
     EXPECT_THAT(e.what(), HasSubstr("cannot create " + path));
   }
+}
+
+// A full disk (/dev/full: every write fails with ENOSPC): the error is told
+// once, naming the file; writes never throw and are dropped (memory stays
+// bounded); flush() and close() still report it.
+TEST_F(CaptureFileTest, AFullDiskIsToldOnceAndWritesGoOn) {
+  CaptureWriter w("/dev/full", header(), std::chrono::hours(1));  // flushed by hand
+  std::vector<std::string> told;
+  w.on_error([&](const std::string& why) { told.push_back(why); });
+  w.write({1, 2, modbus::CaptureDir::Query, {0x01, 0x03}, ""});
+  EXPECT_THROW(w.flush(), Error);
+  ASSERT_EQ(told.size(), 1u);
+  EXPECT_EQ(told[0], "cannot write /dev/full: No space left on device");
+  for (int i = 0; i < 100; ++i) {
+    EXPECT_NO_THROW(w.write({i, i, modbus::CaptureDir::Reply, {0x01, 0x03}, ""}));
+  }
+  EXPECT_GE(w.records_dropped(), 100u);
+  EXPECT_EQ(w.records_written(), 1u);
+  EXPECT_THROW(w.flush(), Error);
+  EXPECT_THROW(w.close(), Error);
+  EXPECT_EQ(told.size(), 1u) << "told once";
+}
+
+// Not a regular file: never renamed as an earlier capture (as root,
+// /dev/full renamed would be a system's device gone).
+TEST_F(CaptureFileTest, OnlyARegularFileIsKeptAsAnEarlierCapture) {
+  EXPECT_FALSE(keep_earlier_capture("/dev/full"));
+  EXPECT_TRUE(fs::exists("/dev/full"));
+  const auto path = dir / "c.jsonl";
+  std::ofstream(path) << "x\n";
+  EXPECT_EQ(keep_earlier_capture(path.string()), path.string() + ".1");
 }
 
 }  // namespace

@@ -10,6 +10,13 @@
 //   - while a query waits for its reply, the bytes are read as that reply
 //     first, then as a new query; otherwise as a query first, then as a reply
 //     nobody asked for;
+//   - a function code no table sizes (neither the LEC's nor the standard
+//     Modbus ones: e.g. 0x2B from a SCADA scan) is framed by its CRC: the
+//     shortest CRC-valid run of 4 to 256 bytes from an ID and a function code
+//     (01h–7Fh) that ends where its chunk ends or where a confirmed frame
+//     begins is a frame of unknown kind (kSniffUnknownFunction), a query, or
+//     the reply of the query waiting with that ID and code; its exception
+//     reply pairs with it. Split over chunks with bytes behind it, it stays noise;
 //   - bytes that no reading confirms are dropped one at a time into a noise
 //     burst (resynchronisation), which is reported with its bytes;
 //   - a silence of `idle_gap` (a hint only) settles bytes that wait for more:
@@ -66,6 +73,8 @@ enum SniffFlag : uint32_t {
   kSniffSecondMaster = 1u << 3,  // Query: came while another waited for its reply, within Tx
   kSniffBadCrc = 1u << 4,        // Noise: began as a frame of the right shape, CRC failed
   kSniffBroadcast = 1u << 5,     // Query: to ID 0 (no reply expected)
+  // Query/Reply: a function code no table sizes, framed by its CRC (above).
+  kSniffUnknownFunction = 1u << 6,
 };
 
 struct SniffEvent {
@@ -101,10 +110,11 @@ struct SniffStats {
   uint64_t frames = 0;
   uint64_t noise_bursts = 0;
   uint64_t noise_bytes = 0;
-  uint64_t short_silences = 0;  // queries that did not keep Ts
-  uint64_t second_master = 0;   // queries over another's transaction
-  uint64_t untimed = 0;         // frames whose timing could not be measured
-  bool lumpy = false;           // the adapter delivers frames in lumps: timing not judged
+  uint64_t short_silences = 0;     // queries that did not keep Ts
+  uint64_t second_master = 0;      // queries over another's transaction
+  uint64_t untimed = 0;            // frames whose timing could not be measured
+  uint64_t unknown_functions = 0;  // frames of a function code no table sizes
+  bool lumpy = false;              // the adapter delivers frames in lumps: timing not judged
 };
 
 // p in [0, 1] of the measured response times (zero when none).
@@ -147,8 +157,9 @@ class Sniffer {
   Reading try_query(std::span<const uint8_t> head, std::size_t& length) const;
   Reading try_reply(std::span<const uint8_t> head, std::size_t& length) const;
   bool matches_pending(std::span<const uint8_t> frame) const;
-  void emit_query(std::size_t length);
-  void emit_reply(std::size_t length, bool paired);
+  std::optional<std::size_t> unknown_frame(std::span<const uint8_t> head, bool settle) const;
+  void emit_query(std::size_t length, uint32_t flags = 0);
+  void emit_reply(std::size_t length, bool paired, uint32_t flags = 0);
   void emit_no_reply();
   void flush_noise();
   void note_frame_boundary(std::size_t first);

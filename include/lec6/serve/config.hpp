@@ -20,6 +20,8 @@
 
 #include "lec6/clock.hpp"
 #include "lec6/error.hpp"
+#include "lec6/lec/alarm_check.hpp"
+#include "lec6/sim/behaviour.hpp"
 
 namespace lec6::serve {
 
@@ -56,6 +58,13 @@ struct AxisConfig {
   // servo off (client::StopPolicy::escalate_servo_off). Off by default: with
   // the servo off a vertical axis may drop; say so where it is safe.
   bool stop_servo_off = false;
+  // How this controller reports X4F ALARM (`alarm_polarity:` of the axis, or
+  // of its line for all its axes): active-high (the manual: 1 = alarm) or
+  // active-low. Everything lec serve derives from ALARM (status JSON, SSE,
+  // MQTT, Sparkplug, the move history) reads X4F through
+  // lec::normalise_alarm with it; the Modbus TCP gateway passes the wire's
+  // bits unchanged (tests/serve/ops/alarm_polarity_test.cpp).
+  lec::AlarmPolarity alarm_polarity = lec::AlarmPolarity::ActiveHigh;
 };
 
 struct Rs485Config {
@@ -67,6 +76,12 @@ struct Rs485Config {
 
 // The built-in twin behind a `port: sim` line.
 struct SimLineConfig {
+  // `profile:` default (the twin of `lec sim`: the field's evidence,
+  // sim::default_config()), ideal (the manual's, `lec sim --ideal`), or a
+  // field profile file read over the default (twin/field_profile.hpp). The
+  // keys below (stroke, position, workpiece, wear) override it.
+  std::string profile = "ideal";
+  sim::ActuatorConfig actuator = sim::ideal_config();
   bool fast = false;  // timing: fast (no line delays) or real (default)
   std::optional<double> workpiece_mm;
   double stroke_max_mm = 400;
@@ -216,7 +231,8 @@ struct FlagConfig {
   std::string http = "127.0.0.1:8080";        // empty: none
   std::string token;
   bool fast_sim = false;
-  std::string state_dir;  // empty: no move history
+  std::string state_dir;                                               // empty: no move history
+  lec::AlarmPolarity alarm_polarity = lec::AlarmPolarity::ActiveHigh;  // every axis's
 };
 ServeConfig config_from_flags(const FlagConfig& flags);
 

@@ -7,6 +7,7 @@
 // a thread of its own.
 
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -43,7 +44,18 @@ class CaptureWriter {
   CaptureWriter(const CaptureWriter&) = delete;
   CaptureWriter& operator=(const CaptureWriter&) = delete;
 
+  // Never throws for a failed write of the file: after one, records are
+  // dropped (counted), the error is kept for flush()/close() and told once to
+  // on_error. Throws only when the capture is already closed.
   void write(const modbus::CaptureRecord& record);
+  // Called once, on the writer's thread (or the one flushing), with "cannot
+  // write PATH: REASON" when writing the file first fails (a full disk, an
+  // I/O error): a daemon logs it and keeps working (tests/transport/
+  // capture_file_test.cpp, tests/integration/serve_record_errors_test.sh).
+  // Set before the first write.
+  void on_error(std::function<void(const std::string&)> handler);
+  // Records dropped after a failed write.
+  std::size_t records_dropped() const;
 
   // Writes out what is buffered now. Throws lec6::Error naming the path if
   // writing failed (here or earlier, on the background thread).
@@ -71,6 +83,8 @@ class CaptureWriter {
   bool closed_ = false;
   std::string error_;
   std::size_t records_ = 0;
+  std::size_t dropped_ = 0;
+  std::function<void(const std::string&)> on_error_;
   std::thread thread_;
 };
 

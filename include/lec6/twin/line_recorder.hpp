@@ -11,6 +11,7 @@
 // Thread safety: the tap may be called from one thread at a time per link;
 // several links may share one recorder (the writer locks).
 
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -32,6 +33,9 @@ class LineRecorder {
   LineRecorder& operator=(const LineRecorder&) = delete;
 
   transport::LineTap tap();
+  // Told once when writing the file fails (transport::CaptureWriter::on_error);
+  // the tap keeps working (it drops what it cannot write).
+  void on_error(std::function<void(const std::string&)> handler);
   // Writes out what is buffered (also done by the destructor).
   void flush();
   std::size_t records() const;

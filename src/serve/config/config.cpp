@@ -17,6 +17,7 @@
 #include "lec6/modbus/timing.hpp"
 #include "lec6/serve/mqtt_topics.hpp"
 #include "lec6/transport/port_spec.hpp"
+#include "lec6/twin/field_profile.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -37,8 +38,21 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
   SimLineConfig s;
   if (!n) return s;
   r.keys(n, path,
-         {"timing", "workpiece_mm", "stroke_max_mm", "initial_position_mm", "drop_rate",
+         {"profile", "timing", "workpiece_mm", "stroke_max_mm", "initial_position_mm", "drop_rate",
           "corrupt_rate", "garbage_rate", "seed", "absent_ids", "wear_pct_per_m"});
+  s.profile = r.get<std::string>(n["profile"], path + ".profile", s.profile);
+  try {
+    if (s.profile == "ideal") {
+      s.actuator = twin::ideal_profile().actuator;
+    } else if (s.profile == "default") {
+      s.actuator = twin::default_profile().actuator;
+    } else {
+      s.actuator = twin::load_field_profile(s.profile, twin::default_profile()).actuator;
+    }
+  } catch (const twin::ProfileError& e) {
+    r.fail(n["profile"], path + ".profile",
+           fmt::format("default, ideal or a field profile file: {}", e.what()));
+  }
   const std::string timing = r.get<std::string>(n["timing"], path + ".timing", "real");
   if (timing != "real" && timing != "fast") {
     r.fail(n["timing"], path + ".timing", fmt::format("'{}' is not real or fast", timing));
@@ -46,9 +60,11 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
   s.fast = timing == "fast";
   if (n["workpiece_mm"])
     s.workpiece_mm = r.get<double>(n["workpiece_mm"], path + ".workpiece_mm", 0);
-  s.stroke_max_mm = r.number(n["stroke_max_mm"], path + ".stroke_max_mm", 400, 1, 100000);
-  s.initial_position_mm =
-      r.number(n["initial_position_mm"], path + ".initial_position_mm", 10, 0, s.stroke_max_mm);
+  if (!n["workpiece_mm"]) s.workpiece_mm = s.actuator.workpiece_mm;
+  s.stroke_max_mm =
+      r.number(n["stroke_max_mm"], path + ".stroke_max_mm", s.actuator.stroke_max_mm, 1, 100000);
+  s.initial_position_mm = r.number(n["initial_position_mm"], path + ".initial_position_mm",
+                                   s.actuator.initial_position_mm, 0, s.stroke_max_mm);
   s.drop_rate = r.number(n["drop_rate"], path + ".drop_rate", 0, 0, 1);
   s.corrupt_rate = r.number(n["corrupt_rate"], path + ".corrupt_rate", 0, 0, 1);
   s.garbage_rate = r.number(n["garbage_rate"], path + ".garbage_rate", 0, 0, 1);
@@ -62,12 +78,30 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
           r.number(absent[i], fmt::format("{}.absent_ids[{}]", path, i), 1, 1, 255)));
     }
   }
-  s.wear_pct_per_m = r.number(n["wear_pct_per_m"], path + ".wear_pct_per_m", 0, 0, 1000);
+  s.wear_pct_per_m =
+      r.number(n["wear_pct_per_m"], path + ".wear_pct_per_m", s.actuator.wear_pct_per_m, 0, 1000);
   return s;
 }
 
-AxisConfig read_axis(const Reader& r, const YAML::Node& n, const std::string& path) {
-  r.keys(n, path, {"id", "name", "telemetry_hz", "soft_limits_mm", "stop_servo_off"});
+// `alarm_polarity:` (a line's, or an axis's over it), as lec --alarm-polarity.
+lec::AlarmPolarity read_alarm_polarity(const Reader& r, const YAML::Node& n,
+                                       const std::string& path, lec::AlarmPolarity fallback) {
+  if (!n || n.IsNull()) return fallback;
+  const std::string text = r.get<std::string>(n, path, "");
+  const auto p = lec::parse_alarm_polarity(text);
+  if (!p) {
+    r.fail(n, path,
+           fmt::format("'{}' is not an alarm polarity: active-high (the manual: X4F = 1 is an "
+                       "alarm) or active-low (X4F = 0 is an alarm)",
+                       text));
+  }
+  return *p;
+}
+
+AxisConfig read_axis(const Reader& r, const YAML::Node& n, const std::string& path,
+                     lec::AlarmPolarity line_polarity) {
+  r.keys(n, path,
+         {"id", "name", "telemetry_hz", "soft_limits_mm", "stop_servo_off", "alarm_polarity"});
   AxisConfig a;
   if (!n["id"]) r.fail(n, path, "every axis needs an id (the controller ID, 1 to 255)");
   a.id = static_cast<uint8_t>(
@@ -85,6 +119,8 @@ AxisConfig read_axis(const Reader& r, const YAML::Node& n, const std::string& pa
     if (a.soft_limits_001mm->first > a.soft_limits_001mm->second) r.fail(l, at, "MIN is above MAX");
   }
   a.stop_servo_off = r.get<bool>(n["stop_servo_off"], path + ".stop_servo_off", false);
+  a.alarm_polarity =
+      read_alarm_polarity(r, n["alarm_polarity"], path + ".alarm_polarity", line_polarity);
   return a;
 }
 
@@ -105,9 +141,26 @@ void check_port(const Reader& r, const YAML::Node& n, const std::string& path,
 
 LineConfig read_line(const Reader& r, const YAML::Node& n, const std::string& path) {
   r.keys(n, path,
-         {"name", "port", "baud", "silent_interval", "delay_ms", "timeout_margin_ms", "retries",
-          "echo", "silence_wait", "rs485", "sim", "axes", "cache_max_age_ms", "offline_after",
-          "probe_interval_ms", "poll_max_wait_ms", "allow_broadcast", "modbus_tcp", "rtu_tcp"});
+         {"name",
+          "port",
+          "baud",
+          "silent_interval",
+          "delay_ms",
+          "timeout_margin_ms",
+          "retries",
+          "echo",
+          "silence_wait",
+          "rs485",
+          "sim",
+          "axes",
+          "cache_max_age_ms",
+          "offline_after",
+          "probe_interval_ms",
+          "poll_max_wait_ms",
+          "allow_broadcast",
+          "modbus_tcp",
+          "rtu_tcp",
+          "alarm_polarity"});
   LineConfig l;
   if (!n["port"])
     r.fail(n, path, "every line needs a port: /dev/ttyUSB0, sim, or rtu+tcp://host:port");
@@ -158,10 +211,12 @@ LineConfig read_line(const Reader& r, const YAML::Node& n, const std::string& pa
   if (!axes || !axes.IsSequence() || axes.size() == 0) {
     r.fail(axes ? axes : n, path + ".axes", "a line needs a list of axes (at least one id)");
   }
+  const lec::AlarmPolarity polarity = read_alarm_polarity(
+      r, n["alarm_polarity"], path + ".alarm_polarity", lec::AlarmPolarity::ActiveHigh);
   std::set<int> ids;
   for (std::size_t i = 0; i < axes.size(); ++i) {
     const std::string ap = fmt::format("{}.axes[{}]", path, i);
-    AxisConfig a = read_axis(r, axes[i], ap);
+    AxisConfig a = read_axis(r, axes[i], ap, polarity);
     if (!ids.insert(a.id).second) {
       r.fail(axes[i]["id"], ap + ".id", fmt::format("ID {} is already an axis of this line", a.id));
     }

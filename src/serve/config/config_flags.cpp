@@ -91,7 +91,9 @@ ServeConfig config_from_flags(const FlagConfig& f) {
   line.baud = f.baud;
   line.sim.fast = f.fast_sim;
   for (uint8_t id : parse_ids(f.ids)) {
-    line.axes.push_back(AxisConfig{id, fmt::format("axis{}", id), f.telemetry_hz, std::nullopt});
+    AxisConfig a{id, fmt::format("axis{}", id), f.telemetry_hz, std::nullopt};
+    a.alarm_polarity = f.alarm_polarity;
+    line.axes.push_back(std::move(a));
   }
   line.modbus_tcp = listener(f.modbus_tcp);
   line.rtu_tcp = listener(f.rtu_tcp);

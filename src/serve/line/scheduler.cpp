@@ -68,6 +68,7 @@ Scheduler::Scheduler(SchedulerConfig config, TimePoint now)
     : config_(std::move(config)), lane_(config_.emergency_backoff), stats_(now) {
   for (const AxisSchedule& a : config_.axes) {
     telemetry_[a.id] = Telemetry{a, now, {}};
+    cache_.set_alarm_polarity(a.id, a.alarm_polarity);
     health_[a.id];
     // Read each alarm history once at start, in the background.
     if (a.telemetry_period > Duration{}) {

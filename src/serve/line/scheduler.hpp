@@ -94,6 +94,9 @@ struct JobResult {
 struct AxisSchedule {
   uint8_t id = 1;
   Duration telemetry_period{};  // zero: no telemetry for this axis
+  // How it reports X4F: what the cache's snapshots (and the alarm-history
+  // read an alarm triggers) read ALARM with.
+  lec::AlarmPolarity alarm_polarity = lec::AlarmPolarity::ActiveHigh;
 };
 
 struct SchedulerConfig {

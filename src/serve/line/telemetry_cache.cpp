@@ -139,7 +139,8 @@ AxisSnapshot TelemetryCache::snapshot(uint8_t id) const {
     for (std::size_t i = 0; i < f->values.size(); ++i) {
       flags.set(static_cast<lec::StatusFlags::Bit>(i), f->values[i] != 0);
     }
-    s.flags = flags;
+    const auto polarity = polarity_.find(id);
+    s.flags = polarity == polarity_.end() ? flags : lec::normalise_alarm(flags, polarity->second);
     s.flags_at = f->taken;
   }
   if (const auto& st = blocks[static_cast<std::size_t>(Block::State)]) {

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "lec6/clock.hpp"
+#include "lec6/lec/alarm_check.hpp"
 #include "lec6/lec/alarms.hpp"
 #include "lec6/lec/flags.hpp"
 #include "lec6/lec/memory_map.hpp"
@@ -37,7 +38,10 @@ struct CachedBlock {
   TimePoint taken{};             // when the read that filled it started
 };
 
-// One axis as the cache knows it.
+// One axis as the cache knows it. `flags` is in the manual's meaning (X4F =
+// 1: alarm present), turned so with the axis's alarm polarity
+// (lec::normalise_alarm); the cached blocks, which answer Modbus clients,
+// keep the wire's bits.
 struct AxisSnapshot {
   std::optional<lec::StatusFlags> flags;
   std::optional<lec::StateData> state;
@@ -71,6 +75,8 @@ class TelemetryCache {
   // The age of a block (nullopt: never read, or invalidated).
   std::optional<Duration> age(uint8_t id, Block b, TimePoint now) const;
   AxisSnapshot snapshot(uint8_t id) const;
+  // How `id` reports X4F (AxisConfig::alarm_polarity); active-high unless set.
+  void set_alarm_polarity(uint8_t id, lec::AlarmPolarity p) { polarity_[id] = p; }
 
  private:
   struct Axis {
@@ -79,6 +85,7 @@ class TelemetryCache {
   };
   const CachedBlock* usable(const Axis& a, Block b) const;
   std::map<uint8_t, Axis> axes_;
+  std::map<uint8_t, lec::AlarmPolarity> polarity_;
 };
 
 }  // namespace lec6::serve

@@ -33,7 +33,7 @@ std::shared_ptr<SimWire> make_twin(const LineConfig& line) {
   faults.garbage = line.sim.garbage_rate;
   faults.seed = line.sim.seed;
   twin->bus = std::make_unique<sim::Bus>(lc, faults);
-  sim::ActuatorConfig ac;
+  sim::ActuatorConfig ac = line.sim.actuator;  // the profile: default, ideal or a file
   ac.stroke_max_mm = line.sim.stroke_max_mm;
   ac.initial_position_mm = line.sim.initial_position_mm;
   ac.workpiece_mm = line.sim.workpiece_mm;
@@ -106,7 +106,7 @@ SchedulerConfig scheduler_config(const LineConfig& line) {
     const Duration period = a.telemetry_hz > 0
                                 ? to_duration(FractionalMilliseconds(1000.0 / a.telemetry_hz))
                                 : Duration{};
-    s.axes.push_back({a.id, period});
+    s.axes.push_back({a.id, period, a.alarm_polarity});
   }
   s.offline_after = line.offline_after;
   s.probe_interval = to_duration(FractionalMilliseconds(line.probe_interval_ms));

@@ -198,6 +198,7 @@ void Operations::run_task(const AxisRef& axis, std::string name, std::string sou
       client::ClientOptions co;
       co.id = axis.id;
       co.retries = axis.line_config->retries;
+      co.alarm_polarity = axis.config->alarm_polarity;
       client::Client c(master, co);
       result = task(c);
     } catch (...) {
@@ -324,6 +325,7 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
   client::ClientOptions co;
   co.id = axis.id;
   co.retries = axis.line_config->retries;
+  co.alarm_polarity = axis.config->alarm_polarity;
   client::Client c(master, co);
   client::Actuator act(c);
   if (const auto& l = axis.config->soft_limits_001mm)

@@ -121,6 +121,8 @@ nlohmann::json axis_json(const AxisRef& axis, const Operations* ops) {
     }
   }
   j["alarm_history"] = history;
+  // How X4F is read for this axis (AxisConfig::alarm_polarity).
+  j["alarm_polarity"] = std::string(lec::to_string(axis.config->alarm_polarity));
   j["telemetry_hz"] = axis.config->telemetry_hz;
   if (ops) {
     const auto running = ops->running(axis);

@@ -86,6 +86,50 @@ TEST(ServeConfig, MistakesNameTheFileTheLineAndTheRule) {
               HasSubstr("lec6.yaml:4: lines[0].poll_max_wait_ms: -1 is outside 0 to 60000"));
 }
 
+// alarm_polarity (issue 33): a line's for all its axes, an axis's over it;
+// a bad value names the key and the two values it may take.
+TEST(ServeConfig, AlarmPolarityPerLineAndPerAxis) {
+  const auto c = parse_config(
+      "lines:\n  - port: sim\n    alarm_polarity: active-low\n"
+      "    axes: [{id: 1}, {id: 2, alarm_polarity: active-high}]\n"
+      "  - port: sim\n    axes: [{id: 1, name: b1}]\n",
+      "lec6.yaml");
+  EXPECT_EQ(c.lines[0].axes[0].alarm_polarity, lec::AlarmPolarity::ActiveLow);
+  EXPECT_EQ(c.lines[0].axes[1].alarm_polarity, lec::AlarmPolarity::ActiveHigh);
+  EXPECT_EQ(c.lines[1].axes[0].alarm_polarity, lec::AlarmPolarity::ActiveHigh);
+  EXPECT_EQ(error_of("lines:\n  - port: sim\n    axes: [{id: 1, alarm_polarity: inverted}]\n"),
+            "lec6.yaml:3: lines[0].axes[0].alarm_polarity: 'inverted' is not an alarm polarity: "
+            "active-high (the manual: X4F = 1 is an alarm) or active-low (X4F = 0 is an alarm)");
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    alarm_polarity: low\n    axes: [{id: 1}]\n"),
+              HasSubstr("lec6.yaml:3: lines[0].alarm_polarity: 'low' is not an alarm polarity"));
+  FlagConfig f;
+  f.port = "sim";
+  f.ids = "1-2";
+  f.alarm_polarity = lec::AlarmPolarity::ActiveLow;
+  for (const auto& a : config_from_flags(f).lines[0].axes) {
+    EXPECT_EQ(a.alarm_polarity, lec::AlarmPolarity::ActiveLow);
+  }
+}
+
+// A sim line's twin: the profile named (ideal, default, or a file over the
+// default); a file that cannot be read is a config error naming it.
+TEST(ServeConfig, SimProfile) {
+  const auto ideal = parse_config(
+      "lines:\n  - port: sim\n    sim: {profile: ideal}\n"
+      "    axes: [{id: 1}]\n",
+      "lec6.yaml");
+  EXPECT_EQ(ideal.lines[0].sim.actuator.busy_delay, sim::ideal_config().busy_delay);
+  const auto def = parse_config(
+      "lines:\n  - port: sim\n    sim: {profile: default}\n"
+      "    axes: [{id: 1}]\n",
+      "lec6.yaml");
+  EXPECT_EQ(def.lines[0].sim.actuator.busy_delay, sim::default_config().busy_delay);
+  EXPECT_THAT(error_of("lines:\n  - port: sim\n    sim: {profile: /nonexistent/p.yaml}\n"
+                       "    axes: [{id: 1}]\n"),
+              HasSubstr("lines[0].sim.profile: default, ideal or a field profile file: "
+                        "/nonexistent/p.yaml: cannot read the profile"));
+}
+
 TEST(ServeConfig, AMissingFileIsNamed) {
   try {
     load_config("/nonexistent/lec6.yaml");

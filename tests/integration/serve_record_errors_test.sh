@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# lec serve --record on a disk that is full (/dev/full: every write fails
+# with ENOSPC): one clear error naming the file, and the line keeps serving
+# (issue 33). A record path whose directory is gone refuses the start, naming
+# the file. Waits are on events (the ready line, the log line) with deadlines.
+
+source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
+
+# start_serve NAME ARGS...: `lec serve ARGS...` in the background until its
+# ready line (10 s); sets SERVE_PID and MB (its Modbus TCP port).
+start_serve() {
+  local name=$1
+  shift
+  mkfifo "$TMP/$name.fifo"
+  "$LEC" serve --no-history "$@" >"$TMP/$name.fifo" 2>"$TMP/$name.err" &
+  SERVE_PID=$!
+  TWIN_PIDS+=("$SERVE_PID")
+  local fd ready=""
+  exec {fd}<"$TMP/$name.fifo"
+  IFS= read -r -t 10 -u "$fd" ready || true
+  cat <&"$fd" >"$TMP/$name.out" &
+  exec {fd}<&-
+  MB=$(grep -o 'tcp://127.0.0.1:[0-9]*' <<<"$ready" | head -1 | sed 's|.*:||')
+  [[ -n $MB ]] || {
+    fail "lec serve ($name) did not get ready: '$ready' $(cat "$TMP/$name.err")"
+    return 1
+  }
+}
+
+start_serve full --port sim --ids 1 --modbus-tcp 127.0.0.1:0 --http "" --record /dev/full || {
+  finish
+  exit 1
+}
+logged() { grep -q "error: line line1: recording stopped: cannot write /dev/full: No space left on device" "$TMP/full.err"; }
+check "one clear error naming the file" wait_for 10 "the recording error" -- logged
+L() { "$LEC" --port "tcp://127.0.0.1:$MB" "$@"; }
+# The line keeps working: commands and reads through the gateway, after the error.
+check "lec serial on through the gateway, after the error" L serial on
+check "lec servo on" L servo on
+check "lec status reads SVRE = 1" bash -c "'$LEC' --port tcp://127.0.0.1:$MB --json status | grep -q '\"svre\": *true'"
+for _ in 1 2 3; do L status >/dev/null; done
+check_sh "the error was said once: $(grep -c 'recording stopped' "$TMP/full.err")" \
+  '[ "$(grep -c "recording stopped" "$TMP/full.err")" = 1 ]'
+check "/dev/full is still a character device (never kept as an earlier capture)" test -c /dev/full
+stop_twin "$SERVE_PID"
+check "lec serve exits 0 on SIGTERM" [ "$STATUS" = 0 ]
+
+# A directory that is gone: the start is refused, naming the file.
+out=$("$LEC" serve --no-history --port sim --modbus-tcp 127.0.0.1:0 --http "" \
+  --record "$TMP/gone/c.jsonl" 2>&1 </dev/null)
+rc=$?
+check_sh "a record path in a missing directory refuses the start (exit 2): $out" \
+  '[ $rc = 2 ] && grep -qF "cannot create $TMP/gone/c.jsonl: No such file or directory" <<<"$out"'
+
+finish
