@@ -28,7 +28,12 @@
 //      carriage at the end of the pushing distance with INP 0 (a miss), when
 //      it was not there before.
 // 2. A started move ends when BUSY is 0; the outcome is then read from INP,
-//    the position against the goal, thrust, SETON, SVRE and ESTOP.
+//    the position against the goal, thrust, SETON, SVRE and ESTOP. "Success
+//    is INP = 1 after that" (digest §5): a positioning move or homing whose
+//    BUSY fell at its target, within its band, with INP still 0 is polled
+//    on for up to the settle window (default 300 ms) until INP rises, so the
+//    settle time (BUSY's fall to INP) is measured, not taken as 0
+//    (completion_test.cpp InpRisingAfterBusyFellIsWaitedForAndTimed).
 // 3. When the start window (default 200 ms and at least 3 polls) is over
 //    with no such evidence and BUSY 0, the move counts as done only when the
 //    axis is demonstrably where it was sent: INP = 1, D9004 = the target,
@@ -56,6 +61,7 @@ namespace lec6::client {
 struct CompletionOptions {
   Duration start_window = std::chrono::milliseconds(200);
   unsigned start_window_polls = 3;
+  Duration settle_window = std::chrono::milliseconds(300);  // rule 2: INP after BUSY fell
 };
 
 // Positions closer than this are "at" the origin or the end of a push
@@ -97,6 +103,7 @@ class Completion {
   void look_for_start(const Poll& p, Duration t);
   void mark_started(const Poll& p, Duration t, std::string evidence);
   bool settled_without_busy(const Poll& p) const;
+  bool settling(const Poll& p, Duration t) const;
   MoveOutcome judge(const Poll& p) const;
   int32_t push_end() const;
   MoveResult result(MoveOutcome o, const Poll& p) const;

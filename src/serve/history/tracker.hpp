@@ -39,6 +39,10 @@ bool refused_before_start(const nlohmann::json& event, const std::string& op);
 // A record's duration (BUSY's rise to its fall) from the brackets of its two
 // edges: each lies between `*_after_s` and the time it was seen.
 void time_from_brackets(MotionRecord& r, double up_after_s, double down_after_s);
+// Its settle time (BUSY's fall to INP, issue 32 rule 5) the same way: INP
+// rose between `inp_after_s` and the time it was seen; 0 when one poll saw
+// both (timing_test.cpp InpAfterBusyFellGivesASettleTimeWithinItsBracket).
+void settle_from_brackets(MotionRecord& r, double down_after_s, double inp_after_s);
 inline constexpr double kNoDuration = std::numeric_limits<double>::quiet_NaN();
 
 // Issue 32: a motion held for a weekend kept every sample (~55 MB per axis)
