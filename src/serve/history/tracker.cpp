@@ -162,8 +162,8 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
     motion_ = std::move(m);
     return std::nullopt;
   }
-  if (!motion_->by_telemetry) return std::nullopt;
   Motion& m = *motion_;
+  if (busy && !m.busy_seen) m.busy_seen = at;
   if (busy && !m.busy_down && state && before) {
     const bool still = state->speed_mm_s == 0 &&
                        std::abs(state->position_001mm / 100.0 - before->position_mm) < 0.02;
@@ -173,10 +173,15 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
       m.rest_since = before->at;
     } else if (at - *m.rest_since >= kRestCloses) {
       // Left at rest with BUSY on (a hold, a pause): the motion ended when
-      // the carriage stopped; what follows until BUSY falls is not motion.
+      // the carriage stopped; what follows until BUSY falls is not motion,
+      // whoever started it (an operation of ours ends later, at its
+      // deadline or its release: its finished event then finds no motion).
       MotionRecord& r = m.record;
       r.busy_down_s = to_seconds(*m.rest_since - m.started);
-      r.duration_s = *r.busy_down_s;
+      const double up_s =
+          m.by_telemetry ? 0.0 : to_seconds(m.busy_seen.value_or(m.started) - m.started);
+      if (!m.by_telemetry) r.busy_up_s = up_s;
+      r.duration_s = *r.busy_down_s - up_s;
       r.outcome = "stopped";
       Motion done = std::move(m);
       motion_.reset();
@@ -184,6 +189,7 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
       return finish(done, last_ ? std::optional<double>(last_->position_mm) : std::nullopt);
     }
   }
+  if (!m.by_telemetry) return std::nullopt;
   if (state) m.record.target_mm = state->target_001mm / 100.0;
   if (!busy && !m.busy_down) {
     m.busy_down = at;
