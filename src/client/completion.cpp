@@ -13,6 +13,11 @@ bool within(int64_t position, int64_t target, int64_t band) {
   return std::llabs(position - target) <= band;
 }
 
+// Where a poll's bracket opens: its query's first byte on the wire.
+TimePoint sent_of(const Poll& p) {
+  return p.sent_at != TimePoint{} && p.sent_at < p.at ? p.sent_at : p.at;
+}
+
 StopCause cause_of(const lec::StatusFlags& f) {
   if (f.estop()) return StopCause::EmergencyStop;
   if (!f.svre()) return StopCause::ServoOff;
@@ -22,7 +27,10 @@ StopCause cause_of(const lec::StatusFlags& f) {
 }  // namespace
 
 Completion::Completion(MoveStart start, TimePoint deadline, CompletionOptions options)
-    : start_(std::move(start)), deadline_(deadline), options_(options) {}
+    : start_(std::move(start)), deadline_(deadline), options_(options) {
+  if (start_.sent_at != TimePoint{} && start_.sent_at < start_.at)
+    poll_before_ = start_.sent_at - start_.at;
+}
 
 bool Completion::retarget() const noexcept {
   return start_.flags_before.busy() || start_.may_be_running;
@@ -161,7 +169,7 @@ MoveResult Completion::result(MoveOutcome o, const Poll& p) const {
 
 std::optional<MoveResult> Completion::feed(const Poll& p) {
   ++polls_;
-  if (last_) poll_before_ = last_->at - start_.at;
+  if (last_) poll_before_ = sent_of(*last_) - start_.at;
   last_ = p;
   const Duration t = p.at - start_.at;
   if (started_ && !p.flags.busy() && timeline_.busy_up && !timeline_.busy_down)

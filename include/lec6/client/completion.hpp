@@ -71,7 +71,11 @@ inline constexpr int32_t kPositionTolerance001mm = 10;
 struct Poll {
   lec::StatusFlags flags;
   lec::StateData state;
-  TimePoint at;  // when the flags were read
+  TimePoint at;  // when the flags were read: their reply's last byte on the wire
+  // When the flags' query was written (issue 32); {}: at. The controller
+  // sampled the flags between the two, so an edge this poll saw happened
+  // after the previous poll's `sent_at` and before this one's `at`.
+  TimePoint sent_at{};
 };
 
 // The context of one start.
@@ -82,7 +86,10 @@ struct MoveStart {
   // A move may be running although flags_before does not say so (they are
   // older than the start: `lec follow` reads flags only now and then).
   bool may_be_running = false;
-  TimePoint at;  // the start was acknowledged
+  TimePoint at;  // the start was acknowledged (its reply's last byte on the wire)
+  // When the start's request was written; {}: at. BUSY may rise before the
+  // start's reply ends: its bracket opens here.
+  TimePoint sent_at{};
 };
 
 class Completion {
@@ -117,7 +124,9 @@ class Completion {
   std::string evidence_;
   MoveTimeline timeline_;
   std::optional<Poll> last_;
-  Duration poll_before_{};  // the previous poll, from the start (0: none yet)
+  // Where the next edge's bracket opens, from the start: the previous poll's
+  // query (before any poll: the start's, ≤ 0).
+  Duration poll_before_{};
 };
 
 }  // namespace lec6::client
