@@ -8,6 +8,7 @@
 #include <algorithm>
 
 #include "client/coil_reset.hpp"
+#include "client/wire_dated.hpp"
 #include "lec6/client/actuator.hpp"
 #include "lec6/lec/alarms.hpp"
 #include "lec6/lec/units.hpp"
@@ -130,7 +131,8 @@ MoveResult Actuator::home(TimePoint deadline, const WaitOptions& wait) {
   goal.operation = Operation::Home;
   goal.in_position_001mm = kPositionTolerance001mm;
   return this->wait(
-      StartedMove{MoveStart{goal, before.flags, before.state, false, client_.clock().now()}},
+      StartedMove{detail::wire_dated(
+          MoveStart{goal, before.flags, before.state, false, client_.clock().now()}, client_)},
       deadline, wait);
 }
 
@@ -146,9 +148,11 @@ MoveResult Actuator::poll_until_done(Completion& done, TimePoint started_at,
       lec::StatusFlags flags;
       lec::StateData state;
       TimePoint at;
+      std::optional<WireTimes> wire;
       try {
         flags = client_.read_flags();
         at = client_.clock().now();
+        wire = client_.last_wire_times();
         state = client_.read_state();
       } catch (const TransportError& e) {
         if (!is_line_fault(e.kind()) || wait.unanswered_grace <= Duration::zero()) throw;
@@ -167,7 +171,7 @@ MoveResult Actuator::poll_until_done(Completion& done, TimePoint started_at,
       }
       unanswered = false;
       if (wait.progress) wait.progress({state, flags, at - started_at});
-      if (auto r = done.feed({flags, state, at})) return *r;
+      if (auto r = done.feed(detail::wire_dated(Poll{flags, state, at}, wire))) return *r;
       if (wait.cancel && wait.cancel()) stop_after_interrupt(done.interrupted());
       if (wait.poll_interval > Duration::zero()) client_.idle_until(began + wait.poll_interval);
     }

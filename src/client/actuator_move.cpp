@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "client/coil_reset.hpp"
+#include "client/wire_dated.hpp"
 #include "lec6/client/actuator.hpp"
 #include "lec6/lec/step_defaults.hpp"
 #include "lec6/lec/units.hpp"
@@ -48,7 +49,9 @@ std::pair<unsigned, unsigned> changed_range(const lec::StepData& have, const lec
 
 }  // namespace
 
-lec::StepData default_direct_data() { return lec::default_step_data(); }
+lec::StepData default_direct_data() {
+  return lec::default_step_data();
+}
 
 namespace {
 
@@ -90,8 +93,8 @@ std::vector<std::string> kept_direct_values(const lec::StepData& current, const 
   if (!m.in_position_001mm)
     kept.push_back(fmt::format("in position {} mm", lec::format_mm(c.in_position_001mm)));
   if (!m.area1_001mm && !m.area2_001mm && (c.area1_001mm != 0 || c.area2_001mm != 0)) {
-    kept.push_back(fmt::format("area {}:{} mm", lec::format_mm(c.area1_001mm),
-                               lec::format_mm(c.area2_001mm)));
+    kept.push_back(
+        fmt::format("area {}:{} mm", lec::format_mm(c.area1_001mm), lec::format_mm(c.area2_001mm)));
   }
   if (m.pushing_force_pct && !m.pushing_speed_mm_s)
     kept.push_back(fmt::format("pushing speed {} mm/s", c.pushing_speed_mm_s));
@@ -100,10 +103,10 @@ std::vector<std::string> kept_direct_values(const lec::StepData& current, const 
 
 std::optional<std::string> soft_limit_violation(const SoftLimits& l, int32_t target_001mm) {
   if (target_001mm >= l.min_001mm && target_001mm <= l.max_001mm) return std::nullopt;
-  return fmt::format("target {} mm is beyond the soft limits {} to {} mm of this axis: nothing was "
-                     "written",
-                     lec::format_mm(target_001mm), lec::format_mm(l.min_001mm),
-                     lec::format_mm(l.max_001mm));
+  return fmt::format(
+      "target {} mm is beyond the soft limits {} to {} mm of this axis: nothing was "
+      "written",
+      lec::format_mm(target_001mm), lec::format_mm(l.min_001mm), lec::format_mm(l.max_001mm));
 }
 
 void Actuator::check_soft_limits(int32_t target_001mm) const {
@@ -132,8 +135,8 @@ MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptio
   // Writing DRIVE = 1 again after a lost reply is harmless: it is a level,
   // and a repeat makes no new edge. So even INC steps cannot start twice.
   client_.write_coil(Coil::DRIVE, true);
-  const StartedMove started{
-      MoveStart{goal, before.flags, before.state, false, client_.clock().now()}};
+  const StartedMove started{detail::wire_dated(
+      MoveStart{goal, before.flags, before.state, false, client_.clock().now()}, client_)};
   return this->wait(started, deadline, wait);
 }
 
@@ -174,7 +177,8 @@ StartedMove Actuator::start(const DirectMove& m) {
   } else {
     client_.write_direct_start(Retry::Safe);
   }
-  return StartedMove{MoveStart{goal, before.flags, before.state, false, client_.clock().now()}};
+  return StartedMove{detail::wire_dated(
+      MoveStart{goal, before.flags, before.state, false, client_.clock().now()}, client_)};
 }
 
 MoveResult Actuator::move(const DirectMove& m, TimePoint deadline, const WaitOptions& wait) {

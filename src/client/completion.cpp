@@ -13,6 +13,11 @@ bool within(int64_t position, int64_t target, int64_t band) {
   return std::llabs(position - target) <= band;
 }
 
+// Where a poll's bracket opens: its query's first byte on the wire.
+TimePoint sent_of(const Poll& p) {
+  return p.sent_at != TimePoint{} && p.sent_at < p.at ? p.sent_at : p.at;
+}
+
 StopCause cause_of(const lec::StatusFlags& f) {
   if (f.estop()) return StopCause::EmergencyStop;
   if (!f.svre()) return StopCause::ServoOff;
@@ -22,7 +27,10 @@ StopCause cause_of(const lec::StatusFlags& f) {
 }  // namespace
 
 Completion::Completion(MoveStart start, TimePoint deadline, CompletionOptions options)
-    : start_(std::move(start)), deadline_(deadline), options_(options) {}
+    : start_(std::move(start)), deadline_(deadline), options_(options) {
+  if (start_.sent_at != TimePoint{} && start_.sent_at < start_.at)
+    poll_before_ = start_.sent_at - start_.at;
+}
 
 bool Completion::retarget() const noexcept {
   return start_.flags_before.busy() || start_.may_be_running;
@@ -88,6 +96,27 @@ bool Completion::settled_without_busy(const Poll& p) const {
   return false;
 }
 
+// Rule 2's INP after BUSY fell: a positioning move or homing whose BUSY fell
+// at its target, within its band, with INP not up yet, is given the settle
+// window for INP to rise before it is judged.
+bool Completion::settling(const Poll& p, Duration t) const {
+  const MoveGoal& g = start_.goal;
+  if (p.flags.inp() || p.flags.alarm() || !timeline_.busy_down) return false;
+  if (t - *timeline_.busy_down >= options_.settle_window) return false;
+  const lec::StateData& s = p.state;
+  switch (g.operation) {
+    case Operation::Positioning:
+      return s.target_001mm == g.target_001mm &&
+             within(s.position_001mm, g.target_001mm, g.in_position_001mm);
+    case Operation::Home:
+      return p.flags.seton() && within(s.position_001mm, 0, kPositionTolerance001mm);
+    case Operation::Pushing:  // a push's INP is its contact: judged at BUSY's fall
+    case Operation::Jog:
+      break;
+  }
+  return false;
+}
+
 // A started move whose BUSY fell: what it did.
 MoveOutcome Completion::judge(const Poll& p) const {
   const MoveGoal& g = start_.goal;
@@ -125,7 +154,10 @@ MoveResult Completion::result(MoveOutcome o, const Poll& p) const {
       r.timeline.busy_down = r.elapsed;
       r.timeline.busy_down_after = poll_before_;
     }
-    if (p.flags.inp() && !r.timeline.inp) r.timeline.inp = r.elapsed;
+    if (p.flags.inp() && !r.timeline.inp) {
+      r.timeline.inp = r.elapsed;
+      r.timeline.inp_after = poll_before_;
+    }
   }
   r.evidence = evidence_;
   if (o == MoveOutcome::Stopped) {
@@ -137,12 +169,13 @@ MoveResult Completion::result(MoveOutcome o, const Poll& p) const {
 
 std::optional<MoveResult> Completion::feed(const Poll& p) {
   ++polls_;
-  if (last_) poll_before_ = last_->at - start_.at;
+  if (last_) poll_before_ = sent_of(*last_) - start_.at;
   last_ = p;
   const Duration t = p.at - start_.at;
   if (started_ && !p.flags.busy() && timeline_.busy_up && !timeline_.busy_down)
     timeline_.busy_down = t, timeline_.busy_down_after = poll_before_;
-  if (started_ && !p.flags.busy() && p.flags.inp() && !timeline_.inp) timeline_.inp = t;
+  if (started_ && !p.flags.busy() && p.flags.inp() && !timeline_.inp)
+    timeline_.inp = t, timeline_.inp_after = poll_before_;
   if (p.flags.alarm()) return result(MoveOutcome::Alarm, p);
 
   if (start_.goal.operation == Operation::Jog) {
@@ -150,7 +183,7 @@ std::optional<MoveResult> Completion::feed(const Poll& p) {
     if (!p.flags.busy() && p.state.speed_mm_s == 0) return result(MoveOutcome::Stopped, p);
   } else {
     look_for_start(p, t);
-    if (started_ && !p.flags.busy()) return result(judge(p), p);
+    if (started_ && !p.flags.busy() && !settling(p, t)) return result(judge(p), p);
     const bool window_over = t >= options_.start_window && polls_ >= options_.start_window_polls;
     if (!started_ && window_over) {
       if (!p.flags.busy() && settled_without_busy(p)) {

@@ -170,6 +170,7 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
     if (tx.broadcast())
       return modbus::ResponseFrame{modbus::kBroadcastId, modbus::WriteMultipleResponse{}};
     last_round_trip_ = tx.finished_at() - start;
+    last_wire_times_ = WireTimes{start, tx.finished_at()};
     modbus::ResponseFrame reply = tx.take_response();
     if (options_.trace) trace(false, tx.finished_at(), encode_response(reply), frame, &reply);
     return reply;

@@ -255,6 +255,40 @@ TEST(Completion, BusyFallingShortWithoutAlarmIsStoppedNotReached) {
   EXPECT_EQ(s.result->stop_cause, StopCause::ServoOff);
 }
 
+// Digest §5: success is INP = 1 after BUSY fell. INP that rises a few polls
+// later at the target is waited for, and its time is the settle time's end.
+TEST(Completion, InpRisingAfterBusyFellIsWaitedForAndTimed) {
+  Completion c(from(positioning(15000), flags({StatusFlags::Inp}), state(0, 0)), t0 + ms(5000));
+  const auto r = run(c, {{flags({StatusFlags::Busy}), state(5000, 15000)},
+                         {flags({StatusFlags::Busy}), state(14000, 15000)},
+                         {flags({}), state(15000, 15000)},
+                         {flags({}), state(15001, 15000)},
+                         {flags({StatusFlags::Inp}), state(15000, 15000)}});
+  ASSERT_TRUE(r.result);
+  EXPECT_EQ(r.at, 4);
+  EXPECT_EQ(r.result->outcome, MoveOutcome::Reached);
+  EXPECT_EQ(r.result->timeline.busy_down, ms(30));
+  EXPECT_EQ(r.result->timeline.busy_down_after, ms(20));
+  EXPECT_EQ(r.result->timeline.inp, ms(50));
+  EXPECT_EQ(r.result->timeline.inp_after, ms(40));
+}
+
+TEST(Completion, AtTheTargetWithoutInpPastTheSettleWindowIsStopped) {
+  Completion c(from(positioning(15000), flags({StatusFlags::Inp}), state(0, 0)), t0 + ms(5000));
+  std::vector<std::pair<StatusFlags, lec::StateData>> polls{
+      {flags({StatusFlags::Busy}), state(5000, 15000)}};
+  for (int i = 0; i < 40; ++i) polls.push_back({flags({}), state(15000, 15000)});
+  const auto r = run(c, polls);
+  ASSERT_TRUE(r.result);
+  EXPECT_EQ(r.result->outcome, MoveOutcome::Stopped);
+  EXPECT_EQ(r.at, 31) << "judged when the 300 ms settle window is over, not before";
+  // Short of the band: judged at BUSY's fall, as before.
+  Completion d(from(positioning(15000), flags({StatusFlags::Inp}), state(0, 0)), t0 + ms(5000));
+  const auto s =
+      run(d, {{flags({StatusFlags::Busy}), state(5000, 15000)}, {flags({}), state(12033, 15000)}});
+  EXPECT_EQ(s.at, 1);
+}
+
 TEST(Completion, AlarmEndsAtOnceAndDeadlineAfterIt) {
   Completion c(from(positioning(15000), flags({}), state(0, 0)), t0 + ms(5000));
   EXPECT_EQ(run(c, {{flags({StatusFlags::Alarm}), state(0, 0)}}).result->outcome,

@@ -132,6 +132,8 @@ class Client {
   LinkStats stats() const;
   // The round trip of the last successful transaction (first byte sent → reply complete).
   Duration last_round_trip() const { return master_.last_round_trip(); }
+  // When the last successful transaction was on the wire (Master::last_wire_times).
+  std::optional<WireTimes> last_wire_times() const { return master_.last_wire_times(); }
   // Waits until `t` without a transaction (Master::idle_until).
   void idle_until(TimePoint t) { master_.idle_until(t); }
 

@@ -28,7 +28,12 @@
 //      carriage at the end of the pushing distance with INP 0 (a miss), when
 //      it was not there before.
 // 2. A started move ends when BUSY is 0; the outcome is then read from INP,
-//    the position against the goal, thrust, SETON, SVRE and ESTOP.
+//    the position against the goal, thrust, SETON, SVRE and ESTOP. "Success
+//    is INP = 1 after that" (digest §5): a positioning move or homing whose
+//    BUSY fell at its target, within its band, with INP still 0 is polled
+//    on for up to the settle window (default 300 ms) until INP rises, so the
+//    settle time (BUSY's fall to INP) is measured, not taken as 0
+//    (completion_test.cpp InpRisingAfterBusyFellIsWaitedForAndTimed).
 // 3. When the start window (default 200 ms and at least 3 polls) is over
 //    with no such evidence and BUSY 0, the move counts as done only when the
 //    axis is demonstrably where it was sent: INP = 1, D9004 = the target,
@@ -56,6 +61,7 @@ namespace lec6::client {
 struct CompletionOptions {
   Duration start_window = std::chrono::milliseconds(200);
   unsigned start_window_polls = 3;
+  Duration settle_window = std::chrono::milliseconds(300);  // rule 2: INP after BUSY fell
 };
 
 // Positions closer than this are "at" the origin or the end of a push
@@ -65,7 +71,11 @@ inline constexpr int32_t kPositionTolerance001mm = 10;
 struct Poll {
   lec::StatusFlags flags;
   lec::StateData state;
-  TimePoint at;  // when the flags were read
+  TimePoint at;  // when the flags were read: their reply's last byte on the wire
+  // When the flags' query was written (issue 32); {}: at. The controller
+  // sampled the flags between the two, so an edge this poll saw happened
+  // after the previous poll's `sent_at` and before this one's `at`.
+  TimePoint sent_at{};
 };
 
 // The context of one start.
@@ -76,7 +86,10 @@ struct MoveStart {
   // A move may be running although flags_before does not say so (they are
   // older than the start: `lec follow` reads flags only now and then).
   bool may_be_running = false;
-  TimePoint at;  // the start was acknowledged
+  TimePoint at;  // the start was acknowledged (its reply's last byte on the wire)
+  // When the start's request was written; {}: at. BUSY may rise before the
+  // start's reply ends: its bracket opens here.
+  TimePoint sent_at{};
 };
 
 class Completion {
@@ -97,6 +110,7 @@ class Completion {
   void look_for_start(const Poll& p, Duration t);
   void mark_started(const Poll& p, Duration t, std::string evidence);
   bool settled_without_busy(const Poll& p) const;
+  bool settling(const Poll& p, Duration t) const;
   MoveOutcome judge(const Poll& p) const;
   int32_t push_end() const;
   MoveResult result(MoveOutcome o, const Poll& p) const;
@@ -110,7 +124,9 @@ class Completion {
   std::string evidence_;
   MoveTimeline timeline_;
   std::optional<Poll> last_;
-  Duration poll_before_{};  // the previous poll, from the start (0: none yet)
+  // Where the next edge's bracket opens, from the start: the previous poll's
+  // query (before any poll: the start's, ≤ 0).
+  Duration poll_before_{};
 };
 
 }  // namespace lec6::client

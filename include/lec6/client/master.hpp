@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -43,6 +44,15 @@ struct TraceEvent {
 };
 using TraceSink = std::function<void(const TraceEvent&)>;
 
+// When an exchange was on the wire (issue 32): its request's first byte was
+// written at `sent` and its reply's last byte read at `replied`, on the
+// master's clock. What the reply shows was sampled between the two, however
+// long the reply then took to reach the thread that asked.
+struct WireTimes {
+  TimePoint sent{};
+  TimePoint replied{};
+};
+
 class Master {
  public:
   virtual ~Master() = default;
@@ -61,6 +71,9 @@ class Master {
   virtual LinkStats stats() const = 0;
   // First byte sent → reply complete, of the last successful exchange.
   virtual Duration last_round_trip() const = 0;
+  // The wire times of the last successful exchange; nullopt where the master
+  // does not know them (then a caller dates a reply by when it got it).
+  virtual std::optional<WireTimes> last_wire_times() const { return std::nullopt; }
   // The serial line's timing (baud, Ts, Td), for wire limits; behind a
   // gateway, as configured by the user.
   virtual const modbus::LineTiming& line_timing() const = 0;

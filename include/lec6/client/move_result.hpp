@@ -57,13 +57,14 @@ enum class StopCause {
 // BUSY's rise and fall are bracketed (issue 32): each happened after the
 // poll before the one that saw it (`*_after`: that poll, or 0, the start)
 // and before the one that saw it, so a duration is known to ± half the two
-// brackets' widths (completion_test.cpp ASixtyMsMoveReadsWithinItsBracket).
+// brackets' widths (timing_test.cpp ASixtyMsMoveReadsWithinItsBracketAtAnyPollGap).
 struct MoveTimeline {
   std::optional<Duration> busy_up;
   std::optional<Duration> busy_down;
   std::optional<Duration> inp;
   std::optional<Duration> busy_up_after;    // the last poll before BUSY was seen (0: the start)
   std::optional<Duration> busy_down_after;  // the last poll that saw BUSY = 1
+  std::optional<Duration> inp_after;        // the last poll before INP was seen (settle time)
 };
 
 // What was asked: the goal a move is judged against.

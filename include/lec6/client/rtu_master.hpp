@@ -43,6 +43,7 @@ class RtuMaster final : public Master {
   std::string describe() const override { return link_.describe(); }
   LinkStats stats() const override { return stats_; }
   Duration last_round_trip() const override { return last_round_trip_; }
+  std::optional<WireTimes> last_wire_times() const override { return last_wire_times_; }
   const modbus::LineTiming& line_timing() const override { return timing_.line; }
   Link* link() noexcept override { return &link_; }
   // Listens to the line until `t`: bytes that arrive (noise, a late reply)
@@ -69,6 +70,7 @@ class RtuMaster final : public Master {
       hold_until_{};  // after a failure: no query before the failed one's reply window is over
   LinkStats stats_;
   Duration last_round_trip_{};
+  std::optional<WireTimes> last_wire_times_;
 };
 
 }  // namespace lec6::client

@@ -24,6 +24,11 @@ void time_from_brackets(MotionRecord& r, double up_after_s, double down_after_s)
   r.duration_pm_s = ((*r.busy_up_s - up_after_s) + (*r.busy_down_s - down_after_s)) / 2;
 }
 
+void settle_from_brackets(MotionRecord& r, double down_after_s, double inp_after_s) {
+  const double down = (down_after_s + *r.busy_down_s) / 2, inp = (inp_after_s + *r.inp_s) / 2;
+  r.settle_s = std::max(0.0, inp - down);
+}
+
 bool refused_before_start(const nlohmann::json& event, const std::string& op) {
   // A move's result carries its timeline once its start was written (the
   // client's MoveResult, ops/op_results.cpp); a 4xx without one is a
@@ -83,10 +88,11 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
     r.inp_s = number(*it, "inp_s");
   }
   const auto elapsed = number(event, "elapsed_s");
-  std::optional<double> up_after, down_after;
+  std::optional<double> up_after, down_after, inp_after;
   if (const auto it = event.find("timeline"); it != event.end() && it->is_object()) {
     up_after = number(*it, "busy_up_after_s");
     down_after = number(*it, "busy_down_after_s");
+    inp_after = number(*it, "inp_after_s");
   }
   if (r.busy_up_s && r.busy_down_s && up_after && down_after) {
     time_from_brackets(r, *up_after, *down_after);
@@ -95,7 +101,10 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
   } else {
     r.duration_s = r.busy_down_s.value_or(elapsed.value_or(to_seconds(at - m.started)));
   }
-  if (r.busy_down_s && r.inp_s) r.settle_s = std::max(0.0, *r.inp_s - *r.busy_down_s);
+  if (r.busy_down_s && r.inp_s) {
+    r.settle_s = std::max(0.0, *r.inp_s - *r.busy_down_s);
+    if (down_after && inp_after) settle_from_brackets(r, *down_after, *inp_after);
+  }
   if (!r.target_mm || r.kind == "move" || r.kind == "run-step") {
     if (const auto t = number(event, "target_mm")) r.target_mm = t;
   }
@@ -153,8 +162,8 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
     motion_ = std::move(m);
     return std::nullopt;
   }
-  if (!motion_->by_telemetry) return std::nullopt;
   Motion& m = *motion_;
+  if (busy && !m.busy_seen) m.busy_seen = at;
   if (busy && !m.busy_down && state && before) {
     const bool still = state->speed_mm_s == 0 &&
                        std::abs(state->position_001mm / 100.0 - before->position_mm) < 0.02;
@@ -164,10 +173,15 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
       m.rest_since = before->at;
     } else if (at - *m.rest_since >= kRestCloses) {
       // Left at rest with BUSY on (a hold, a pause): the motion ended when
-      // the carriage stopped; what follows until BUSY falls is not motion.
+      // the carriage stopped; what follows until BUSY falls is not motion,
+      // whoever started it (an operation of ours ends later, at its
+      // deadline or its release: its finished event then finds no motion).
       MotionRecord& r = m.record;
       r.busy_down_s = to_seconds(*m.rest_since - m.started);
-      r.duration_s = *r.busy_down_s;
+      const double up_s =
+          m.by_telemetry ? 0.0 : to_seconds(m.busy_seen.value_or(m.started) - m.started);
+      if (!m.by_telemetry) r.busy_up_s = up_s;
+      r.duration_s = *r.busy_down_s - up_s;
       r.outcome = "stopped";
       Motion done = std::move(m);
       motion_.reset();
@@ -175,6 +189,7 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
       return finish(done, last_ ? std::optional<double>(last_->position_mm) : std::nullopt);
     }
   }
+  if (!m.by_telemetry) return std::nullopt;
   if (state) m.record.target_mm = state->target_001mm / 100.0;
   if (!busy && !m.busy_down) {
     m.busy_down = at;
@@ -191,6 +206,8 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   if (flags->inp()) {
     r.inp_s = to_seconds(at - m.started);
     r.settle_s = *r.inp_s - *r.busy_down_s;
+    if (m.down_after_s && flags_before)
+      settle_from_brackets(r, *m.down_after_s, to_seconds(*flags_before - m.started));
   }
   r.outcome = flags->alarm() ? "alarm" : flags->inp() ? "reached" : "stopped";
   Motion done = std::move(m);

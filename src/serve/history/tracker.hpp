@@ -39,14 +39,19 @@ bool refused_before_start(const nlohmann::json& event, const std::string& op);
 // A record's duration (BUSY's rise to its fall) from the brackets of its two
 // edges: each lies between `*_after_s` and the time it was seen.
 void time_from_brackets(MotionRecord& r, double up_after_s, double down_after_s);
+// Its settle time (BUSY's fall to INP, issue 32 rule 5) the same way: INP
+// rose between `inp_after_s` and the time it was seen; 0 when one poll saw
+// both (timing_test.cpp InpAfterBusyFellGivesASettleTimeWithinItsBracket).
+void settle_from_brackets(MotionRecord& r, double down_after_s, double inp_after_s);
 inline constexpr double kNoDuration = std::numeric_limits<double>::quiet_NaN();
 
 // Issue 32: a motion held for a weekend kept every sample (~55 MB per axis)
 // and was one 48 h motion. Samples past kMaxSamples merge in pairs (peaks
-// kept, tracker_test.cpp ALongMotionKeepsBoundedSamples); a motion seen in
-// the telemetry whose carriage stays still with BUSY on for kRestCloses ends
-// there, "stopped", and the rest of that BUSY is not another motion
-// (AMotionLeftAtRestIsClosedNotCountedForTheWholeHold).
+// kept, tracker_test.cpp ALongMotionKeepsBoundedSamples); a motion whose
+// carriage stays still with BUSY on for kRestCloses ends there, "stopped",
+// and the rest of that BUSY is not another motion: one seen in the telemetry
+// (AMotionLeftAtRestIsClosedNotCountedForTheWholeHold) or an operation of
+// lec serve held there (AnOperationHeldForHoursIsClosedAtRestWithBoundedMemory).
 inline constexpr std::size_t kMaxSamples = 4096;
 inline constexpr Duration kRestCloses = std::chrono::seconds(60);
 
@@ -75,6 +80,7 @@ class MotionTracker {
     std::optional<TimePoint> busy_down;
     std::optional<double> up_after_s, down_after_s;  // the brackets' early ends (telemetry)
     std::optional<TimePoint> rest_since;             // BUSY on, the carriage still (a hold)
+    std::optional<TimePoint> busy_seen;              // the first read with BUSY on
     std::vector<Sample> samples;
   };
   MotionRecord finish(Motion& m, std::optional<double> final_mm);

@@ -40,6 +40,7 @@ modbus::ResponseFrame LineMaster::exchange(const modbus::RequestFrame& frame) {
     throw transport_error(r);
   }
   last_round_trip_ = r.finished - r.started;
+  last_wire_times_ = client::WireTimes{r.started, r.finished};
   return *r.reply;
 }
 

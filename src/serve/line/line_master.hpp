@@ -37,6 +37,10 @@ class LineMaster final : public client::Master {
   std::string describe() const override;
   client::LinkStats stats() const override { return stats_; }
   Duration last_round_trip() const override { return last_round_trip_; }
+  // The line's own times (issue 32): the exchange's start and its reply's
+  // end on the line's thread (a cached answer: when its block was read, and
+  // when it was answered), not when exchange() returned here.
+  std::optional<client::WireTimes> last_wire_times() const override { return last_wire_times_; }
   const modbus::LineTiming& line_timing() const override { return line_.timing(); }
 
  private:
@@ -45,6 +49,7 @@ class LineMaster final : public client::Master {
   Priority writes_;
   client::LinkStats stats_;
   Duration last_round_trip_{};
+  std::optional<client::WireTimes> last_wire_times_;
 };
 
 }  // namespace lec6::serve

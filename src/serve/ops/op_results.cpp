@@ -48,7 +48,8 @@ void add_move_details(nlohmann::json& body, const client::MoveResult& r) {
                       {"inp_s", seconds_or_null(r.timeline.inp)},
                       // issue 32: each BUSY edge lies between *_after_s and its time
                       {"busy_up_after_s", seconds_or_null(r.timeline.busy_up_after)},
-                      {"busy_down_after_s", seconds_or_null(r.timeline.busy_down_after)}};
+                      {"busy_down_after_s", seconds_or_null(r.timeline.busy_down_after)},
+                      {"inp_after_s", seconds_or_null(r.timeline.inp_after)}};
 }
 
 // An error that ended a move: its state and timeline with the refusal.

@@ -10,6 +10,7 @@
 #include <random>
 
 #include "lec6/client/completion.hpp"
+#include "serve/history/drift.hpp"
 #include "serve/history/odometer.hpp"
 #include "serve/history/tracker.hpp"
 
@@ -55,7 +56,9 @@ nlohmann::json finished(const client::MoveResult& r) {
             {"busy_down_s", seconds_or_null(r.timeline.busy_down)},
             {"inp_s", seconds_or_null(r.timeline.inp)},
             {"busy_up_after_s", seconds_or_null(r.timeline.busy_up_after)},
-            {"busy_down_after_s", seconds_or_null(r.timeline.busy_down_after)}}}};
+            {"busy_down_after_s", seconds_or_null(r.timeline.busy_down_after)},
+            {"inp_after_s", seconds_or_null(r.timeline.inp_after)}}},
+          {"target_mm", 100.0}};
 }
 
 struct Read {
@@ -64,8 +67,10 @@ struct Read {
 };
 
 // One positioning move whose BUSY is up from `rise_ms` to rise_ms + `move_ms`
-// after the start's acknowledgement, polled every `gap_ms` from `phase_ms`.
-Read read_move(double rise_ms, double move_ms, double gap_ms, double phase_ms) {
+// after the start's acknowledgement, and whose INP rises `settle_ms` after
+// BUSY fell (at the target), polled every `gap_ms` from `phase_ms`.
+Read read_move(double rise_ms, double move_ms, double gap_ms, double phase_ms,
+               double settle_ms = 0) {
   const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
   client::MoveGoal goal;
   goal.target_001mm = 10000;
@@ -77,8 +82,9 @@ Read read_move(double rise_ms, double move_ms, double gap_ms, double phase_ms) {
   for (double at = phase_ms;; at += gap_ms) {
     const bool busy = at >= rise_ms && at < rise_ms + move_ms;
     const bool done = at >= rise_ms + move_ms;
+    const bool inp = at >= rise_ms + move_ms + settle_ms;
     const auto r = c.feed(
-        {ready_flags(busy, done), done ? state(10000, 10000) : state(5000, 10000), t0 + ms(at)});
+        {ready_flags(busy, inp), done ? state(10000, 10000) : state(5000, 10000), t0 + ms(at)});
     if (r) {
       auto rec = t.op_event(finished(*r), t0 + ms(at), 0);
       EXPECT_TRUE(rec);
@@ -129,6 +135,67 @@ TEST(Timing, AMoveWhoseBusyNoPollSawHasNoDurationAndAddsNoMotionTime) {
   EXPECT_EQ(o.moves, 1);
   EXPECT_DOUBLE_EQ(o.motion_s, 0);
   EXPECT_TRUE(to_json(r.record)["duration_s"].is_null());
+}
+
+// Rule 5 (issue 32): INP rising after BUSY fell is waited for by the
+// completion rule and timed between the polls that bracket both edges: the
+// settle time is not 0, and lies within a poll gap of the truth.
+TEST(Timing, InpAfterBusyFellGivesASettleTimeWithinItsBracket) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (double gap = 10; gap <= 40; gap += 10) {
+    for (int i = 0; i < 100; ++i) {
+      const double settle = 60 + 100 * unit(rng);
+      const Read r = read_move(5, 300, gap, gap * unit(rng), settle);
+      const MotionRecord& m = r.record;
+      ASSERT_EQ(m.outcome, "reached") << "INP after BUSY fell is still a reached move";
+      ASSERT_TRUE(m.settle_s);
+      EXPECT_GT(*m.settle_s, 0);
+      EXPECT_LE(std::abs(*m.settle_s - settle / 1000), gap / 1000 + 1e-9)
+          << "gap " << gap << ": " << *m.settle_s << " for " << settle << " ms";
+    }
+  }
+}
+
+// The same for a motion only the telemetry saw (another master started it).
+TEST(Timing, TelemetrySeesInpAfterBusyFellAsASettleTime) {
+  MotionTracker t("x");
+  const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
+  std::optional<MotionRecord> rec;
+  // BUSY 100-600 ms, INP from 730 ms; flags read every 50 ms from 20 ms.
+  for (double at = 20; at < 1500 && !rec; at += 50) {
+    const bool busy = at >= 100 && at < 600, inp = at >= 730;
+    rec = t.telemetry(at >= 600 ? state(10000, 10000) : state(int32_t(at) * 10, 10000),
+                      ready_flags(busy, inp), t0 + ms(at), 0);
+  }
+  ASSERT_TRUE(rec);
+  ASSERT_TRUE(rec->settle_s);
+  EXPECT_NEAR(*rec->settle_s, 0.130, 0.050);
+  EXPECT_GT(*rec->settle_s, 0.05);
+}
+
+// A settle time that grows (a looser axis hunting longer around its target)
+// is a drift warning of its own, on timelines of the completion rule.
+TEST(Timing, AGrowingSettleTimeRaisesTheSettleWarning) {
+  DriftDetector d;
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> unit(0, 1);
+  int64_t id = 1;
+  bool warned = false;
+  for (int i = 0; i < 200 && !warned; ++i) {
+    const double settle = (i < 60 ? 120 : 200) + 10 * unit(rng);  // +67 % from move 60
+    MotionRecord m = read_move(5, 300, 20, 20 * unit(rng), settle).record;
+    m.id = id++;
+    m.axis = "x";
+    m.start_ms = 1'700'000'000'000 + m.id * 1000;
+    for (const auto& e : d.add(m)) {
+      if (!e.raised) continue;
+      EXPECT_EQ(e.warning.metric, Metric::Settle) << "only the settle time changed";
+      EXPECT_GE(i, 60) << "a warning before the settle time grew";
+      warned = true;
+    }
+  }
+  EXPECT_TRUE(warned) << "a settle time 67 % longer never warned";
 }
 
 }  // namespace

@@ -96,7 +96,9 @@ TEST(Tracker, AMoveAnotherMasterStartedIsRecordedFromTheTelemetry) {
   // 1.4 s: 1.2 ± 0.2 s (issue 32: the middle of each bracket).
   EXPECT_NEAR(r->duration_s, 1.2, 1e-9);
   EXPECT_NEAR(*r->duration_pm_s, 0.2, 1e-9);
-  EXPECT_NEAR(*r->settle_s, 0.1, 1e-9);
+  // INP rose between 1.4 and 1.5 s: from the middle of BUSY's fall (1.25 s)
+  // to the middle of INP's rise (1.45 s), 0.2 s (rule 5).
+  EXPECT_NEAR(*r->settle_s, 0.2, 1e-9);
   EXPECT_EQ(r->peak_thrust_pct, 30);
   EXPECT_NEAR(r->distance_mm, 80, 1e-9);
 }
@@ -198,6 +200,52 @@ TEST(Tracker, AMotionLeftAtRestIsClosedNotCountedForTheWholeHold) {
   EXPECT_FALSE(t.telemetry(state(60, 0, 10, 20), flags(true, false), now, 0));
   now += 100ms;
   EXPECT_FALSE(t.telemetry(state(60, 0, 10, 20), flags(false, true), now, 0));
+}
+
+// Issue 32: an operation of lec serve held for hours (HOLD on: BUSY stays 1,
+// the carriage at rest) is one short motion that ends where the carriage
+// stopped, closed 60 s later; memory stays bounded meanwhile, and the
+// operation's own end (its deadline, hours later) adds nothing.
+TEST(Tracker, AnOperationHeldForHoursIsClosedAtRestWithBoundedMemory) {
+  MotionTracker t("x");
+  TimePoint now{};
+  t.telemetry(state(10, 0, 3, 10), flags(false, true), now, 0);
+  t.op_event(
+      {{"event", "started"}, {"op", "move"}, {"source", "http 127.0.0.1"}, {"target_mm", 150.0}},
+      now, 0);
+  now += 20ms;
+  EXPECT_FALSE(t.telemetry(state(10, 0, 3, 150), flags(false, false), now, 0));
+  for (int i = 1; i <= 5; ++i) {  // 0.5 s of motion, then HOLD stops it at 60 mm
+    now += 100ms;
+    EXPECT_FALSE(t.telemetry(state(10 + 10 * i, 100, 30, 150), flags(true, false), now, 0));
+  }
+  std::optional<MotionRecord> r;
+  int reads = 0;
+  for (; reads < 10 * 3600 * 10 && !r; ++reads) {  // up to 10 h at 10 Hz
+    now += 100ms;
+    r = t.telemetry(state(60, 0, 8, 150), flags(true, false), now, 0);
+    EXPECT_LE(t.samples_kept(), kMaxSamples);
+  }
+  ASSERT_TRUE(r) << "an operation held at rest for 10 h was never closed";
+  EXPECT_LE(reads, 61 * 10) << "closed 60 s after the carriage stopped";
+  EXPECT_EQ(r->outcome, "stopped");
+  EXPECT_EQ(r->source, "http 127.0.0.1");
+  EXPECT_NEAR(r->duration_s, 0.5, 0.15);  // BUSY seen to the carriage's stop, not hours
+  EXPECT_NEAR(*r->start_mm, 10, 1e-9);
+  EXPECT_NEAR(r->distance_mm, 50, 1e-9);
+  // The rest of the hold, the operation's deadline and BUSY's fall add nothing.
+  for (int i = 0; i < 1000; ++i) {
+    now += 1s;
+    EXPECT_FALSE(t.telemetry(state(60, 0, 8, 150), flags(true, false), now, 0));
+  }
+  EXPECT_FALSE(t.op_event({{"event", "finished"},
+                           {"op", "move"},
+                           {"status", 504},
+                           {"outcome", "deadline"},
+                           {"timeline", {{"busy_up_s", 0.02}}}},
+                          now, 0));
+  now += 100ms;
+  EXPECT_FALSE(t.telemetry(state(60, 0, 0, 150), flags(false, false), now, 0));
 }
 
 TEST(Tracker, ALongMotionKeepsBoundedSamples) {
