@@ -27,16 +27,23 @@ std::optional<std::string> may_move(const Cycle& c, const Step& s, const AxisSta
       return fmt::format("axis {}: {}", s.axis, *why);
     }
   }
+  return user_interlock_violation(c, s.axis, axes);
+}
+
+}  // namespace
+
+std::optional<std::string> user_interlock_violation(const Cycle& c, const std::string& moving,
+                                                    const AxisStates& axes) {
   for (const auto& u : c.interlocks) {
-    if (u.before_moving != s.axis) continue;
-    const int32_t at = axes.at(u.axis).state.position_001mm;
+    if (u.before_moving != moving) continue;
+    auto it = axes.find(u.axis);
+    if (it == axes.end()) return fmt::format("{} (axis {} was not read)", u.text, u.axis);
+    const int32_t at = it->second.state.position_001mm;
     const bool holds = u.above_001mm ? at > *u.above_001mm : at < *u.below_001mm;
     if (!holds) return fmt::format("{} (axis {} is at {} mm)", u.text, u.axis, lec::format_mm(at));
   }
   return std::nullopt;
 }
-
-}  // namespace
 
 std::optional<std::string> interlock_violation(const Cycle& cycle, const Step& step,
                                                const AxisStates& axes) {

@@ -65,7 +65,16 @@ struct Runner::Impl {
     return states;
   }
 
+  // A RESET pulse to every axis first (one write pair each: the axes start
+  // decelerating together), then each stop judged by its axis (stop.hpp:
+  // the pulse again, reads until at rest, escalation by the policy).
   std::vector<AxisStand> stop_all() {
+    for (const auto& a : cycle.axes) {
+      try {
+        axes.at(a.name).actuator->stop();
+      } catch (const Error&) {  // the judged stop below reports what could not be sent
+      }
+    }
     std::vector<AxisStand> stood;
     for (const auto& a : cycle.axes) {
       const client::StopReport r =
@@ -149,6 +158,20 @@ struct Runner::Impl {
     return stood;
   }
 
+  // The user interlocks of every axis still moving, on the latest polls.
+  void check_interlocks_during(const Batch& b, std::vector<Live>& live, BatchEnd& end,
+                               std::vector<AxisStand>& stood) {
+    for (const auto& l : live) {
+      if (l.result || !l.step->moves()) continue;
+      if (auto why = user_interlock_violation(cycle, l.step->axis, states)) {
+        end.cut =
+            fmt::format("interlock broken during step {} ({}): {}", b.path, b.step->text, *why);
+        stood = cut(live, "stopped: interlock broken: " + *why);
+        return;
+      }
+    }
+  }
+
   BatchEnd run_batch(const Batch& b, StepReport& report, std::vector<AxisStand>& stood) {
     std::vector<Live> live;
     for (const auto& a : b.activities) {
@@ -191,6 +214,7 @@ struct Runner::Impl {
         if (!l.result && l.watch->wake_at())
           wake = std::min(wake.value_or(TimePoint::max()), *l.watch->wake_at());
       }
+      if (!end.cut) check_interlocks_during(b, live, end, stood);
       if (!polled && wake && !end.cut) axes.begin()->second.client->idle_until(*wake);
     }
     for (auto& l : live) {

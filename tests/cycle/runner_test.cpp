@@ -216,6 +216,32 @@ TEST(Runner, AStopDuringAParallelGroupStopsEveryAxis) {
   EXPECT_LT(cell.clock.now() - stop_at, 1s);
 }
 
+TEST(Runner, AnInterlockBrokenDuringAStepStopsEveryAxis) {
+  Cell cell(kRunAxes + R"(interlocks:
+  - {before_moving: x, axis: z, below_mm: 45}
+steps:
+  - parallel:
+      - move: {axis: x, to: 300, speed: 100}
+      - move: {axis: z, to: 80, speed: 50}
+)");
+  const CycleReport r = cell.run();
+  EXPECT_FALSE(r.completed);
+  EXPECT_THAT(r.ended, HasSubstr("interlock broken during step 1"));
+  EXPECT_THAT(r.ended, HasSubstr("z below 45.00 mm before x moves (axis z is at "));
+  ASSERT_EQ(r.stood.size(), 2u);
+  // Seen within a poll round (both axes: ~50 ms, 2.5 mm at 50 mm/s); every
+  // axis gets its RESET pulse before any stop is judged (x's and z's: ~50 ms
+  // more), so z stops that far and its deceleration past 45 mm (it ran on to
+  // 56 mm when x's stop was judged first), and x far short of 300 mm.
+  const int32_t z_stood = r.stood[1].position_001mm;
+  EXPECT_EQ(r.stood[1].axis, "z");
+  EXPECT_GT(z_stood, 4500);
+  EXPECT_LT(z_stood, 5300);
+  EXPECT_EQ(cell.position_001mm("z"), z_stood);
+  EXPECT_LT(cell.position_001mm("x"), 15000);
+  EXPECT_EQ(span(r, 0, 0).outcome, Outcome::Stopped);
+}
+
 TEST(Runner, RepeatsTheCycle) {
   Cell cell(kRunAxes + R"(repeat: 3
 steps:

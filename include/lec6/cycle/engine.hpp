@@ -15,6 +15,8 @@
 //   }
 //
 // Rules (docs/cycles.md, "Safety"), each attacked by tests/cycle/engine_test.cpp:
+//  - a user interlock is also checked at every poll while its axis moves
+//    (Runner): broken, every axis is stopped and the cycle ends;
 //  - a step that moves runs only when every axis of the cycle answers with
 //    no alarm and no ESTOP, each axis it moves is homed (SETON) with its
 //    servo ready (SVRE), its target lies within its soft limits, and every
@@ -73,6 +75,12 @@ struct ActivityResult {
 // group), in the user's terms; nullopt when all hold. Pure.
 std::optional<std::string> interlock_violation(const Cycle& cycle, const Step& step,
                                                const AxisStates& axes);
+
+// The first user interlock naming `moving` ("z below 45 mm before x
+// moves") that does not hold. The Runner also checks it at every poll while
+// `moving` moves: an interlock broken during a step stops every axis.
+std::optional<std::string> user_interlock_violation(const Cycle& cycle, const std::string& moving,
+                                                    const AxisStates& axes);
 
 // Where `outcome` of `step` sends the cycle (the step's `on`, else the defaults).
 Target target_of(const Step& step, Outcome outcome);
