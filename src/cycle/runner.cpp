@@ -228,6 +228,7 @@ struct Runner::Impl {
     CycleReport report;
     t0 = clock().now();
     Engine engine(cycle);
+    std::optional<StepReport> running;  // the step under way, for a line fault
     try {
       for (;;) {
         if (stop_requested()) {
@@ -238,7 +239,8 @@ struct Runner::Impl {
         auto next = engine.next(read_all());
         if (std::holds_alternative<Finished>(next)) break;
         const Batch& b = std::get<Batch>(next);
-        StepReport step{b.path, b.step->text, since_start(), {}, {}, {}};
+        running = StepReport{b.path, b.step->text, since_start(), {}, {}, {}};
+        StepReport& step = *running;
         const BatchEnd end = run_batch(b, step, report.stood);
         step.end = since_start();
         if (end.cut) {
@@ -249,11 +251,21 @@ struct Runner::Impl {
           if (step.decision == "abort") report.stood = stop_all();
         }
         report.steps.push_back(step);
-        if (options.on_step) options.on_step(step);
+        running.reset();
+        if (options.on_step) options.on_step(report.steps.back());
         if (engine.result()) break;
       }
     } catch (const client::TransportError& e) {
-      engine.end(fmt::format("line fault: {}", e.what()));
+      if (running) {
+        engine.end(fmt::format("line fault during step {} ({}): {}", running->path, running->text,
+                               e.what()));
+        running->end = since_start();
+        running->decision = "line fault";
+        report.steps.push_back(*running);
+        if (options.on_step) options.on_step(report.steps.back());
+      } else {
+        engine.end(fmt::format("line fault: {}", e.what()));
+      }
       report.stood = stop_all();
     }
     report.completed = engine.result() && engine.result()->completed;

@@ -242,6 +242,36 @@ steps:
   EXPECT_EQ(span(r, 0, 0).outcome, Outcome::Stopped);
 }
 
+TEST(Runner, ALineThatFallsSilentMidStepEndsTheCycleAndSaysSo) {
+  Cell cell(kRunAxes + "steps:\n  - move: {axis: x, to: 300, speed: 100}\n");
+  const TimePoint silent_at = cell.clock.now() + 1s;
+  RunOptions o;
+  o.stop_requested = [&] {  // polled between transactions: here, the fault's trigger
+    if (cell.clock.now() >= silent_at && !cell.bus.faults().any()) {
+      sim::FaultConfig f;
+      f.drop = 1.0;  // the controllers act on every request but no reply comes back
+      cell.bus.set_faults(f);
+    }
+    return false;
+  };
+  const CycleReport r = cell.run(o);
+  EXPECT_FALSE(r.completed);
+  EXPECT_THAT(r.ended, HasSubstr("line fault during step 1 (move x to 300.00 mm): "));
+  ASSERT_EQ(r.steps.size(), 1u);
+  EXPECT_EQ(r.steps[0].decision, "line fault");
+  ASSERT_EQ(r.stood.size(), 2u);
+  for (const auto& s : r.stood) {
+    EXPECT_FALSE(s.stopped) << s.how;  // no read came back: not claimed at rest
+    EXPECT_FALSE(s.how.empty());
+  }
+  // The stop reached the controller although its replies were lost: x is at
+  // rest near 125 mm, not at 300 mm where it would be by now (6 s) unstopped.
+  cell.bus.set_faults({});
+  const auto x_at = cell.clients.at("x")->read_state();
+  EXPECT_EQ(x_at.speed_mm_s, 0);
+  EXPECT_LT(x_at.position_001mm, 20000) << r.stood[0].how;
+}
+
 TEST(Runner, RepeatsTheCycle) {
   Cell cell(kRunAxes + R"(repeat: 3
 steps:
