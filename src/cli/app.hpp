@@ -130,5 +130,6 @@ void add_replay_command(CLI::App& app, const GlobalOptions& globals);  // replay
 void add_doctor_command(CLI::App& app, Session& session);              // doctor (diagnose the line)
 void add_history_commands(CLI::App& app,
                           const GlobalOptions& globals);  // history, health (lec serve)
+void add_cycle_commands(CLI::App& app, const GlobalOptions& globals);  // cycle check/run (issue 34)
 
 }  // namespace lec6::cli

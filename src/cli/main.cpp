@@ -153,6 +153,7 @@ int main(int argc, char** argv) {
   cli::add_doctor_command(app, session);
   app.footer(std::string(kExitCodes) + kPorts);
   cli::add_history_commands(app, options);  // issue 26
+  cli::add_cycle_commands(app, options);    // issue 34
   install_signal_handlers();
 
   try {

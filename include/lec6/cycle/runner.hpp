@@ -1,0 +1,93 @@
+#pragma once
+// Runs a Cycle on controllers: the I/O around the Engine (engine.hpp).
+// One thread, one Client per axis (axes on one line share its Master); all
+// on one clock: on the in-process twin with a VirtualClock the cycle runs in
+// simulated time (waits jump the clock), on a line in real time.
+//
+//   cycle::Runner run(cycle, {{"x", &client_x}, {"z", &client_z}});
+//   cycle::CycleReport r = run.run();
+//
+// For every step: read every axis (flags, state) for the interlocks, start
+// every activity of the step back to back (a group's moves one after the
+// other, one write burst each), then poll the unfinished ones round robin
+// (flags, then state) until each has ended. An outcome that aborts ends the
+// cycle at once: every axis of the cycle is stopped (a RESET pulse judged by
+// the axis, client/stop.hpp) and the report says where each stood. A stop
+// request (RunOptions::stop_requested, polled between transactions) does the
+// same. Attacked by tests/cycle/runner_test.cpp on the twin.
+//
+// Thread safety: one thread; the Clients must outlive the Runner.
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lec6/client/client.hpp"
+#include "lec6/client/stop.hpp"
+#include "lec6/cycle/engine.hpp"
+
+namespace lec6::cycle {
+
+// One axis's part of a step, in time from the cycle's start.
+struct AxisSpan {
+  std::string axis;  // empty for a dwell
+  std::string what;  // the step's text
+  Duration start{};
+  Duration end{};
+  Outcome outcome = Outcome::Done;
+  std::string detail;
+  int32_t position_001mm = 0;  // at the end
+};
+
+struct StepReport {
+  std::string path;  // "3", "4.2 (2/5)", "reject.1"
+  std::string text;
+  Duration start{};
+  Duration end{};
+  std::vector<AxisSpan> axes;
+  std::string decision;  // "continue", "branch reject", "abort", "stopped"
+};
+
+// Where an axis stood when a cycle was stopped or aborted.
+struct AxisStand {
+  std::string axis;
+  bool stopped = false;  // a read showed it at rest after the stop
+  int32_t position_001mm = 0;
+  std::string how;  // client::StopReport::describe()
+};
+
+struct CycleReport {
+  bool completed = false;
+  std::string ended;  // Finished::reason
+  Duration cycle_time{};
+  unsigned iterations = 0;  // passes of the whole cycle begun
+  std::vector<StepReport> steps;
+  std::vector<AxisStand> stood;  // every axis, when the cycle was stopped or aborted
+};
+
+struct RunOptions {
+  std::function<bool()> stop_requested;  // polled between transactions
+  client::StopPolicy stop_policy{};
+  // Each step as it ends (a live printout).
+  std::function<void(const StepReport&)> on_step;
+};
+
+class Runner {
+ public:
+  // `clients`: the Client of every axis of the cycle, by axis name.
+  Runner(const Cycle& cycle, std::map<std::string, client::Client*> clients,
+         RunOptions options = {});
+  ~Runner();
+  Runner(const Runner&) = delete;
+  Runner& operator=(const Runner&) = delete;
+
+  CycleReport run();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace lec6::cycle

@@ -1,0 +1,124 @@
+// `lec cycle check FILE` and `lec cycle run FILE`: machine cycles (issue 34,
+// docs/cycles.md). The file is read and checked whole before any port is
+// opened; a bad file exits 2 with file:line:column: field: rule.
+
+#include <fstream>
+
+#include "cli/app.hpp"
+#include "cli/cycle_lines.hpp"
+#include "cli/cycle_report.hpp"
+#include "cli/duration_option.hpp"
+#include "lec6/cycle/cycle_file.hpp"
+#include "lec6/cycle/runner.hpp"
+
+namespace lec6::cli {
+
+namespace {
+
+struct CycleArgs {
+  std::string file;
+  std::string junit;
+  bool prepare = false;
+  Duration max_cycle_time{};
+};
+
+std::string cycle_port(const GlobalOptions& g) {
+  if (!g.port.empty()) return g.port;
+  if (const char* env = std::getenv("LEC_PORT"); env && *env) return env;
+  return {};
+}
+
+void check(const GlobalOptions& g, const CycleArgs& a) {
+  const cycle::Cycle c = cycle::load_cycle(a.file);  // CycleError: exit 2
+  std::size_t steps = 0;
+  std::function<void(const std::vector<cycle::Step>&)> count = [&](const auto& list) {
+    for (const auto& s : list) {
+      ++steps;
+      count(s.steps);
+    }
+  };
+  count(c.steps);
+  for (const auto& [name, list] : c.branches) count(list);
+  if (g.json) {
+    fmt::print(
+        "{{\"file\": \"{}\", \"cycle\": \"{}\", \"valid\": true, \"axes\": {}, \"steps\": {}, "
+        "\"branches\": {}}}\n",
+        a.file, c.name, c.axes.size(), steps, c.branches.size());
+    return;
+  }
+  fmt::print("{}: cycle '{}' is valid: {} axes, {} steps, {} branches, {} interlocks\n", a.file,
+             c.name, c.axes.size(), steps, c.branches.size(), c.interlocks.size());
+}
+
+// The exit code and, when not 0, the message.
+std::pair<int, std::string> run(const GlobalOptions& g, const CycleArgs& a) {
+  const cycle::Cycle c = cycle::load_cycle(a.file);  // before any port is opened
+  CycleLines lines(c, g, cycle_port(g));
+  if (lines.simulated() || a.prepare) lines.prepare(c);
+  if (!g.json) {
+    fmt::print("cycle '{}' on {}\n", c.name, lines.describe());
+    std::fflush(stdout);
+  }
+  cycle::RunOptions o;
+  o.stop_requested = [] { return g_interrupted.load(); };
+  if (!g.json) {
+    o.on_step = [](const cycle::StepReport& s) {
+      fmt::print("{}", format_step(s));
+      std::fflush(stdout);
+    };
+  }
+  cycle::Runner runner(c, lines.clients(), o);
+  const cycle::CycleReport r = runner.run();
+  if (g.json) {
+    fmt::print("{}\n", report_json(r, lines.simulated()));
+  } else {
+    fmt::print("{}", format_end(r, lines.simulated()));
+  }
+  std::fflush(stdout);  // the report before the exit's message on stderr
+  const std::optional<Duration> limit =
+      a.max_cycle_time > Duration{} ? std::optional<Duration>(a.max_cycle_time) : std::nullopt;
+  if (!a.junit.empty()) {
+    std::ofstream out(a.junit);
+    out << junit_xml(c.name, r, limit);
+    if (!out.flush()) throw CommandFailed(kFailure, fmt::format("cannot write {}", a.junit));
+  }
+  if (g_interrupted.load()) return {kInterrupted, "cycle stopped (Ctrl-C): every axis was stopped"};
+  if (!r.completed) return {kFailure, "cycle not completed: " + r.ended};
+  if (limit && r.cycle_time > *limit) {
+    return {kFailure, fmt::format("the cycle took {:.3f} s, over --max-cycle-time {:.3f} s",
+                                  to_seconds(r.cycle_time), to_seconds(*limit))};
+  }
+  return {kSuccess, {}};
+}
+
+}  // namespace
+
+void add_cycle_commands(CLI::App& app, const GlobalOptions& globals) {
+  auto* cycle = app.add_subcommand(
+      "cycle", "Machine cycles of several axes from a YAML file (docs/cycles.md): check, run");
+  cycle->require_subcommand(1);
+  auto a = std::make_shared<CycleArgs>();
+
+  auto* chk = cycle->add_subcommand("check", "Check a cycle file; nothing is opened or moved");
+  chk->add_option("file", a->file, "The cycle file (YAML)")->required();
+  chk->callback([&globals, a] { check(globals, *a); });
+
+  auto* run_cmd = cycle->add_subcommand(
+      "run",
+      "Run a cycle: --port sim runs it on the twin in simulated time, a serial port or "
+      "tcp:// on the line in real time");
+  run_cmd->add_option("file", a->file, "The cycle file (YAML)")->required();
+  run_cmd->add_option("--junit", a->junit, "Write the cycle's assertions as JUnit XML to FILE");
+  run_cmd->add_flag("--prepare", a->prepare,
+                    "Serial mode, servo on and return to origin for every axis first (always "
+                    "done with --port sim)");
+  add_duration_option(run_cmd, "--max-cycle-time", a->max_cycle_time,
+                      "Fail (exit 1, and in --junit) when the cycle takes longer",
+                      {std::chrono::milliseconds(1), std::chrono::hours(24), {}});
+  run_cmd->callback([&globals, a] {
+    const auto [code, message] = run(globals, *a);
+    if (code != kSuccess) throw CommandFailed(code, message);
+  });
+}
+
+}  // namespace lec6::cli

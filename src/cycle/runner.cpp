@@ -1,0 +1,295 @@
+#include "lec6/cycle/runner.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "lec6/client/actuator.hpp"
+#include "lec6/cycle/watch.hpp"
+#include "lec6/lec/units.hpp"
+
+namespace lec6::cycle {
+
+namespace {
+
+struct Live {
+  const Step* step = nullptr;
+  std::optional<Watch> watch;
+  std::optional<ActivityResult> result;
+  AxisSpan span;
+};
+
+// How a batch ended: every activity resolved, or cut short (an abort, a stop).
+struct BatchEnd {
+  std::vector<ActivityResult> results;
+  std::optional<std::string> cut;  // the reason the cycle ends now
+};
+
+}  // namespace
+
+struct Runner::Impl {
+  struct AxisIo {
+    client::Client* client = nullptr;
+    std::unique_ptr<client::Actuator> actuator;
+  };
+
+  Impl(const Cycle& c, std::map<std::string, client::Client*> clients, RunOptions o)
+      : cycle(c), options(std::move(o)) {
+    for (const auto& a : c.axes) {
+      auto it = clients.find(a.name);
+      if (it == clients.end() || !it->second) {
+        throw InvalidArgument(fmt::format("cycle runner: no client for axis {}", a.name));
+      }
+      AxisIo io{it->second, std::make_unique<client::Actuator>(*it->second)};
+      io.actuator->set_soft_limits(a.soft_limits);
+      axes.emplace(a.name, std::move(io));
+    }
+  }
+
+  const Clock& clock() const { return axes.begin()->second.client->clock(); }
+  Duration since_start() const { return clock().now() - t0; }
+  bool stop_requested() const { return options.stop_requested && options.stop_requested(); }
+
+  AxisStates read_all() {
+    for (const auto& a : cycle.axes) {
+      AxisState& s = states[a.name];
+      try {
+        auto& c = *axes.at(a.name).client;
+        s.flags = c.read_flags();
+        s.state = c.read_state();
+        s.answered = true;
+      } catch (const client::TransportError&) {
+        s.answered = false;
+      }
+    }
+    return states;
+  }
+
+  // A RESET pulse to every axis first (one write pair each: the axes start
+  // decelerating together), then each stop judged by its axis (stop.hpp:
+  // the pulse again, reads until at rest, escalation by the policy).
+  std::vector<AxisStand> stop_all() {
+    for (const auto& a : cycle.axes) {
+      try {
+        axes.at(a.name).actuator->stop();
+      } catch (const Error&) {  // the judged stop below reports what could not be sent
+      }
+    }
+    std::vector<AxisStand> stood;
+    for (const auto& a : cycle.axes) {
+      const client::StopReport r =
+          axes.at(a.name).actuator->stop(client::StopKind::Stop, options.stop_policy);
+      stood.push_back({a.name, r.stopped, r.state.position_001mm, r.describe()});
+      states[a.name].state = r.state;
+    }
+    return stood;
+  }
+
+  void start(Live& l) {
+    const Step& s = *l.step;
+    l.span.start = since_start();
+    if (s.kind == Step::Kind::Wait || s.kind == Step::Kind::Dwell) {
+      l.watch = Watch::timed(s, clock().now());
+      return;
+    }
+    auto& act = *axes.at(s.axis).actuator;
+    try {
+      if (s.kind == Step::Kind::RunStep) {  // never in a group: run to its end here
+        client::WaitOptions w;
+        w.cancel = [this] { return stop_requested(); };
+        const auto r = act.run_step(s.stored_step, act.deadline_in(s.timeout), w);
+        l.result = ActivityResult{outcome_of(r.outcome), r.describe()};
+        l.span.position_001mm = r.state.position_001mm;
+        return;
+      }
+      const client::StartedMove started = act.start(s.move);
+      l.span.start = started.start.at - t0;
+      l.watch = Watch::motion(s, started.start, started.start.at + s.timeout);
+    } catch (const client::InvalidRequest& e) {
+      l.result = ActivityResult{Outcome::Refused, e.what()};
+    } catch (const client::ControllerException& e) {
+      l.result = ActivityResult{Outcome::Refused, e.what()};
+    } catch (const client::AlarmError& e) {
+      l.result = ActivityResult{Outcome::Alarm, e.what()};
+    } catch (const client::DeadlineError& e) {
+      l.result = ActivityResult{Outcome::Timeout, e.what()};
+    } catch (const client::MoveNotStarted& e) {
+      l.result = ActivityResult{Outcome::NotStarted, e.what()};
+    } catch (const client::Cancelled& e) {
+      l.result = ActivityResult{Outcome::Stopped, e.what()};
+    }
+  }
+
+  void poll(Live& l) {
+    if (l.step->kind == Step::Kind::Dwell) {
+      l.result = l.watch->feed_time(clock().now());
+      return;
+    }
+    auto& c = *axes.at(l.step->axis).client;
+    client::Poll p;
+    p.flags = c.read_flags();
+    p.at = c.clock().now();
+    p.state = c.read_state();
+    states[l.step->axis] = {p.flags, p.state, true};
+    l.span.position_001mm = p.state.position_001mm;
+    l.result = l.watch->feed(p);
+    if (l.result && l.result->outcome == Outcome::Alarm) {
+      try {
+        const auto codes = axes.at(l.step->axis).actuator->active_alarms(p.flags);
+        std::string list;
+        for (auto code : codes) list += fmt::format("{}{}", list.empty() ? "" : ", ", code);
+        if (!list.empty()) l.result->detail += " (alarm " + list + ")";
+      } catch (const Error&) {
+      }
+    }
+  }
+
+  // Ends every unresolved activity as stopped, stops every axis.
+  std::vector<AxisStand> cut(std::vector<Live>& live, const std::string& why) {
+    auto stood = stop_all();
+    for (auto& l : live) {
+      if (l.result) continue;
+      l.result = ActivityResult{Outcome::Stopped, why};
+      l.span.end = since_start();
+      l.span.outcome = Outcome::Stopped;
+      l.span.detail = why;
+      if (!l.step->axis.empty()) l.span.position_001mm = states[l.step->axis].state.position_001mm;
+    }
+    return stood;
+  }
+
+  // The user interlocks of every axis still moving, on the latest polls.
+  void check_interlocks_during(const Batch& b, std::vector<Live>& live, BatchEnd& end,
+                               std::vector<AxisStand>& stood) {
+    for (const auto& l : live) {
+      if (l.result || !l.step->moves()) continue;
+      if (auto why = user_interlock_violation(cycle, l.step->axis, states)) {
+        end.cut =
+            fmt::format("interlock broken during step {} ({}): {}", b.path, b.step->text, *why);
+        stood = cut(live, "stopped: interlock broken: " + *why);
+        return;
+      }
+    }
+  }
+
+  BatchEnd run_batch(const Batch& b, StepReport& report, std::vector<AxisStand>& stood) {
+    std::vector<Live> live;
+    for (const auto& a : b.activities) {
+      Live l;
+      l.step = a.step;
+      l.span.axis = a.step->axis;
+      l.span.what = a.step->text;
+      if (!l.step->axis.empty()) l.span.position_001mm = states[l.step->axis].state.position_001mm;
+      live.push_back(std::move(l));
+    }
+    BatchEnd end;
+    auto settle = [&](Live& l) -> bool {  // true: the cycle ends now
+      l.span.end = since_start();
+      l.span.outcome = l.result->outcome;
+      l.span.detail = l.result->detail;
+      if (target_of(*l.step, l.result->outcome).kind != Target::Abort) return false;
+      end.cut = fmt::format("aborted at step {} ({}): {}: {}", b.path, l.step->text,
+                            outcome_name(l.result->outcome), l.result->detail);
+      stood = cut(live, "stopped: the cycle was aborted");
+      return true;
+    };
+    for (auto& l : live) {
+      start(l);
+      if (l.result && settle(l)) break;
+    }
+    while (!end.cut &&
+           std::any_of(live.begin(), live.end(), [](const Live& l) { return !l.result; })) {
+      if (stop_requested()) {
+        end.cut = fmt::format("stopped by request during step {} ({})", b.path, b.step->text);
+        stood = cut(live, "stopped by request");
+        break;
+      }
+      bool polled = false;
+      std::optional<TimePoint> wake;
+      for (auto& l : live) {
+        if (l.result) continue;
+        if (l.step->kind != Step::Kind::Dwell) polled = true;
+        poll(l);
+        if (l.result && settle(l)) break;
+        if (!l.result && l.watch->wake_at())
+          wake = std::min(wake.value_or(TimePoint::max()), *l.watch->wake_at());
+      }
+      if (!end.cut) check_interlocks_during(b, live, end, stood);
+      if (!polled && wake && !end.cut) axes.begin()->second.client->idle_until(*wake);
+    }
+    for (auto& l : live) {
+      end.results.push_back(*l.result);
+      report.axes.push_back(l.span);
+    }
+    return end;
+  }
+
+  CycleReport run() {
+    CycleReport report;
+    t0 = clock().now();
+    Engine engine(cycle);
+    std::optional<StepReport> running;  // the step under way, for a line fault
+    try {
+      for (;;) {
+        if (stop_requested()) {
+          report.stood = stop_all();
+          engine.end("stopped by request between steps");
+          break;
+        }
+        auto next = engine.next(read_all());
+        if (std::holds_alternative<Finished>(next)) break;
+        const Batch& b = std::get<Batch>(next);
+        running = StepReport{b.path, b.step->text, since_start(), {}, {}, {}};
+        StepReport& step = *running;
+        const BatchEnd end = run_batch(b, step, report.stood);
+        step.end = since_start();
+        if (end.cut) {
+          engine.end(*end.cut);
+          step.decision = stop_requested() ? "stopped" : "abort";
+        } else {
+          step.decision = engine.finished(end.results);
+          if (step.decision == "abort") report.stood = stop_all();
+        }
+        report.steps.push_back(step);
+        running.reset();
+        if (options.on_step) options.on_step(report.steps.back());
+        if (engine.result()) break;
+      }
+    } catch (const client::TransportError& e) {
+      if (running) {
+        engine.end(fmt::format("line fault during step {} ({}): {}", running->path, running->text,
+                               e.what()));
+        running->end = since_start();
+        running->decision = "line fault";
+        report.steps.push_back(*running);
+        if (options.on_step) options.on_step(report.steps.back());
+      } else {
+        engine.end(fmt::format("line fault: {}", e.what()));
+      }
+      report.stood = stop_all();
+    }
+    report.completed = engine.result() && engine.result()->completed;
+    report.ended = engine.result() ? engine.result()->reason : "completed";
+    report.cycle_time = since_start();
+    report.iterations = engine.iteration();
+    return report;
+  }
+
+  const Cycle& cycle;
+  RunOptions options;
+  std::map<std::string, AxisIo> axes;
+  AxisStates states;
+  TimePoint t0{};
+};
+
+Runner::Runner(const Cycle& cycle, std::map<std::string, client::Client*> clients,
+               RunOptions options)
+    : impl_(std::make_unique<Impl>(cycle, std::move(clients), std::move(options))) {}
+
+Runner::~Runner() = default;
+
+CycleReport Runner::run() {
+  return impl_->run();
+}
+
+}  // namespace lec6::cycle

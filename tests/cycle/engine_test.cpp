@@ -1,0 +1,143 @@
+// The engine alone (sans-I/O): the order of steps through repeats and
+// branches, the decisions on outcomes, and the interlocks refusing.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "lec6/cycle/cycle_file.hpp"
+#include "lec6/cycle/engine.hpp"
+
+namespace lec6::cycle {
+namespace {
+
+using ::testing::HasSubstr;
+
+AxisState ready_axis(int32_t position_001mm) {
+  AxisState a;
+  a.flags.set(lec::StatusFlags::Svre, true);
+  a.flags.set(lec::StatusFlags::Seton, true);
+  a.state.position_001mm = position_001mm;
+  a.state.target_001mm = position_001mm;
+  return a;
+}
+
+const char* kEngineCell = R"(repeat: 2
+axes:
+  x: {id: 1, soft_limits: [0, 400]}
+  z: {id: 2}
+interlocks:
+  - {before_moving: x, axis: z, below_mm: 50}
+steps:
+  - push: {axis: z, to: 80, force: 40, on_miss: reject}
+  - repeat: {times: 2, steps: [{move: {axis: x, to: 10, relative: true}}]}
+branches:
+  reject:
+    - move: {axis: z, to: 0}
+)";
+
+// Runs the engine with every activity ending as `outcome_of(path)` says.
+std::vector<std::string> engine_walk(const Cycle& c, AxisStates axes,
+                                     std::function<Outcome(const Batch&)> outcome, Finished& end) {
+  Engine e(c);
+  std::vector<std::string> paths;
+  for (;;) {
+    auto next = e.next(axes);
+    if (auto* f = std::get_if<Finished>(&next)) {
+      end = *f;
+      return paths;
+    }
+    const Batch& b = std::get<Batch>(next);
+    paths.push_back(b.path);
+    std::vector<ActivityResult> r(b.activities.size(), ActivityResult{outcome(b), ""});
+    e.finished(r);
+  }
+}
+
+TEST(Engine, WalksRepeatsAndTheWholeCycleNTimes) {
+  const Cycle c = parse_cycle(kEngineCell, "cell.yaml");
+  Finished end;
+  const auto paths = engine_walk(
+      c, {{"x", ready_axis(0)}, {"z", ready_axis(0)}},
+      [](const Batch& b) {
+        return b.step->kind == Step::Kind::Push ? Outcome::Pushed : Outcome::Reached;
+      },
+      end);
+  EXPECT_THAT(paths, ::testing::ElementsAre("1 (1/2)", "2.1 (1/2)", "2.1 (2/2)", "1 (2/2)",
+                                            "2.1 (1/2)", "2.1 (2/2)"));
+  EXPECT_TRUE(end.completed);
+}
+
+TEST(Engine, PushMissedRunsTheBranchThenGoesOn) {
+  const Cycle c = parse_cycle(kEngineCell, "cell.yaml");
+  Finished end;
+  const auto paths = engine_walk(
+      c, {{"x", ready_axis(0)}, {"z", ready_axis(0)}},
+      [](const Batch& b) {
+        return b.step->kind == Step::Kind::Push ? Outcome::PushMissed : Outcome::Reached;
+      },
+      end);
+  EXPECT_EQ(paths[0], "1 (1/2)");
+  EXPECT_EQ(paths[1], "reject.1");
+  EXPECT_EQ(paths[2], "2.1 (1/2)");
+  EXPECT_TRUE(end.completed);
+}
+
+TEST(Engine, AnOutcomeWithoutAWordAborts) {
+  const Cycle c = parse_cycle(kEngineCell, "cell.yaml");
+  Finished end;
+  const auto paths = engine_walk(
+      c, {{"x", ready_axis(0)}, {"z", ready_axis(0)}}, [](const Batch&) { return Outcome::Alarm; },
+      end);
+  EXPECT_EQ(paths.size(), 1u);
+  EXPECT_FALSE(end.completed);
+  EXPECT_THAT(end.reason, HasSubstr("aborted at step 1 (1/2) (push z to 80.00 mm): alarm"));
+}
+
+TEST(Engine, InterlocksRefuseBeforeTheStep) {
+  const Cycle c = parse_cycle(kEngineCell, "cell.yaml");
+  const auto pushed = [](const Batch&) { return Outcome::Pushed; };
+  Finished end;
+  // The user's rule: z below 50 mm before x moves (z is at 60).
+  auto paths = engine_walk(c, {{"x", ready_axis(0)}, {"z", ready_axis(6000)}}, pushed, end);
+  EXPECT_EQ(paths.size(), 1u);  // the push ran; x's move was refused
+  EXPECT_FALSE(end.completed);
+  EXPECT_THAT(end.reason,
+              HasSubstr("refused before step 2.1 (1/2) (move x by 10.00 mm): interlock: "
+                        "z below 50.00 mm before x moves (axis z is at 60.00 mm)"));
+  // Not homed.
+  AxisState z = ready_axis(0);
+  z.flags.set(lec::StatusFlags::Seton, false);
+  paths = engine_walk(c, {{"x", ready_axis(0)}, {"z", z}}, pushed, end);
+  EXPECT_TRUE(paths.empty());
+  EXPECT_THAT(end.reason, HasSubstr("axis z is not homed (SETON = 0)"));
+  // An alarm on an axis the step does not move.
+  AxisState x = ready_axis(0);
+  x.flags.set(lec::StatusFlags::Alarm, true);
+  engine_walk(c, {{"x", x}, {"z", ready_axis(0)}}, pushed, end);
+  EXPECT_THAT(end.reason, HasSubstr("axis x has an alarm"));
+  // Servo not ready.
+  z = ready_axis(0);
+  z.flags.set(lec::StatusFlags::Svre, false);
+  engine_walk(c, {{"x", ready_axis(0)}, {"z", z}}, pushed, end);
+  EXPECT_THAT(end.reason, HasSubstr("axis z is not servo ready (SVRE = 0)"));
+  // A relative move out of the soft limits (x's target is 395 mm).
+  x = ready_axis(39500);
+  engine_walk(c, {{"x", x}, {"z", ready_axis(0)}}, pushed, end);
+  EXPECT_THAT(end.reason,
+              HasSubstr("target 405.00 mm is beyond the soft limits 0.00 to 400.00 mm"));
+  // An axis that does not answer.
+  x = ready_axis(0);
+  x.answered = false;
+  engine_walk(c, {{"x", x}, {"z", ready_axis(0)}}, pushed, end);
+  EXPECT_THAT(end.reason, HasSubstr("axis x does not answer"));
+}
+
+TEST(Engine, OneResultPerActivity) {
+  const Cycle c = parse_cycle(kEngineCell, "cell.yaml");
+  Engine e(c);
+  ASSERT_TRUE(std::holds_alternative<Batch>(e.next({{"x", ready_axis(0)}, {"z", ready_axis(0)}})));
+  EXPECT_THROW(e.finished({}), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace lec6::cycle

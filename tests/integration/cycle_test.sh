@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Machine cycles (issue 34, docs/cycles.md): examples/cycles/pick-place.yaml
+# checked, run on the in-process twin in simulated time (with --json and
+# --junit), refused when bad (exit 2, file:line:column: field: rule, before
+# any port is opened), run unchanged on a twin behind a real pseudo-terminal
+# in real time (its push misses there: the no_part branch), and stopped by
+# Ctrl-C during a parallel group (exit 130, where each axis stood).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+source "$here/lib.sh"
+example="$here/../../examples/cycles/pick-place.yaml"
+lec() { "$LEC" "$@"; }
+
+# --- the example, checked and run on the twin in simulated time ------------
+expect_exit 0 check -- lec cycle check "$example"
+contains check "cycle 'pick-place' is valid: 2 axes, 13 steps, 1 branches, 1 interlocks"
+
+start=${EPOCHREALTIME/./}
+expect_exit 0 run_sim -- lec cycle run "$example" --port sim --junit "$tmp/junit.xml"
+wall_ms=$(((${EPOCHREALTIME/./} - start) / 1000))
+contains run_sim "step 6 (2/2)  push z to nest (70.00 mm)"
+contains run_sim "pushed: workpiece at 78.00 mm"
+contains run_sim "simulated time on the twin), 2 passes"
+# ~13 s of machine time in well under its real duration.
+cycle_s=$(sed -n 's/^cycle completed in \([0-9.]*\) s.*/\1/p' <<<"$out")
+if [[ -n $cycle_s ]] && /usr/bin/python3 -c "import sys; sys.exit(0 if 10 < $cycle_s < 20 and $wall_ms < 5000 else 1)"; then
+  ok
+else
+  bad "simulated time: cycle ${cycle_s:-?} s in ${wall_ms} ms of wall time"
+fi
+if grep -q 'tests="3" failures="0"' "$tmp/junit.xml"; then ok; else bad "junit: $(cat "$tmp/junit.xml")"; fi
+
+expect_exit 0 json -- lec --json cycle run "$example" --port sim
+[[ $(json 'd["completed"], d["passes"], len(d["steps"]), d["steps"][5]["axes"][0]["outcome"]') == "(True, 2, 16, 'pushed')" ]] && ok || bad "json: $out"
+
+# A cycle time over the limit fails the run and its JUnit case.
+expect_exit 1 too_slow -- lec cycle run "$example" --port sim --max-cycle-time 5s --junit "$tmp/slow.xml"
+if grep -q 'failures="1"' "$tmp/slow.xml" && grep -q 'the cycle took' "$tmp/slow.xml"; then ok; else bad "slow junit: $(cat "$tmp/slow.xml")"; fi
+
+# --- bad files: exit 2, the place and the rule, no port opened --------------
+sed 's/axis: z, to: nest/axis: y, to: nest/' "$example" >"$tmp/bad-axis.yaml"
+expect_exit 2 bad_axis -- lec cycle run "$tmp/bad-axis.yaml" --port /dev/nonexistent
+contains bad_axis "bad-axis.yaml:38:18: steps[5].push.axis: unknown axis 'y' (axes: x, z)"
+sed 's/- move: {axis: z, to: up}$/- move: {axis: x, to: 10}/' "$example" >"$tmp/twice.yaml"
+expect_exit 2 twice -- lec cycle check "$tmp/twice.yaml"
+contains twice "steps[0].parallel[1]: axis x is moved twice in this parallel group (also by steps[0].parallel[0])"
+sed 's/to: place, speed: 400/to: 450, speed: 400/' "$example" >"$tmp/limits.yaml"
+expect_exit 2 limits -- lec cycle check "$tmp/limits.yaml"
+contains limits "steps[4].parallel[0].move.to: 450.00 mm is outside axis x's soft limits 0.00 to 400.00 mm"
+
+# --- the same file on a line: a twin behind a pty, real time ---------------
+start_twin line --ids 1,2
+expect_exit 0 run_line -- lec cycle run "$example" --port "$tmp/line" --prepare
+contains run_line "push_missed"               # no part in this twin
+contains run_line "branch no_part"
+contains run_line "step no_part.1  move z to up"
+contains run_line "real time), 2 passes"
+
+# --- Ctrl-C during the parallel group of step 5: every axis stops ----------
+"$LEC" cycle run "$example" --port "$tmp/line" --prepare >"$tmp/stop.out" 2>&1 &
+run_pid=$!
+step4_ended() { grep -q "^step 4 (1/2)" "$tmp/stop.out"; }
+wait_for 30 "step 4 to end" -- step4_ended || true
+kill -INT "$run_pid"
+set +e
+wait "$run_pid"
+code=$?
+set -e
+out=$(cat "$tmp/stop.out")
+[[ $code -eq 130 ]] && ok || bad "stop: exit $code: $out"
+contains stop "stopped by request"
+contains stop "where each axis stood:"
+[[ $(grep -cE '^  (x|z) +[0-9.]+ mm  stopped at' <<<"$out") -eq 2 ]] && ok || bad "stop: two axes at rest: $out"
+
+finish
