@@ -41,10 +41,14 @@ void check(const GlobalOptions& g, const CycleArgs& a) {
   count(c.steps);
   for (const auto& [name, list] : c.branches) count(list);
   if (g.json) {
-    fmt::print(
-        "{{\"file\": \"{}\", \"cycle\": \"{}\", \"valid\": true, \"axes\": {}, \"steps\": {}, "
-        "\"branches\": {}}}\n",
-        a.file, c.name, c.axes.size(), steps, c.branches.size());
+    fmt::print("{}\n", nlohmann::json{{"file", a.file},
+                                      {"cycle", c.name},
+                                      {"valid", true},
+                                      {"axes", c.axes.size()},
+                                      {"steps", steps},
+                                      {"branches", c.branches.size()},
+                                      {"interlocks", c.interlocks.size()}}
+                           .dump());
     return;
   }
   fmt::print("{}: cycle '{}' is valid: {} axes, {} steps, {} branches, {} interlocks\n", a.file,

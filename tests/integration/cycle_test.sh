@@ -14,6 +14,8 @@ lec() { "$LEC" "$@"; }
 # --- the example, checked and run on the twin in simulated time ------------
 expect_exit 0 check -- lec cycle check "$example"
 contains check "cycle 'pick-place' is valid: 2 axes, 13 steps, 1 branches, 1 interlocks"
+expect_exit 0 check_json -- lec --json cycle check "$example"
+[[ $(json 'd["valid"], d["axes"], d["steps"], d["interlocks"]') == "(True, 2, 13, 1)" ]] && ok || bad "check json: $out"
 
 start=${EPOCHREALTIME/./}
 expect_exit 0 run_sim -- lec cycle run "$example" --port sim --junit "$tmp/junit.xml"
