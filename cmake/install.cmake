@@ -17,8 +17,9 @@ install(TARGETS lec6_modbus lec6_lec lec6_client lec6_transport lec6 lec6_sim le
         EXPORT lec6Targets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
 # serve/ is `lec serve`'s, inside the binary; it is not part of the library.
+# cycle/ (issue 34) is `lec cycle`'s for now: its library is not installed.
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/lec6 DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
-        PATTERN serve EXCLUDE)
+        PATTERN serve EXCLUDE PATTERN cycle EXCLUDE)
 install(FILES ${PROJECT_BINARY_DIR}/include/lec6/version.hpp
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lec6)
 

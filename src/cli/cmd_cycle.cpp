@@ -18,6 +18,7 @@ namespace {
 struct CycleArgs {
   std::string file;
   std::string junit;
+  std::string profile;
   bool prepare = false;
   Duration max_cycle_time{};
 };
@@ -40,10 +41,14 @@ void check(const GlobalOptions& g, const CycleArgs& a) {
   count(c.steps);
   for (const auto& [name, list] : c.branches) count(list);
   if (g.json) {
-    fmt::print(
-        "{{\"file\": \"{}\", \"cycle\": \"{}\", \"valid\": true, \"axes\": {}, \"steps\": {}, "
-        "\"branches\": {}}}\n",
-        a.file, c.name, c.axes.size(), steps, c.branches.size());
+    fmt::print("{}\n", nlohmann::json{{"file", a.file},
+                                      {"cycle", c.name},
+                                      {"valid", true},
+                                      {"axes", c.axes.size()},
+                                      {"steps", steps},
+                                      {"branches", c.branches.size()},
+                                      {"interlocks", c.interlocks.size()}}
+                           .dump());
     return;
   }
   fmt::print("{}: cycle '{}' is valid: {} axes, {} steps, {} branches, {} interlocks\n", a.file,
@@ -53,7 +58,7 @@ void check(const GlobalOptions& g, const CycleArgs& a) {
 // The exit code and, when not 0, the message.
 std::pair<int, std::string> run(const GlobalOptions& g, const CycleArgs& a) {
   const cycle::Cycle c = cycle::load_cycle(a.file);  // before any port is opened
-  CycleLines lines(c, g, cycle_port(g));
+  CycleLines lines(c, g, cycle_port(g), a.profile);
   if (lines.simulated() || a.prepare) lines.prepare(c);
   if (!g.json) {
     fmt::print("cycle '{}' on {}\n", c.name, lines.describe());
@@ -108,6 +113,8 @@ void add_cycle_commands(CLI::App& app, const GlobalOptions& globals) {
       "Run a cycle: --port sim runs it on the twin in simulated time, a serial port or "
       "tcp:// on the line in real time");
   run_cmd->add_option("file", a->file, "The cycle file (YAML)")->required();
+  run_cmd->add_option("--profile", a->profile,
+                      "--port sim: the twin's field profile (YAML, e.g. from lec sim --calibrate)");
   run_cmd->add_option("--junit", a->junit, "Write the cycle's assertions as JUnit XML to FILE");
   run_cmd->add_flag("--prepare", a->prepare,
                     "Serial mode, servo on and return to origin for every axis first (always "

@@ -1,5 +1,7 @@
 #include "cli/cycle_lines.hpp"
 
+#include "cli/profile_option.hpp"
+
 #include "lec6/client/actuator.hpp"
 #include "lec6/client/rtu_master.hpp"
 #include "lec6/lec/alarm_check.hpp"
@@ -41,7 +43,7 @@ twin::PortOptions port_options(const GlobalOptions& o) {
 }  // namespace
 
 CycleLines::CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals,
-                       const std::string& port)
+                       const std::string& port, const std::string& profile_file)
     : impl_(std::make_unique<Impl>()) {
   std::map<std::string, std::vector<const cycle::Axis*>> by_line;
   for (const auto& a : cycle.axes) by_line[a.line].push_back(&a);
@@ -51,6 +53,10 @@ CycleLines::CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals,
         "/dev/ttyUSB0, tcp://host:502, or set LEC_PORT");
   }
   simulated_ = port == "sim";
+  if (!profile_file.empty() && !simulated_) {
+    throw UsageError("--profile sets up the twin: it goes with --port sim");
+  }
+  const twin::FieldProfile profile = profile_option(profile_file);
   client::ClientOptions co;
   co.retries = globals.retries;
   co.alarm_polarity =
@@ -58,26 +64,29 @@ CycleLines::CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals,
   for (const auto& [line, axes] : by_line) {
     client::Master* master = nullptr;
     if (simulated_) {
-      sim::LineConfig lc;
-      lc.line.baud = globals.baud;
-      lc.line.silent_interval_k = globals.silent_interval_k;
-      lc.line.delay_td = globals.delay_td;
-      auto bus = std::make_unique<sim::Bus>(lc);
+      sim::LineConfig lc = profile.line;
+      if (!profile.given.count("line.baud")) lc.line.baud = globals.baud;
+      if (!profile.given.count("line.silent_interval")) {
+        lc.line.silent_interval_k = globals.silent_interval_k;
+      }
+      if (!profile.given.count("line.delay_ms")) lc.line.delay_td = globals.delay_td;
+      auto bus = std::make_unique<sim::Bus>(lc, profile.faults);
       for (const auto* a : axes) {
-        sim::ActuatorConfig config;
+        sim::ActuatorConfig config = profile.actuator;
         config.workpiece_mm = a->twin_workpiece_mm;
         bus->add(a->id, config, impl_->clock.now());
       }
       impl_->links.push_back(std::make_unique<twin::SimLink>(*bus, impl_->clock));
       client::RtuOptions ro;
-      ro.silent_interval_k = globals.silent_interval_k;
-      ro.delay_td = globals.delay_td;
+      ro.silent_interval_k = lc.line.silent_interval_k;
+      ro.delay_td = lc.line.delay_td;
       ro.timeout_margin = globals.reply_margin;
       impl_->sim_masters.push_back(std::make_unique<client::RtuMaster>(*impl_->links.back(), ro));
       impl_->buses.push_back(std::move(bus));
       master = impl_->sim_masters.back().get();
-      impl_->descriptions.push_back(
-          fmt::format("{}in-process twin @ {}", line.empty() ? "" : line + " as ", globals.baud));
+      impl_->descriptions.push_back(fmt::format("{}in-process twin @ {}, profile {}",
+                                                line.empty() ? "" : line + " as ", lc.line.baud,
+                                                profile.name));
     } else {
       const std::string text = line.empty() ? port : line;
       impl_->ports.push_back(

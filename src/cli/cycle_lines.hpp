@@ -3,7 +3,9 @@
 // one line sharing its master. An axis without `line:` is on the --port
 // line. `--port sim` puts every line on an in-process twin (a controller per
 // axis, with the file's workpieces) on one virtual clock: the cycle runs in
-// simulated time.
+// simulated time. The twin is `lec sim`'s default, or the field profile of
+// --profile FILE (a calibrated twin: `lec sim --calibrate`); --baud,
+// --silent-interval and --td apply where the profile does not say.
 
 #include <map>
 #include <memory>
@@ -19,7 +21,8 @@ namespace lec6::cli {
 class CycleLines {
  public:
   // Opens every line (UsageError for a port that cannot be named or opened).
-  CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals, const std::string& port);
+  CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals, const std::string& port,
+             const std::string& profile_file = {});
   ~CycleLines();
   CycleLines(const CycleLines&) = delete;
   CycleLines& operator=(const CycleLines&) = delete;

@@ -120,16 +120,23 @@ struct Runner::Impl {
     }
   }
 
-  void poll(Live& l) {
+  // `round`: the polls of this round by axis; an axis two members watch
+  // (a move and a wait on it) is read once per round.
+  void poll(Live& l, std::map<std::string, client::Poll>& round) {
     if (l.step->kind == Step::Kind::Dwell) {
       l.result = l.watch->feed_time(clock().now());
       return;
     }
-    auto& c = *axes.at(l.step->axis).client;
-    client::Poll p;
-    p.flags = c.read_flags();
-    p.at = c.clock().now();
-    p.state = c.read_state();
+    auto it = round.find(l.step->axis);
+    if (it == round.end()) {
+      auto& c = *axes.at(l.step->axis).client;
+      client::Poll fresh;
+      fresh.flags = c.read_flags();
+      fresh.at = c.clock().now();
+      fresh.state = c.read_state();
+      it = round.emplace(l.step->axis, fresh).first;
+    }
+    const client::Poll& p = it->second;
     states[l.step->axis] = {p.flags, p.state, true};
     l.span.position_001mm = p.state.position_001mm;
     l.result = l.watch->feed(p);
@@ -206,10 +213,11 @@ struct Runner::Impl {
       }
       bool polled = false;
       std::optional<TimePoint> wake;
+      std::map<std::string, client::Poll> round;
       for (auto& l : live) {
         if (l.result) continue;
         if (l.step->kind != Step::Kind::Dwell) polled = true;
-        poll(l);
+        poll(l, round);
         if (l.result && settle(l)) break;
         if (!l.result && l.watch->wake_at())
           wake = std::min(wake.value_or(TimePoint::max()), *l.watch->wake_at());

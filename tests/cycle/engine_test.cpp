@@ -132,6 +132,32 @@ TEST(Engine, InterlocksRefuseBeforeTheStep) {
   EXPECT_THAT(end.reason, HasSubstr("axis x does not answer"));
 }
 
+TEST(Engine, ConditionsContinueOrTakeTheFirstBranchOfAGroup) {
+  const Cycle c = parse_cycle(R"(axes: {x: 1, z: 2}
+steps:
+  - parallel:
+      - push: {axis: x, to: 10, force: 30, on: {push_missed: continue}}
+      - push: {axis: z, to: 10, force: 30, on_miss: b}
+  - parallel:
+      - push: {axis: x, to: 10, force: 30, on_miss: a}
+      - push: {axis: z, to: 10, force: 30, on_miss: b}
+branches:
+  a: [{dwell: 1s}]
+  b: [{dwell: 2s}]
+)",
+                              "cell.yaml");
+  Finished end;
+  const auto paths = engine_walk(
+      c, {{"x", ready_axis(0)}, {"z", ready_axis(0)}},
+      [](const Batch& b) {
+        return b.step->kind == Step::Kind::Parallel ? Outcome::PushMissed : Outcome::Done;
+      },
+      end);
+  // Group 1: x continues, z branches to b; group 2: both branch, a (first in the file) is taken.
+  EXPECT_THAT(paths, ::testing::ElementsAre("1", "b.1", "2", "a.1"));
+  EXPECT_TRUE(end.completed);
+}
+
 TEST(Engine, OneResultPerActivity) {
   const Cycle c = parse_cycle(kEngineCell, "cell.yaml");
   Engine e(c);

@@ -14,6 +14,8 @@ lec() { "$LEC" "$@"; }
 # --- the example, checked and run on the twin in simulated time ------------
 expect_exit 0 check -- lec cycle check "$example"
 contains check "cycle 'pick-place' is valid: 2 axes, 13 steps, 1 branches, 1 interlocks"
+expect_exit 0 check_json -- lec --json cycle check "$example"
+[[ $(json 'd["valid"], d["axes"], d["steps"], d["interlocks"]') == "(True, 2, 13, 1)" ]] && ok || bad "check json: $out"
 
 start=${EPOCHREALTIME/./}
 expect_exit 0 run_sim -- lec cycle run "$example" --port sim --junit "$tmp/junit.xml"
@@ -32,6 +34,13 @@ if grep -q 'tests="3" failures="0"' "$tmp/junit.xml"; then ok; else bad "junit: 
 
 expect_exit 0 json -- lec --json cycle run "$example" --port sim
 [[ $(json 'd["completed"], d["passes"], len(d["steps"]), d["steps"][5]["axes"][0]["outcome"]') == "(True, 2, 16, 'pushed')" ]] && ok || bad "json: $out"
+
+# The same on a field profile's twin (a calibrated twin: lec sim --calibrate).
+expect_exit 0 profile -- lec cycle run "$example" --port sim --profile "$here/../../profiles/field-quirks.yaml"
+contains profile "in-process twin @ 38400, profile field-quirks"
+contains profile "cycle completed in"
+expect_exit 2 profile_not_sim -- lec cycle run "$example" --port /dev/nonexistent --profile "$here/../../profiles/field-quirks.yaml"
+contains profile_not_sim "--profile sets up the twin: it goes with --port sim"
 
 # A cycle time over the limit fails the run and its JUnit case.
 expect_exit 1 too_slow -- lec cycle run "$example" --port sim --max-cycle-time 5s --junit "$tmp/slow.xml"
