@@ -5,7 +5,8 @@
 //   LEC=build/lec node tests/sparkplug_host/attack.mjs [scenario ...]
 //
 // Scenarios: settings-race, flood-stop, stop-result-hidden, bdseq-no-history, broker-restart,
-// sigterm-after-offline (all when none is named). Each check is named; prints
+// sigterm-after-offline, settings-refused-in-order, settings-same-value, big-dcmd-stop
+// (all when none is named). Each check is named; prints
 // "N passed, M failed" and exits non-zero on any failure.
 
 import { spawn } from 'node:child_process';
@@ -358,8 +359,93 @@ async function sigtermAfterOffline(broker) {
     `one NDEATH per bdSeq when SIGTERM follows the host's offline STATE (${tries} tries) ${twice.join('; ')}`);
 }
 
+// ---- review 2: the fixes attacked ------------------------------------------------
+
+// Two DCMDs with an action, both refused by the axis before the wire, results in order
+// (the controller in parallel mode: a move, then a servo-on with a speed). docs/sparkplug.md:
+// a refused move "gives back the settings its DCMD set"; the second DCMD gives back "the value
+// before it", which is the first refused DCMD's (dcmd.cpp settle_settings).
+async function settingsRefusedInOrder(broker) {
+  const node = 'inorder';
+  const { host, view, serve } = await bringUp(broker, node, { axes: 1 });
+  const tries = Number(process.env.TRIES ?? 8);
+  const kept = [];
+  for (let i = 0; i < tries; i++) {
+    const before = view.value('axis1', 'Command/Count');
+    const move = { 'Command/Move/Position mm': ['Double', 100 + i], 'Command/Move/Speed mm/s': ['Int32', 10 + i], 'Command/Move/Execute': ['Boolean', true] };
+    const servo = { 'Command/Servo': ['Boolean', true], 'Command/Move/Speed mm/s': ['Int32', 40 + i] };
+    // Which of the two the axis answers first is the operations' threads' race: both orders.
+    for (const values of i % 2 ? [servo, move] : [move, servo]) await dcmd(host, view, node, 'axis1', values);
+    await view.until('axis1', 'Command/Count', (v) => v >= before + 2, 5000, 'both DCMDs counted');
+    await view.until('axis1', 'Command/Outcome', (v) => v === 'failed' || v === 'done', 5000, 'the second one finished');
+    await sleep(300);
+    const pos = view.value('axis1', 'Command/Move/Position mm');
+    const speed = view.value('axis1', 'Command/Move/Speed mm/s');
+    if (pos != null || speed != null) kept.push(`try ${i}: position ${pos}, speed ${speed}`);
+    if (kept.length) break;  // the state is no longer clean
+  }
+  ck.check('lec6-never-half-applied-by-the-axis (two refused DCMDs)', kept.length === 0,
+    `a move and a servo-on with a speed, both refused by the axis (parallel mode, 409), in ${tries} tries, either order: no setting stays (${kept.join('; ') || 'none stayed'}); last: ${view.value('axis1', 'Command/Message')}`);
+  serve.kill('SIGTERM');
+  await new Promise((r) => serve.once('exit', r));
+}
+
+// A settings DCMD that writes the value a move in flight wrote: "move settings kept"; the
+// move is refused by the axis (servo off) and takes the value away (record_settings marks
+// only the fields whose value changed).
+async function settingsSameValue(broker) {
+  const node = 'samevalue';
+  const { host, view, serve } = await bringUp(broker, node, { axes: 1 });
+  const got = await run(host, view, node, 'axis1', { 'Command/Serial': ['Boolean', true] }, 'serial on');
+  if (got !== 'done') throw new Error(`serial on: ${got}`);
+  const before = view.value('axis1', 'Command/Count');
+  await dcmd(host, view, node, 'axis1', {
+    'Command/Move/Position mm': ['Double', 100], 'Command/Move/Speed mm/s': ['Int32', 30], 'Command/Move/Execute': ['Boolean', true],
+  });
+  await dcmd(host, view, node, 'axis1', { 'Command/Move/Speed mm/s': ['Int32', 30] });
+  await view.until('axis1', 'Command/Count', (v) => v >= before + 2, 5000, 'both DCMDs counted');
+  const outcome = await view.until('axis1', 'Command/Outcome', (v) => v === 'set', 5000, 'the settings DCMD kept');
+  await sleep(500);  // the move's refusal has come back
+  const speed = view.value('axis1', 'Command/Move/Speed mm/s');
+  const pos = view.value('axis1', 'Command/Move/Position mm');
+  ck.check('lec6-never-half-applied-by-the-axis (a later DCMD wrote the same value)', speed === 30 && pos == null,
+    `a settings DCMD writing speed 30 ("${outcome}", ${view.value('axis1', 'Command/Message')}) behind a move with speed 30 the axis refused (servo off): speed ${speed} (expected 30), position ${pos} (expected none)`);
+  serve.kill('SIGTERM');
+  await new Promise((r) => serve.once('exit', r));
+}
+
+// One big DCMD (empty metrics, no stop) in front of a stop: the MQTT thread decodes every
+// metric of it into a vector (stop_request -> decode_metrics_leniently) before it reads the
+// stop. docs/sparkplug.md: "a stop behind 2000 other DCMDs is on the line as fast as a lone one".
+async function bigDcmdStop(broker, mb) {
+  const node = 'bigdcmd';
+  const { host, view, serve } = await bringUp(broker, node, { axes: 2 });
+  const measure = async (bytes) => {
+    await moving(host, view, node, 'axis1');
+    await sleep(200);
+    const mk = host.mark();
+    if (bytes) {
+      const big = Buffer.alloc(bytes);
+      for (let i = 0; i + 1 < bytes; i += 2) big[i] = 0x12;
+      host.client.publish(`spBv1.0/${GROUP}/DCMD/${node}/axis2`, big, { qos: 0 });
+    }
+    await dcmd(host, view, node, 'axis1', { 'Command/Stop': ['Boolean', true] });
+    const echo = await host.waitFor(is('DCMD', 'axis1', node), 60000, 'the stop through the broker', mk);
+    await view.until('axis1', 'Flags/BUSY', (v) => v === false, 60000, 'axis1 stopped');
+    return Date.now() - echo.t;
+  };
+  const lone = await measure(0);
+  const behind = await measure(mb << 20);
+  console.log(`# stop alone: BUSY = 0 ${lone} ms after the broker handed it on; behind one ${mb} MB DCMD: ${behind} ms`);
+  ck.check('lec6-one-stop-rule: a stop behind one big DCMD', behind < lone + 100,
+    `a stop right after one ${mb} MB DCMD of empty metrics reaches the line within 100 ms of a lone stop's time (lone ${lone} ms, behind it ${behind} ms)`);
+  serve.kill('SIGTERM');
+  await new Promise((r) => serve.once('exit', r));
+}
+
 async function main() {
-  const all = ['settings-race', 'flood-stop', 'stop-result-hidden', 'bdseq-no-history', 'broker-restart', 'sigterm-after-offline'];
+  const all = ['settings-race', 'flood-stop', 'stop-result-hidden', 'bdseq-no-history', 'broker-restart', 'sigterm-after-offline',
+    'settings-refused-in-order', 'settings-same-value', 'big-dcmd-stop'];
   const want = process.argv.slice(2).length ? process.argv.slice(2) : all;
   const broker = await startBroker(dir);
   procs.push(broker.proc);
@@ -372,6 +458,9 @@ async function main() {
       else if (s === 'bdseq-no-history') await bdseqNoHistory(broker);
       else if (s === 'broker-restart') await brokerRestart();
       else if (s === 'sigterm-after-offline') await sigtermAfterOffline(broker);
+      else if (s === 'settings-refused-in-order') await settingsRefusedInOrder(broker);
+      else if (s === 'settings-same-value') await settingsSameValue(broker);
+      else if (s === 'big-dcmd-stop') await bigDcmdStop(broker, Number(process.env.BIG_MB ?? 2));
       else throw new Error(`no scenario ${s}`);
     } catch (e) {
       ck.check(s, false, 'scenario ran', String(e.stack ?? e));
