@@ -12,7 +12,7 @@
 import { spawn } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
-import { Checks, Host, freePort, http, serveYaml, sleep, startBroker, startServe, tmpdir } from './lib.mjs';
+import { Checks, Host, freePort, http, serveYaml, sleep, sp, startBroker, startServe, tmpdir } from './lib.mjs';
 
 const GROUP = 'plant';
 const ck = new Checks();
@@ -443,9 +443,53 @@ async function bigDcmdStop(broker, mb) {
   await new Promise((r) => serve.once('exit', r));
 }
 
+// A move DCMD and a stop right behind it, the gap swept: the node checks "a stop came
+// after this DCMD" (Core::command, overtaken()) before it numbers, records and hands the
+// move to Operations; a stop in that gap goes to the line first, and the move then starts
+// on a fresh slot (Operations marks only a motion already there): the axis moves after a
+// stop that was sent after the move. Not found in the tries: the move runs after the stop.
+async function stopOvertakeRace(broker) {
+  const node = 'overtake';
+  const { host, view, serve } = await bringUp(broker, node, { axes: 1 });
+  await moving(host, view, node, 'axis1', 10, 50);  // serial, servo, home, then a short move
+  await view.until('axis1', 'Flags/BUSY', (v) => v === false, 10000, 'at rest');
+  const tries = Number(process.env.TRIES_OVERTAKE ?? 150);
+  const topic = `spBv1.0/${GROUP}/DCMD/${node}/axis1`;
+  const move = sp.encodePayload({ timestamp: Date.now(), metrics: view.writes('axis1', {
+    'Command/Move/Position mm': ['Double', 390], 'Command/Move/Speed mm/s': ['Int32', 20], 'Command/Move/Execute': ['Boolean', true] }) });
+  const stop = sp.encodePayload({ timestamp: Date.now(), metrics: view.writes('axis1', { 'Command/Stop': ['Boolean', true] }) });
+  const after = [];
+  const outcomes = {};
+  for (let i = 0; i < tries && after.length === 0; i++) {
+    const before = view.value('axis1', 'Command/Count');
+    host.client.publish(topic, move, { qos: 0 });
+    const gapUs = (i % 50) * 40;
+    const t = process.hrtime.bigint();
+    while (Number(process.hrtime.bigint() - t) / 1000 < gapUs) { /* spin */ }
+    host.client.publish(topic, stop, { qos: 0 });
+    await view.until('axis1', 'Command/Count', (v) => v >= before + 2, 5000, 'both counted');
+    await view.until('axis1', 'Command/Stop Outcome', (v) => v === 'done' || v === 'failed', 5000, 'stop finished');
+    await sleep(150);
+    const busy = view.value('axis1', 'Flags/BUSY');
+    const running = view.value('axis1', 'Operation/Running');
+    const o = view.value('axis1', 'Command/Outcome');
+    outcomes[o] = (outcomes[o] ?? 0) + 1;
+    if (busy === true || (running && running !== 'none' && running !== '')) {
+      after.push(`try ${i} (gap ${gapUs} us): BUSY ${busy}, running ${running}, outcome ${o}: ${view.value('axis1', 'Command/Message')}`);
+      await dcmd(host, view, node, 'axis1', { 'Command/Stop': ['Boolean', true] });
+      await view.until('axis1', 'Flags/BUSY', (v) => v === false, 10000, 'stopped again');
+    }
+  }
+  console.log(`# last Command/Outcome after each try: ${JSON.stringify(outcomes)}`);
+  ck.check('lec6-no-dcmd-after-a-later-stop (swept gap)', after.length === 0,
+    `a move DCMD followed by a stop 0-2 ms later never leaves the axis moving after the stop's result (${tries} tries) ${after.join('; ')}`);
+  serve.kill('SIGTERM');
+  await new Promise((r) => serve.once('exit', r));
+}
+
 async function main() {
   const all = ['settings-race', 'flood-stop', 'stop-result-hidden', 'bdseq-no-history', 'broker-restart', 'sigterm-after-offline',
-    'settings-refused-in-order', 'settings-same-value', 'big-dcmd-stop'];
+    'settings-refused-in-order', 'settings-same-value', 'big-dcmd-stop', 'stop-overtake-race'];
   const want = process.argv.slice(2).length ? process.argv.slice(2) : all;
   const broker = await startBroker(dir);
   procs.push(broker.proc);
@@ -461,6 +505,7 @@ async function main() {
       else if (s === 'settings-refused-in-order') await settingsRefusedInOrder(broker);
       else if (s === 'settings-same-value') await settingsSameValue(broker);
       else if (s === 'big-dcmd-stop') await bigDcmdStop(broker, Number(process.env.BIG_MB ?? 2));
+      else if (s === 'stop-overtake-race') await stopOvertakeRace(broker);
       else throw new Error(`no scenario ${s}`);
     } catch (e) {
       ck.check(s, false, 'scenario ran', String(e.stack ?? e));
