@@ -414,9 +414,9 @@ async function settingsSameValue(broker) {
   await new Promise((r) => serve.once('exit', r));
 }
 
-// One big DCMD (empty metrics, no stop) in front of a stop: the MQTT thread decodes every
-// metric of it into a vector (stop_request -> decode_metrics_leniently) before it reads the
-// stop. docs/sparkplug.md: "a stop behind 2000 other DCMDs is on the line as fast as a lone one".
+// One big DCMD (empty metrics, no stop) in front of a stop: the MQTT thread decoded every
+// metric of it into a vector before it read the stop (9.8 s behind 2 MB); now a command over
+// 16 KiB is refused unread. docs/sparkplug.md: "a stop behind 2000 other DCMDs is on the line as fast as a lone one".
 async function bigDcmdStop(broker, mb) {
   const node = 'bigdcmd';
   const { host, view, serve } = await bringUp(broker, node, { axes: 2 });

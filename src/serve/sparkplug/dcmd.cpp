@@ -106,6 +106,7 @@ Expected<Plan, std::string> plan(const std::vector<Write>& writes, const MoveSet
         actions.push_back({"run-step", {{"step", as_int(v)}}});
         break;
       case kPosition: {
+        p.written |= 1;
         const double mm = as_double(v);
         if (!std::isfinite(mm))
           return unexpected(std::string("Command/Move/Position mm is not a number"));
@@ -113,18 +114,23 @@ Expected<Plan, std::string> plan(const std::vector<Write>& writes, const MoveSet
         break;
       }
       case kSpeed:
+        p.written |= 2;
         p.move.speed_mm_s = as_int(v);
         break;
       case kAccel:
+        p.written |= 4;
         p.move.accel_mm_s2 = as_int(v);
         break;
       case kDecel:
+        p.written |= 8;
         p.move.decel_mm_s2 = as_int(v);
         break;
       case kForce:
+        p.written |= 16;
         p.move.force_pct = as_int(v);
         break;
       case kRelative:
+        p.written |= 32;
         p.move.relative = as_bool(v);
         break;
       case kExecute:
@@ -171,44 +177,44 @@ Expected<Plan, std::string> plan(const std::vector<Write>& writes, const MoveSet
 
 namespace {
 
-// The six settings as one shape, so that each can be compared and given back.
-template <typename F>
-void each_field(MoveSettings& a, const MoveSettings& b, F f) {
-  f(0, a.position_mm, b.position_mm);
-  f(1, a.speed_mm_s, b.speed_mm_s);
-  f(2, a.accel_mm_s2, b.accel_mm_s2);
-  f(3, a.decel_mm_s2, b.decel_mm_s2);
-  f(4, a.force_pct, b.force_pct);
-  f(5, a.relative, b.relative);
+// Applies the fields of `from` that `written` names to `to`.
+void apply(MoveSettings& to, const MoveSettings& from, uint8_t written) {
+  if (written & 1) to.position_mm = from.position_mm;
+  if (written & 2) to.speed_mm_s = from.speed_mm_s;
+  if (written & 4) to.accel_mm_s2 = from.accel_mm_s2;
+  if (written & 8) to.decel_mm_s2 = from.decel_mm_s2;
+  if (written & 16) to.force_pct = from.force_pct;
+  if (written & 32) to.relative = from.relative;
+}
+
+void recompute(CommandState& s) {
+  s.move = s.kept;
+  for (const auto& p : s.pending) apply(s.move, p.values, p.written);
 }
 
 }  // namespace
 
-void record_settings(CommandState& s, int64_t count, const MoveSettings& next) {
-  if (next == s.move) return;
-  auto& p = s.provenance;
-  p.before[count] = {s.move, p.set_by};
-  each_field(s.move, next, [&](std::size_t i, auto& now, const auto& to) {
-    if (now != to) {
-      now = to;
-      p.set_by[i] = count;
-    }
-  });
+void record_settings(CommandState& s, int64_t count, const Plan& plan) {
+  if (plan.written == 0) return;
+  s.pending.push_back({count, plan.written, plan.move, false});
+  recompute(s);
 }
 
 void settle_settings(CommandState& s, int64_t count, bool refused) {
-  auto& p = s.provenance;
-  const auto it = p.before.find(count);
-  if (it == p.before.end()) return;
-  if (refused) {
-    const auto& [before, setters] = it->second;
-    each_field(s.move, before, [&](std::size_t i, auto& now, const auto& old) {
-      if (p.set_by[i] != count) return;  // a later DCMD set it since: its value stands
-      now = old;
-      p.set_by[i] = setters[i];
-    });
+  for (auto it = s.pending.begin(); it != s.pending.end(); ++it) {
+    if (it->count != count) continue;
+    if (refused) {
+      s.pending.erase(it);
+    } else {
+      it->kept = true;
+    }
+    break;
   }
-  p.before.erase(it);
+  while (!s.pending.empty() && s.pending.front().kept) {
+    apply(s.kept, s.pending.front().values, s.pending.front().written);
+    s.pending.pop_front();
+  }
+  recompute(s);
 }
 
 }  // namespace lec6::serve::sparkplug

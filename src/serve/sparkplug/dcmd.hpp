@@ -24,8 +24,7 @@
 //
 // Thread safety: pure functions.
 
-#include <array>
-#include <map>
+#include <deque>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,17 +52,24 @@ struct CommandState {
   std::string stop_outcome = "none";
   std::string stop_message;
   int64_t stop_count = 0;  // the DCMD number of that stop
-  // Which DCMD set each move setting last, and the value and setter before
-  // it: a DCMD whose action Operations refuses before the wire gives back
-  // the settings it set that no later DCMD has set since (restore()).
-  struct Provenance {
-    std::array<int64_t, 6> set_by{};  // position, speed, accel, decel, force, relative
-    std::map<int64_t, std::pair<MoveSettings, std::array<int64_t, 6>>> before;  // per DCMD
-  } provenance;
+  // The settings as kept for good, and the writes of DCMDs whose action has
+  // not settled yet, in their order: `move` is `kept` with them applied. A
+  // DCMD whose action Operations refuses before the wire takes its own writes
+  // out, and only them (settle_settings()); a field it wrote that a later
+  // DCMD wrote too keeps the later value.
+  struct PendingSettings {
+    int64_t count = 0;
+    uint8_t written = 0;  // bits: position, speed, accel, decel, force, relative
+    MoveSettings values;
+    bool kept = false;  // its action ran (or it had none): folded once those before it are
+  };
+  MoveSettings kept;
+  std::deque<PendingSettings> pending;
 };
 
-// The settings `s` took from DCMD `count` (its plan made them `next`).
-void record_settings(CommandState& s, int64_t count, const MoveSettings& next);
+struct Plan;
+// DCMD `count`'s writes (plan.written, with plan.move's values) join the settings.
+void record_settings(CommandState& s, int64_t count, const Plan& plan);
 // DCMD `count` was refused before the wire (true) or ran (false): its settings
 // are given back or kept for good.
 void settle_settings(CommandState& s, int64_t count, bool refused);
@@ -73,6 +79,7 @@ std::vector<MetricDef> command_metrics();
 
 struct Plan {
   MoveSettings move;               // the settings once this DCMD is applied
+  uint8_t written = 0;             // which of them this DCMD wrote (CommandState::PendingSettings)
   std::optional<Command> command;  // the action to run, if any
   std::string note;                // "only the stop ran" and the like
 };

@@ -30,6 +30,7 @@ namespace {
 
 constexpr Duration kStopGrace = std::chrono::seconds(2);
 
+
 uint64_t unix_ms() {
   return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
                                    std::chrono::system_clock::now().time_since_epoch())
@@ -300,6 +301,7 @@ void SparkplugNode::Core::on_connected() {
   if (stopped) return;
   std::lock_guard lock(mutex);
   rebirth_due = false;  // the births follow: a failure of the last connection is owed nothing
+  ++connects;           // before any message of this connection is delivered
   client->subscribe(session->subscriptions());
   publish(session->connected(unix_ms()));
   log(LogLevel::Info,
@@ -313,6 +315,18 @@ void SparkplugNode::Core::on_connected() {
 // handled on the event loop's thread, so the client's thread is free for the
 // next message (a stop behind a burst of 2000 DCMDs waited for all of them).
 void SparkplugNode::Core::on_message(const MqttMessage& m) {
+  // Not even copied when it is too big for a command (session.hpp: kMaxCommandBytes).
+  if (m.payload.size() > kMaxCommandBytes) {
+    const auto axis = session->device_of_dcmd(m.topic);
+    const std::string why = fmt::format("a message of {} bytes on {} is refused unread (a "
+                                        "command is at most {} bytes)",
+                                        m.payload.size(), m.topic, kMaxCommandBytes);
+    if (!axis) return log(LogLevel::Warning, "sparkplug: " + why);
+    asio::post(io, [weak = weak_from_this(), i = *axis, why] {
+      if (auto c = weak.lock(); c && !c->stopped) c->refuse(i, why);
+    });
+    return;
+  }
   // A stop first, before the mutex a tick may hold (session.hpp:
   // stop_request), and while the node is stopping too (Operations takes stops then).
   if (const auto axis = session->stop_request(m.topic, m.payload, m.retain)) {
@@ -322,9 +336,19 @@ void SparkplugNode::Core::on_message(const MqttMessage& m) {
   if (stopped) return;
   std::vector<uint64_t> seen;
   for (const auto& n : stops) seen.push_back(n->load());
-  asio::post(io, [weak = weak_from_this(), m, seen = std::move(seen)]() mutable {
-    if (auto c = weak.lock(); c && !c->stopped) c->handle(m, std::move(seen));
-  });
+  asio::post(io,
+             [weak = weak_from_this(), m, seen = std::move(seen), gen = connects.load()]() mutable {
+               auto c = weak.lock();
+               if (!c || c->stopped) return;
+               // A message of an earlier MQTT session (the event loop was slow while the
+               // client reconnected): its STATE or rebirth is not this session's.
+               if (gen != c->connects.load()) {
+                 c->log(LogLevel::Info,
+                        "sparkplug: a message of the previous MQTT session dropped: " + m.topic);
+                 return;
+               }
+               c->handle(m, std::move(seen));
+             });
 }
 
 void SparkplugNode::Core::handle(const MqttMessage& m, std::vector<uint64_t> stops_seen) {

@@ -29,57 +29,62 @@ void SparkplugNode::Core::command(const DeviceCommand& c, uint64_t stops_seen) {
   const std::size_t i = c.device;
   // A command sent before a stop of its axis never runs after that stop.
   auto overtaken = [&] { return stops[i]->load() != stops_seen; };
-  if (overtaken()) return refuse(i, "a stop sent after this DCMD came first: not run");
+  const char* kOvertaken = "a stop sent after this DCMD came first: not run";
+  if (overtaken()) return refuse(i, kOvertaken);
   std::vector<Write> writes;
   for (const Write& w : c.writes) {
     if (w.metric < command_offset) return refuse(i, "only Command/... metrics are writable");
     writes.push_back({w.metric - command_offset, w.value});
   }
-  std::optional<Plan> plan_ok;
-  std::string why;
-  {
-    std::lock_guard lock(mutex);
-    auto p = plan(writes, commands[i].move);
-    if (p) {
-      plan_ok = std::move(*p);
-    } else {
-      why = p.error();
-    }
-  }
-  if (!plan_ok) return refuse(i, why);
-  Plan& p = *plan_ok;
-  // Checked again as late as can be: a stop that came while this was planned wins.
-  if (p.command && p.command->op != Op::Stop && overtaken())
-    return refuse(i, "a stop sent after this DCMD came first: not run");
   const int64_t count = number(i);
+  std::optional<Command> action;
+  std::string note;
   {
-    // The settings are kept now and given back if Operations refuses the
-    // action before the wire (finished()): a refused DCMD keeps nothing.
+    // Planned on the settings as they are and recorded in one go: a result
+    // that comes back meanwhile cannot be undone by a stale plan. The
+    // settings are kept now and given back if Operations refuses the action
+    // before the wire (finished()): a refused DCMD keeps nothing.
     std::lock_guard lock(mutex);
     CommandState& s = commands[i];
-    s.count = std::max(s.count, count);
-    record_settings(s, count, p.move);
-    if (!p.command) settle_settings(s, count, false);  // settings alone: kept
-    if (p.command) {
-      s.outcome = "running";
-      s.message = std::string(op_name(p.command->op)) + (p.note.empty() ? "" : ": " + p.note);
-      s.status = 0;
-    } else {
-      s.outcome = "set";
-      s.message = "move settings kept";
-      s.status = 200;
+    auto p = plan(writes, s.move);
+    if (!p) return refuse_locked(i, count, p.error());
+    if (p->command && p->command->op != Op::Stop && overtaken())
+      return refuse_locked(i, count, kOvertaken);
+    record_settings(s, count, *p);
+    if (!p->command) settle_settings(s, count, false);  // settings alone: kept
+    if (count >= s.count) {  // not overtaken by a later DCMD's (a stop's) result
+      s.count = count;
+      if (p->command) {
+        s.outcome = "running";
+        s.message = std::string(op_name(p->command->op)) + (p->note.empty() ? "" : ": " + p->note);
+        s.status = 0;
+      } else {
+        s.outcome = "set";
+        s.message = "move settings kept";
+        s.status = 200;
+      }
     }
+    action = std::move(p->command);
+    note = std::move(p->note);
   }
-  if (p.command) {
-    const bool is_stop = p.command->op == Op::Stop;
-    ops.run(axes[i], *p.command, "sparkplug DCMD",
+  if (action) {
+    const bool is_stop = action->op == Op::Stop;
+    ops.run(axes[i], *action, "sparkplug DCMD",
             [weak = weak_from_this(), i, count, is_stop](OpResult r) {
               if (auto self = weak.lock()) self->finished(i, count, r, is_stop);
             });
+    // A stop that came between the last check and the run above went to the
+    // line first and found nothing to stop: stop again (a stop is idempotent).
+    if (!is_stop && overtaken()) {
+      log(LogLevel::Warning,
+          fmt::format("sparkplug: DCMD for {}: a {} raced a stop sent after it: stopping again",
+                      axes[i].name, op_name(action->op)));
+      stop_now(i);
+    }
   }
   log(LogLevel::Info, fmt::format("sparkplug: DCMD for {}: {}{}", axes[i].name,
-                                  p.command ? op_name(p.command->op) : "move settings",
-                                  p.note.empty() ? "" : " (" + p.note + ")"));
+                                  action ? op_name(action->op) : "move settings",
+                                  note.empty() ? "" : " (" + note + ")"));
   std::lock_guard lock(mutex);
   sample_axis(i, sparkplug_unix_ms());
 }
@@ -113,9 +118,13 @@ void SparkplugNode::Core::stop_now(std::size_t i) {
 }
 
 void SparkplugNode::Core::refuse(std::size_t i, const std::string& why) {
-  log(LogLevel::Warning, fmt::format("sparkplug: DCMD for {} refused: {}", axes[i].name, why));
   const int64_t count = number(i);
   std::lock_guard lock(mutex);
+  refuse_locked(i, count, why);
+}
+
+void SparkplugNode::Core::refuse_locked(std::size_t i, int64_t count, const std::string& why) {
+  log(LogLevel::Warning, fmt::format("sparkplug: DCMD for {} refused: {}", axes[i].name, why));
   CommandState& s = commands[i];
   if (count < s.count) return;
   s.count = count;

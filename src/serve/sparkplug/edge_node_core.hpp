@@ -49,6 +49,7 @@ struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
   void stop_now(std::size_t axis);
   int64_t number(std::size_t axis);  // the next DCMD number of the axis (lock-free)
   void refuse(std::size_t axis, const std::string& why);
+  void refuse_locked(std::size_t axis, int64_t count, const std::string& why);  // under `mutex`
   void finished(std::size_t axis, int64_t count, const OpResult& r, bool stop = false);
   // A message that is not a DCMD stop, on the event loop's thread (posted by
   // on_message); `stops_seen`: the axis' stop count when it arrived.
@@ -80,6 +81,7 @@ struct SparkplugNode::Core : std::enable_shared_from_this<SparkplugNode::Core> {
   // The node's own CPU (sampling, encoding, queueing), for the benchmark and the stop's log line.
   std::atomic<uint64_t> cpu_ns{0};
   std::atomic<uint64_t> published{0};
+  std::atomic<uint64_t> connects{0};  // MQTT sessions so far (messages are tagged with theirs)
 };
 
 // CPU time of the calling thread, in ns.

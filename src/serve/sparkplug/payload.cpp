@@ -160,9 +160,8 @@ Expected<Payload, std::string> decode(std::string_view bytes) {
 
 // Our own walk of the outer message (protobuf's parser takes a message
 // whole or not at all): field 2, length-delimited, is a metric.
-std::vector<Metric> decode_metrics_leniently(std::string_view bytes) {
+void visit_metrics_leniently(std::string_view bytes, const std::function<bool(Metric&&)>& visit) {
   using google::protobuf::internal::WireFormatLite;
-  std::vector<Metric> out;
   google::protobuf::io::CodedInputStream in(reinterpret_cast<const uint8_t*>(bytes.data()),
                                             static_cast<int>(bytes.size()));
   for (uint32_t tag = in.ReadTag(); tag != 0; tag = in.ReadTag()) {
@@ -172,11 +171,19 @@ std::vector<Metric> decode_metrics_leniently(std::string_view bytes) {
       std::string sub;
       if (!in.ReadVarint32(&length) || !in.ReadString(&sub, static_cast<int>(length))) break;
       Pb::Metric m;
-      if (m.ParseFromString(sub)) out.push_back(from_pb(m));
+      if (m.ParseFromString(sub) && !visit(from_pb(m))) return;
       continue;
     }
     if (!WireFormatLite::SkipField(&in, tag)) break;
   }
+}
+
+std::vector<Metric> decode_metrics_leniently(std::string_view bytes) {
+  std::vector<Metric> out;
+  visit_metrics_leniently(bytes, [&](Metric&& m) {
+    out.push_back(std::move(m));
+    return true;
+  });
   return out;
 }
 

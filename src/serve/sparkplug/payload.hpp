@@ -9,6 +9,7 @@
 // Thread safety: pure functions and values.
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -72,5 +73,7 @@ Expected<Payload, std::string> decode(std::string_view bytes);
 // is lost). For finding a stop among siblings that decode() would refuse
 // whole (session.hpp: a stop never falls with anything else).
 std::vector<Metric> decode_metrics_leniently(std::string_view bytes);
+// The same walk, metric by metric, until `visit` returns false (a stop found).
+void visit_metrics_leniently(std::string_view bytes, const std::function<bool(Metric&&)>& visit);
 
 }  // namespace lec6::serve::sparkplug

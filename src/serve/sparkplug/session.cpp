@@ -303,6 +303,10 @@ EdgeSession::Reaction EdgeSession::ncmd(std::string_view payload, bool retained,
     r.note = "a retained NCMD ignored (its age cannot be known)";
     return r;
   }
+  if (payload.size() > kMaxCommandBytes) {
+    r.note = fmt::format("an NCMD of {} bytes ignored unread", payload.size());
+    return r;
+  }
   auto p = decode(payload);
   if (!p) {
     r.note = "NCMD ignored: " + p.error();
@@ -327,16 +331,23 @@ EdgeSession::Reaction EdgeSession::dcmd(std::size_t d, std::string_view payload,
     return r;
   };
   if (retained) return refuse("a retained DCMD is refused: its age cannot be known");
+  if (payload.size() > kMaxCommandBytes) {
+    return refuse(fmt::format("a DCMD of {} bytes is refused unread (a command is at most {})",
+                              payload.size(), kMaxCommandBytes));
+  }
   DeviceCommand c{d, {}};
   // A stop goes whatever else the DCMD holds, a bad metric (even one that
   // is not well-formed protobuf) included: the one stop rule, a stop never
   // waits for, nor falls with, anything else.
-  for (const Metric& m : decode_metrics_leniently(payload)) {
-    if (is_stop(d, m)) {
-      c.writes.push_back({*metric_index(d, m), m.value});
-      r.command = std::move(c);
-      return r;
-    }
+  std::optional<Metric> stop;
+  visit_metrics_leniently(payload, [&](Metric&& m) {
+    if (is_stop(d, m)) stop = std::move(m);
+    return !stop;
+  });
+  if (stop) {
+    c.writes.push_back({*metric_index(d, *stop), stop->value});
+    r.command = std::move(c);
+    return r;
   }
   auto p = decode(payload);
   if (!p) return refuse(p.error());
@@ -404,13 +415,16 @@ bool EdgeSession::is_stop(std::size_t d, const Metric& m) const {
 
 std::optional<std::size_t> EdgeSession::stop_request(std::string_view t, std::string_view payload,
                                                      bool retained) const {
-  if (retained) return std::nullopt;
+  if (retained || payload.size() > kMaxCommandBytes) return std::nullopt;
   const auto d = device_of_dcmd(t);
   if (!d) return std::nullopt;
-  for (const Metric& m : decode_metrics_leniently(payload)) {
-    if (is_stop(*d, m)) return d;
-  }
-  return std::nullopt;
+  // At the first stop: nothing more of the DCMD is read (nor kept).
+  bool found = false;
+  visit_metrics_leniently(payload, [&](Metric&& m) {
+    found = is_stop(*d, m);
+    return !found;
+  });
+  return found ? d : std::nullopt;
 }
 
 std::vector<Message> EdgeSession::rebirth(uint64_t now_ms) {

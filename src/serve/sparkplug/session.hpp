@@ -48,6 +48,10 @@ namespace lec6::serve::sparkplug {
 inline constexpr std::string_view kNamespace = "spBv1.0";
 inline constexpr std::string_view kRebirth = "Node Control/Rebirth";
 inline constexpr std::string_view kBdSeq = "bdSeq";
+// A command is a few hundred bytes (every command metric by name: ~600). A
+// bigger NCMD or DCMD is refused unread: decoding megabytes held every stop
+// behind it for seconds (SparkplugPayloadFuzz.ABigDcmdDoesNotHoldTheStopBehindIt).
+inline constexpr std::size_t kMaxCommandBytes = 16 * 1024;
 
 struct MetricDef {
   std::string name;
@@ -121,6 +125,9 @@ class EdgeSession {
   Reaction received(std::string_view topic, std::string_view payload, bool retained,
                     uint64_t now_ms);
 
+  // The device a DCMD topic names (const and lock-free, as stop_request()).
+  std::optional<std::size_t> device_of_dcmd(std::string_view topic) const;
+
   // A DCMD on `topic` holding Command/Stop = true (not retained): its device.
   // Const and lock-free, so a stop is found without waiting for the owner.
   std::optional<std::size_t> stop_request(std::string_view topic, std::string_view payload,
@@ -152,7 +159,6 @@ class EdgeSession {
   Reaction state(std::string_view payload, uint64_t now_ms);
   Reaction ncmd(std::string_view payload, bool retained, uint64_t now_ms);
   Reaction dcmd(std::size_t d, std::string_view payload, bool retained);
-  std::optional<std::size_t> device_of_dcmd(std::string_view topic) const;
   std::optional<std::size_t> metric_index(std::size_t d, const Metric& m) const;
   bool is_stop(std::size_t d, const Metric& m) const;
   uint64_t next_seq();

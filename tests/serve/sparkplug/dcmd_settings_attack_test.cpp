@@ -31,10 +31,10 @@ Write w(std::string_view name, Value v) {
 
 // What Core::command() does with a DCMD numbered `count`: plan on the current
 // settings, record, and settle at once when it is settings alone.
-MoveSettings plan_of(const CommandState& s, std::vector<Write> writes) {
+Plan plan_of(const CommandState& s, std::vector<Write> writes) {
   auto p = plan(writes, s.move);
   EXPECT_TRUE(p) << p.error();
-  return p ? p->move : MoveSettings{};
+  return p ? *p : Plan{};
 }
 
 // A later DCMD writes the same value a move in flight wrote: it set it, and
@@ -75,7 +75,7 @@ TEST(SparkplugDcmdSettingsAttack, TwoRefusedDcmdsSettledInOrderKeepNothing) {
   settle_settings(s, 2, true);  // the servo on: 409 parallel mode
   EXPECT_EQ(s.move, MoveSettings{}) << "speed " << s.move.speed_mm_s.value_or(-1)
                                     << " (DCMD 1's, refused) is kept after both were refused";
-  EXPECT_TRUE(s.provenance.before.empty());
+  EXPECT_TRUE(s.pending.empty());
 }
 
 // The same two refused DCMDs, results in the other order: this one holds.
@@ -90,7 +90,7 @@ TEST(SparkplugDcmdSettingsAttack, TwoRefusedDcmdsSettledInReverseKeepNothing) {
   settle_settings(s, 2, true);
   settle_settings(s, 1, true);
   EXPECT_EQ(s.move, MoveSettings{});
-  EXPECT_TRUE(s.provenance.before.empty());
+  EXPECT_TRUE(s.pending.empty());
 }
 
 // Core::command() plans under the mutex, lets it go (number(), the second
@@ -105,7 +105,7 @@ TEST(SparkplugDcmdSettingsAttack, ARefusalBetweenPlanAndRecordIsNotUndone) {
       plan_of(s, {w("Command/Move/Position mm", 100.0), w("Command/Move/Speed mm/s", int64_t{10}),
                   w("Command/Move/Execute", true)}));
   // DCMD 2 (acceleration alone) is planned on DCMD 1's settings...
-  const MoveSettings planned = plan_of(s, {w("Command/Move/Accel mm/s2", int64_t{200})});
+  const Plan planned = plan_of(s, {w("Command/Move/Accel mm/s2", int64_t{200})});
   // ...DCMD 1's refusal comes back now (the mutex is free)...
   settle_settings(s, 1, true);
   // ...and DCMD 2 is recorded.
@@ -122,10 +122,10 @@ TEST(SparkplugDcmdSettingsAttack, ProvenanceIsEmptyOnceEveryDcmdIsSettled) {
   for (int64_t n = 1; n <= 1000; ++n) {
     record_settings(s, n, plan_of(s, {w("Command/Move/Speed mm/s", int64_t{1 + n % 500})}));
   }
-  EXPECT_EQ(s.provenance.before.size(), 1000u);  // one per DCMD in flight
+  EXPECT_EQ(s.pending.size(), 1000u);  // one per DCMD in flight
   for (int64_t n = 1000; n >= 1; n -= 2) settle_settings(s, n, n % 4 == 0);
   for (int64_t n = 1; n <= 1000; n += 2) settle_settings(s, n, false);
-  EXPECT_TRUE(s.provenance.before.empty());
+  EXPECT_TRUE(s.pending.empty());
 }
 
 }  // namespace settings_attack

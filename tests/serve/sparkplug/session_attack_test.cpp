@@ -71,7 +71,7 @@ TEST(SparkplugSessionAttack, AStopIsFoundBesideSiblingsTheNodeDoesNotKnow) {
 // host's encoder bug, a corrupted write) makes the whole payload fail to parse,
 // and the stop beside it falls with it: not found by stop_request(), and the
 // DCMD refused as "not a Sparkplug B payload" (each metric is now parsed on
-// its own: decode_metrics_leniently).
+// its own: visit_metrics_leniently).
 TEST(SparkplugSessionAttack, AStopIsNotLostWithAMalformedSiblingMetric) {
   EdgeSession s(attack_config(), std::nullopt);
   Payload p;
