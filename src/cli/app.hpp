@@ -68,6 +68,8 @@ struct GlobalOptions {
   std::string record;            // --record FILE: every frame on the line into a capture file
   std::string soft_limits;       // --soft-limits MIN:MAX (mm); empty: none
   std::string alarm_polarity = "active-high";  // --alarm-polarity (lec/alarm_check.hpp)
+  std::string sim_profile =
+      "default";  // --sim-profile: the twin of --port sim (default, ideal, FILE)
 };
 
 // --soft-limits MIN:MAX (mm) → limits; empty → none. UsageError when malformed.

@@ -106,6 +106,11 @@ serve::ServeConfig make_config_of(const GlobalOptions& g, const ServeArgs& a) {
           "--alarm-polarity (LEC_ALARM_POLARITY) with --config: set alarm_polarity: in the file, "
           "per line or per axis (docs/serve.md)");
     }
+    if (g.sim_profile != "default") {
+      throw UsageError(
+          "--sim-profile (LEC_SIM_PROFILE) with --config: set sim: {profile: ...} on the sim "
+          "line in the file (docs/serve.md)");
+    }
     auto c = serve::load_config(a.config);
     if (!a.state_dir.empty()) {  // --state-dir wins over the file's history.state_dir
       if (!c.history) c.history = serve::HistoryConfig{};
@@ -132,6 +137,7 @@ serve::ServeConfig make_config_of(const GlobalOptions& g, const ServeArgs& a) {
   // a --config gives it per line or axis (`alarm_polarity:`).
   f.alarm_polarity =
       lec::parse_alarm_polarity(g.alarm_polarity).value_or(lec::AlarmPolarity::ActiveHigh);
+  f.sim_profile = g.sim_profile;
   auto c = serve::config_from_flags(f);
   if (!a.mqtt.empty()) {
     serve::MqttConfig m;

@@ -80,6 +80,12 @@ void add_global_options(CLI::App& app, cli::GlobalOptions& o) {
       ->envname("LEC_ALARM_POLARITY")
       ->capture_default_str()
       ->check(CLI::IsMember({"active-high", "active-low"}));
+  app.add_option("--sim-profile", o.sim_profile,
+                 "The twin behind --port sim (and lec serve's sim line): default (lec sim's: "
+                 "the field's evidence), ideal (the manual's, as lec sim --ideal) or a field "
+                 "profile FILE")
+      ->envname("LEC_SIM_PROFILE")
+      ->capture_default_str();
   using std::chrono::milliseconds;
   using std::chrono::seconds;
   cli::add_duration_option(&app, "--reply-margin", o.reply_margin,

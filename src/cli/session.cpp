@@ -5,6 +5,7 @@
 #include "lec6/lec/step_data.hpp"
 #include "lec6/lec/units.hpp"
 #include "lec6/transport/port_spec.hpp"
+#include "lec6/twin/field_profile.hpp"
 #include "lec6/twin/line_recorder.hpp"
 #include "lec6/twin/open_port.hpp"
 
@@ -86,6 +87,14 @@ client::Client& Session::client(std::string_view default_port) {
   // Ctrl-C ends every wait on the line at once (exit 130); stop requests still go out.
   po.interrupted = [] { return g_interrupted.load(); };
   po.sim_id = static_cast<uint8_t>(options_.id);
+  if (transport::parse_port_spec(text).kind == transport::PortKind::Sim) {
+    try {
+      po.sim_actuator = twin::named_profile(options_.sim_profile).actuator;
+    } catch (const twin::ProfileError& e) {
+      throw UsageError(
+          fmt::format("--sim-profile: default, ideal or a field profile file: {}", e.what()));
+    }
+  }
   const auto spec = transport::parse_port_spec(text);
   if (!options_.record.empty() && spec.kind != transport::PortKind::Tcp) {
     static const SteadyClock steady;  // every link but a --timing fast twin's runs on it

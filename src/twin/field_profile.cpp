@@ -304,6 +304,12 @@ FieldProfile parse_field_profile(std::string_view text, const std::string& sourc
   return p;
 }
 
+FieldProfile named_profile(const std::string& name) {
+  if (name == "default") return default_profile();
+  if (name == "ideal") return ideal_profile();
+  return load_field_profile(name, default_profile());
+}
+
 FieldProfile load_field_profile(const std::filesystem::path& path, const FieldProfile& defaults) {
   std::ifstream in(path);
   if (!in) throw ProfileError(fmt::format("{}: cannot read the profile", path.string()));

@@ -2,8 +2,8 @@
 
 #include <fmt/format.h>
 
-#include "lec6/error.hpp"
 #include "lec6/client/rtu_master.hpp"
+#include "lec6/error.hpp"
 #include "lec6/transport/modbus_tcp_master.hpp"
 #include "lec6/transport/tcp_link.hpp"
 #include "lec6/twin/sim_link.hpp"
@@ -73,7 +73,7 @@ std::unique_ptr<OpenPort> open_port(const transport::PortSpec& spec, const PortO
       sim::LineConfig line;
       line.line = line_timing(options);
       port->twin_ = std::make_unique<sim::Bus>(line);
-      port->twin_->add(options.sim_id, sim::ActuatorConfig{}, port->clock_.now());
+      port->twin_->add(options.sim_id, options.sim_actuator, port->clock_.now());
       port->link_ = std::make_unique<SimLink>(*port->twin_, port->clock_);
       break;
     }

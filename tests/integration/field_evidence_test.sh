@@ -41,6 +41,11 @@ LEC_ALARM_POLARITY=active-low expect_exit 0 "the polarity from the environment" 
 [[ $(json '"alarm_check" in d, d["flags"]["alarm"]') == "(False, False)" ]] && ok || bad "env: $out"
 expect_exit 2 "a polarity that does not exist" -- lec --port "$tmp/inv" --alarm-polarity low status
 
+# ---- --port sim is lec sim's default twin; --sim-profile names another -------------------------
+expect_exit 0 "--port sim --sim-profile ideal" -- lec --port sim --sim-profile ideal status
+expect_exit 2 "a sim profile that cannot be read" -- lec --port sim --sim-profile "$tmp/none.yaml" status
+contains "it is named" "--sim-profile: default, ideal or a field profile file: $tmp/none.yaml: cannot read the profile"
+
 # ---- lec sniff names FC06 frames ----------------------------------------------------------------
 cat >"$tmp/fc06.jsonl" <<'JSONL'
 {"format":"lec6-capture","version":1,"source":"sniff","started_utc":"2026-11-27T00:00:00.000000Z","line":{"baud":38400,"parity":"N","data_bits":8,"stop_bits":1},"port":"hmi","tool":"test"}

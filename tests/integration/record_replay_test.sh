@@ -17,18 +17,18 @@ queries=$(grep -c '"dir":"query"' "$tmp/demo.jsonl" || true)
 replies=$(grep -c '"dir":"reply"' "$tmp/demo.jsonl" || true)
 [[ $queries -gt 50 && $replies -eq $queries ]] && ok || bad "records: $queries queries, $replies replies"
 
-# ---- replay against the same twin: `--port sim` is the manual's ideal (--ideal) ----
+# ---- replay against the same twin: `--port sim` is lec sim's default twin, as replay's ----
 # The in-process twin recorded in real time on a loaded machine answers late
 # by the scheduler's whims; the twin replayed in virtual time does not. So the
 # response times are not judged here (tests/twin/replay_*_test.cpp do, on a
 # virtual clock), and positions get 1 mm (a 1 ms wake-up at 500 mm/s is 0.5 mm).
 set +e
-out=$("$LEC" --json replay "$tmp/demo.jsonl" --ideal --position-tolerance 1 --response-tolerance 1000 2>/dev/null)
+out=$("$LEC" --json replay "$tmp/demo.jsonl" --position-tolerance 1 --response-tolerance 1000 2>/dev/null)
 code=$?
 set -e
 [[ $code -eq 0 ]] && ok || bad "replay json: exit $code: $out"
 [[ $(json 'd["exchanges"] == '"$queries"' and d["identical"] + d["within_tolerance"] >= 0.95 * d["exchanges"]') == True ]] &&
-  ok || bad "replay against the ideal twin: $out"
+  ok || bad "replay against the default twin: $out"
 # fast: each query as soon as the last is over, so motion is sampled at other
 # instants than captured: positions and flags during moves differ (exit 1).
 expect_exit 1 "replay fast text" -- lec replay "$tmp/demo.jsonl" --timing fast --report "$tmp/report.json"

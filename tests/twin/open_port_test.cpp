@@ -37,6 +37,20 @@ TEST(OpenPort, SimIsATwinInThisProcessWithTheGivenId) {
   EXPECT_EQ(port->master().line_timing().baud, 38400u);
 }
 
+// `--port sim` is the default twin of `lec sim` (the field's evidence: BUSY
+// rises late), unless the options name another (`lec --sim-profile ideal`).
+TEST(OpenPort, SimIsTheDefaultTwinUnlessToldOtherwise) {
+  auto port = open_port(parse_port_spec("sim"), {});
+  const auto& defaults = port->twin()->find(1)->config();
+  EXPECT_EQ(defaults.busy_delay, sim::default_config().busy_delay);
+  EXPECT_GT(defaults.busy_delay, Duration::zero());
+  EXPECT_EQ(defaults.origin_speed_mm_s, sim::default_config().origin_speed_mm_s);
+  PortOptions o;
+  o.sim_actuator = sim::ideal_config();
+  auto ideal = open_port(parse_port_spec("sim"), o);
+  EXPECT_EQ(ideal->twin()->find(1)->config().busy_delay, Duration::zero());
+}
+
 TEST(OpenPort, SerialDeviceSpeaksRtuWithTheGivenLineSettings) {
   PortTwin twin(sim::Timing::Fast);
   PortOptions o;

@@ -80,8 +80,8 @@ struct SimLineConfig {
   // sim::default_config()), ideal (the manual's, `lec sim --ideal`), or a
   // field profile file read over the default (twin/field_profile.hpp). The
   // keys below (stroke, position, workpiece, wear) override it.
-  std::string profile = "ideal";
-  sim::ActuatorConfig actuator = sim::ideal_config();
+  std::string profile = "default";
+  sim::ActuatorConfig actuator = sim::default_config();
   bool fast = false;  // timing: fast (no line delays) or real (default)
   std::optional<double> workpiece_mm;
   double stroke_max_mm = 400;
@@ -233,6 +233,7 @@ struct FlagConfig {
   bool fast_sim = false;
   std::string state_dir;                                               // empty: no move history
   lec::AlarmPolarity alarm_polarity = lec::AlarmPolarity::ActiveHigh;  // every axis's
+  std::string sim_profile = "default";  // port sim: SimLineConfig::profile (`lec --sim-profile`)
 };
 ServeConfig config_from_flags(const FlagConfig& flags);
 

@@ -60,6 +60,11 @@ class ProfileError : public InvalidArgument {
 FieldProfile default_profile();
 FieldProfile ideal_profile();
 
+// A twin named as a user names it (`lec --sim-profile`, a serve sim line's
+// `profile:`): "default", "ideal", or a profile file read over the default.
+// Throws ProfileError.
+FieldProfile named_profile(const std::string& name);
+
 // Reads and checks a profile file. Throws ProfileError.
 FieldProfile load_field_profile(const std::filesystem::path& path,
                                 const FieldProfile& defaults = {});

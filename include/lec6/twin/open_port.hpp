@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "lec6/client/master.hpp"
+#include "lec6/sim/behaviour.hpp"
 #include "lec6/sim/bus.hpp"
 #include "lec6/transport/port_spec.hpp"
 #include "lec6/transport/recording_link.hpp"
@@ -48,8 +49,11 @@ struct PortOptions {
   client::TraceSink trace{};
   // Ctrl-C: ends waits on the line (see client::RtuOptions::interrupted).
   std::function<bool()> interrupted{};
-  // `sim`: the ID of its one controller.
+  // `sim`: the ID of its one controller, and the controller: the default twin
+  // of `lec sim` (the field's evidence, sim::default_config()) unless told
+  // otherwise (`lec --sim-profile ideal`: sim::ideal_config()).
   uint8_t sim_id = 1;
+  sim::ActuatorConfig sim_actuator = sim::default_config();
   // Every byte on the line, both directions (`lec --record`), when set; RTU
   // links only (a tcp:// Modbus TCP port is refused: it is not a line).
   transport::LineTap record{};
@@ -77,7 +81,7 @@ class OpenPort {
   std::unique_ptr<sim::Bus> twin_;
   std::unique_ptr<client::Link> link_;
   std::unique_ptr<transport::RecordingLink> recording_;  // over link_, with PortOptions::record
-  std::unique_ptr<client::Master> master_;  // declared last: destroyed first
+  std::unique_ptr<client::Master> master_;               // declared last: destroyed first
   std::string description_;
   std::vector<std::string> warnings_;
 };

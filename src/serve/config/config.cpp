@@ -42,13 +42,7 @@ SimLineConfig read_sim(const Reader& r, const YAML::Node& n, const std::string& 
           "corrupt_rate", "garbage_rate", "seed", "absent_ids", "wear_pct_per_m"});
   s.profile = r.get<std::string>(n["profile"], path + ".profile", s.profile);
   try {
-    if (s.profile == "ideal") {
-      s.actuator = twin::ideal_profile().actuator;
-    } else if (s.profile == "default") {
-      s.actuator = twin::default_profile().actuator;
-    } else {
-      s.actuator = twin::load_field_profile(s.profile, twin::default_profile()).actuator;
-    }
+    s.actuator = twin::named_profile(s.profile).actuator;
   } catch (const twin::ProfileError& e) {
     r.fail(n["profile"], path + ".profile",
            fmt::format("default, ideal or a field profile file: {}", e.what()));

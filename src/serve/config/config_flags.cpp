@@ -8,6 +8,7 @@
 
 #include "lec6/serve/config.hpp"
 #include "lec6/transport/port_spec.hpp"
+#include "lec6/twin/field_profile.hpp"
 
 namespace lec6::serve {
 namespace {
@@ -90,6 +91,17 @@ ServeConfig config_from_flags(const FlagConfig& f) {
   }
   line.baud = f.baud;
   line.sim.fast = f.fast_sim;
+  line.sim.profile = f.sim_profile;
+  try {
+    line.sim.actuator = twin::named_profile(f.sim_profile).actuator;
+  } catch (const twin::ProfileError& e) {
+    throw ConfigError(
+        fmt::format("--sim-profile: default, ideal or a field profile file: {}", e.what()));
+  }
+  line.sim.stroke_max_mm = line.sim.actuator.stroke_max_mm;
+  line.sim.initial_position_mm = line.sim.actuator.initial_position_mm;
+  line.sim.workpiece_mm = line.sim.actuator.workpiece_mm;
+  line.sim.wear_pct_per_m = line.sim.actuator.wear_pct_per_m;
   for (uint8_t id : parse_ids(f.ids)) {
     AxisConfig a{id, fmt::format("axis{}", id), f.telemetry_hz, std::nullopt};
     a.alarm_polarity = f.alarm_polarity;

@@ -124,6 +124,17 @@ TEST(ServeConfig, SimProfile) {
       "    axes: [{id: 1}]\n",
       "lec6.yaml");
   EXPECT_EQ(def.lines[0].sim.actuator.busy_delay, sim::default_config().busy_delay);
+  // No profile named: lec sim's default twin, also from flags; --sim-profile ideal.
+  const auto none = parse_config("lines:\n  - port: sim\n    axes: [{id: 1}]\n", "lec6.yaml");
+  EXPECT_EQ(none.lines[0].sim.actuator.busy_delay, sim::default_config().busy_delay);
+  FlagConfig f;
+  f.port = "sim";
+  EXPECT_EQ(config_from_flags(f).lines[0].sim.actuator.busy_delay,
+            sim::default_config().busy_delay);
+  f.sim_profile = "ideal";
+  EXPECT_EQ(config_from_flags(f).lines[0].sim.actuator.busy_delay, Duration::zero());
+  f.sim_profile = "/nonexistent/p.yaml";
+  EXPECT_THROW(config_from_flags(f), ConfigError);
   EXPECT_THAT(error_of("lines:\n  - port: sim\n    sim: {profile: /nonexistent/p.yaml}\n"
                        "    axes: [{id: 1}]\n"),
               HasSubstr("lines[0].sim.profile: default, ideal or a field profile file: "
