@@ -159,7 +159,7 @@ void Daemon::start_history() {
       AxisSnapshot read;  // only what this read brought: a sample is counted once
       if (e.block == Block::State) read.state = s.state;
       if (e.block == Block::Flags) read.flags = s.flags;
-      h->on_telemetry(axis.name, read, e.at);
+      h->on_telemetry(axis.name, read, e.at, e.started);
     });
   }
 }

@@ -50,6 +50,8 @@ std::vector<std::string> validate(const ActuatorConfig& c) {
     e.push_back("BUSY delay must be 0 to 10 s");
   if (c.busy_min < Duration::zero() || c.busy_min > std::chrono::seconds(10))
     e.push_back("shortest BUSY pulse must be 0 to 10 s");
+  if (c.inp_delay < Duration::zero() || c.inp_delay > std::chrono::seconds(10))
+    e.push_back("INP delay must be 0 to 10 s");
   if (!(c.friction_thrust_pct >= 0.0) || !(c.accel_thrust_pct >= 0.0)) {
     e.push_back("thrust model shares must be ≥ 0");
   }
@@ -144,6 +146,7 @@ std::optional<Controller::Event> Controller::next_pending() const {
   }
   if (busy_hold_) consider(std::max(busy_hold_->until, now_), EventKind::BusyMinEnd);
   if (pending_) consider(std::max(pending_->at, now_), EventKind::StartDue);
+  if (inp_due_) consider(std::max(*inp_due_, now_), EventKind::InpDue);
   return best;
 }
 
@@ -181,9 +184,13 @@ void Controller::fire(const Event& e) {
     case EventKind::BusyMinEnd: {
       const bool inp = busy_hold_->inp;
       drop_busy();
-      inp_ = inp;
+      settle_inp(inp);
       return;
     }
+    case EventKind::InpDue:
+      inp_ = true;
+      inp_due_.reset();
+      return;
     case EventKind::Contact:
       // The carriage stops dead against the workpiece.
       profile_ = MotionProfile::hold(now_, *config_.workpiece_mm);

@@ -65,11 +65,21 @@ void Controller::complete(bool inp) {
   const TimePoint min_until = busy_rose_at_ + config_.busy_min;
   if (config_.busy_min > Duration::zero() && now_ < min_until) {
     busy_hold_ = BusyHold{min_until, inp};
-    inp_ = false;
+    clear_inp();
     return;
   }
   drop_busy();
+  settle_inp(inp);
+}
+
+void Controller::settle_inp(bool inp) {
+  if (inp && !pressing_ && config_.inp_delay > Duration::zero()) {
+    inp_ = false;
+    inp_due_ = now_ + config_.inp_delay;
+    return;
+  }
   inp_ = inp;
+  inp_due_.reset();
 }
 
 // BUSY falls now (an end, a stop, an alarm).

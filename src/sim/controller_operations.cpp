@@ -76,7 +76,7 @@ void Controller::cancel_op(double deceleration) {
   profile_ = MotionProfile::stop(now_, k.position, k.velocity, deceleration);
   op_ = Op{};
   drop_busy();
-  inp_ = false;
+  clear_inp();
   pressing_ = false;
 }
 
@@ -88,7 +88,7 @@ void Controller::servo_off() {
   profile_ = MotionProfile::hold(now_, kin().position);
   op_ = Op{};
   drop_busy();
-  inp_ = false;
+  clear_inp();
   pressing_ = false;
 }
 
@@ -104,7 +104,7 @@ void Controller::raise_alarm(uint8_t code) {
     cancel_op(dec);
   } else {
     drop_busy();
-    inp_ = false;
+    clear_inp();
     pressing_ = false;
   }
 }
@@ -121,10 +121,10 @@ void Controller::reset() {
     cancel_op(current_decel());
   } else if (busy_hold_) {
     drop_busy();
-    inp_ = false;
+    clear_inp();
   } else if (pressing_) {
     pressing_ = false;
-    inp_ = false;
+    clear_inp();
   }
 }
 
@@ -135,7 +135,7 @@ void Controller::hold_on() {
     case OpKind::Jog:
       if (!op_.held) {
         op_.held = true;
-        inp_ = false;
+        clear_inp();
         plan_phase();
       }
       return;
@@ -158,7 +158,7 @@ void Controller::start_homing() {
   // R-FLAG-SETON-REHOME: SETON falls while a re-home runs, or is kept.
   if (config_.seton_on_rehome == ActuatorConfig::SetonOnRehome::Clear) seton_ = false;
   begin_busy();
-  inp_ = false;
+  clear_inp();
   pressing_ = false;
   plan_phase();
 }
@@ -224,7 +224,7 @@ void Controller::start_record(const lec::StepData& data, bool is_step, uint8_t s
   op_.stop_first = moving && config_.retarget == ActuatorConfig::Retarget::StopThenStart;
   op_.held = control_.test(Coil::HOLD);
   begin_busy();
-  inp_ = false;
+  clear_inp();
   pressing_ = false;
   out_ = step_no;
   step_no_ = step_no;
@@ -258,7 +258,7 @@ void Controller::update_jog() {
   op_.held = control_.test(Coil::HOLD);
   busy_hold_.reset();
   busy_ = true;
-  inp_ = false;
+  clear_inp();
   pressing_ = false;
   plan_phase();
 }

@@ -99,6 +99,11 @@ struct ActuatorConfig {
   // when the start is taken, so a master cannot lean on the target register
   // alone. Only matters with a busy_delay.
   bool target_update_late = false;
+  // INP rises this long after BUSY fell at the end of a positioning move or
+  // a return to origin that ended in position (the drive settling inside its
+  // band; issue 32: the settle time). 0: with BUSY's fall. A push's INP (its
+  // contact) is not delayed.
+  Duration inp_delay{};
 
   // ---- Assumptions the manual leaves open (issue 33) ----------------------
   // Each is a profile key (docs/twin-fidelity.md names its row, its source and

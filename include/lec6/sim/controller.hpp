@@ -170,7 +170,7 @@ class Controller {
     double stall_thrust = 0.0;
   };
 
-  enum class EventKind { Svre, PhaseEnd, Contact, StallAlarm, StartDue, BusyMinEnd };
+  enum class EventKind { Svre, PhaseEnd, Contact, StallAlarm, StartDue, BusyMinEnd, InpDue };
 
   // A start taken but not begun yet (busy_delay).
   struct PendingStart {
@@ -213,6 +213,11 @@ class Controller {
   void begin_busy();
   void cancel_pending();
   void complete(bool inp);
+  void settle_inp(bool inp);  // INP at an operation's end (ActuatorConfig::inp_delay)
+  void clear_inp() {
+    inp_ = false;
+    inp_due_.reset();
+  }
   void drop_busy();
   void plan_phase();
   void hold_on();
@@ -236,6 +241,7 @@ class Controller {
   std::optional<TimePoint> svre_at_;
   bool seton_ = false;
   bool inp_ = false;
+  std::optional<TimePoint> inp_due_;  // INP rises then (inp_delay)
   bool busy_ = false;
   bool estop_ = false;
   bool pressing_ = false;

@@ -98,13 +98,15 @@ void History::on_op_event(const std::string& axis, const nlohmann::json& event, 
   if (done) record(std::move(*done));
 }
 
-void History::on_telemetry(const std::string& axis, const AxisSnapshot& s, TimePoint at) {
+void History::on_telemetry(const std::string& axis, const AxisSnapshot& s, TimePoint at,
+                           TimePoint started) {
   std::optional<MotionRecord> done;
   {
     std::lock_guard lock(mutex_);
     const auto it = trackers_.find(axis);
     if (it == trackers_.end()) return;
-    done = it->second.telemetry(s.state, s.flags, at, wall_ms_());
+    done = it->second.telemetry(s.state, s.flags, at, wall_ms_(),
+                                started == TimePoint{} ? std::nullopt : std::optional(started));
   }
   if (done) record(std::move(*done));
 }

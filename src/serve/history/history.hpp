@@ -50,7 +50,9 @@ class History {
   void add_listener(Listener l);
   // The observers (any thread). `at`: the line's clock.
   void on_op_event(const std::string& axis, const nlohmann::json& event, TimePoint at);
-  void on_telemetry(const std::string& axis, const AxisSnapshot& snapshot, TimePoint at);
+  // `at`: the read's reply ended; `started`: the read began ({}: at).
+  void on_telemetry(const std::string& axis, const AxisSnapshot& snapshot, TimePoint at,
+                    TimePoint started = {});
   // A step of the axis' table was written (nullopt: the whole table).
   void on_step_table_edit(const std::string& axis, std::optional<int> step);
   // Marks `what` (a configured service) as done now on `axis`. false: no such service.

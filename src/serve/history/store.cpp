@@ -23,6 +23,10 @@ namespace lec6::serve::history {
 
 using namespace store_sql;
 
+namespace {
+constexpr std::size_t kMaxBatch = 256;  // records in one transaction
+}  // namespace
+
 Store::Store(StoreConfig config, Log log) : config_(std::move(config)), log_(std::move(log)) {
   if (!config_.now_ms) config_.now_ms = system_ms;
   std::string why;
@@ -128,11 +132,14 @@ bool Store::open(const std::filesystem::path& file) {
   // one fsync per batch (a batch is a motion or a few), so a committed record
   // survives a power cut too.
   exec(writer_, "PRAGMA synchronous = FULL");
-  // The WAL stays within a tenth of the size limit: checkpoints come that often.
+  // The WAL stays within a tenth of the size limit: checkpoints come when it
+  // passes a twentieth, so the transaction that passes it (kMaxBatch records
+  // at most) still ends within the tenth.
   const uint64_t tenth = std::max<uint64_t>(config_.max_bytes / 10, 64 * 1024);
   exec(writer_, fmt::format("PRAGMA journal_size_limit = {}", tenth).c_str());
   exec(writer_,
-       fmt::format("PRAGMA wal_autocheckpoint = {}", std::max<uint64_t>(tenth / 4096, 16)).c_str());
+       fmt::format("PRAGMA wal_autocheckpoint = {}", std::max<uint64_t>(tenth / 2 / 4096, 16))
+           .c_str());
   exec(writer_, kSchema);
   {  // a file of an older version: the column issue 32 added
     bool has_pm = false;
@@ -239,8 +246,17 @@ void Store::writer_loop() {
   for (;;) {
     wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
     if (queue_.empty() && stopping_) break;
+    // A transaction's pages go to the WAL before a checkpoint can take them:
+    // at most kMaxBatch records in one, so the WAL stays near its tenth of
+    // the size limit however much was queued.
     std::deque<Item> batch;
-    batch.swap(queue_);
+    if (queue_.size() <= kMaxBatch) {
+      batch.swap(queue_);
+    } else {
+      const auto end = queue_.begin() + static_cast<std::ptrdiff_t>(kMaxBatch);
+      batch.assign(std::make_move_iterator(queue_.begin()), std::make_move_iterator(end));
+      queue_.erase(queue_.begin(), end);
+    }
     dropping_ = false;
     lock.unlock();
     const std::size_t n = batch.size();

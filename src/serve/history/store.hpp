@@ -13,8 +13,10 @@
 //     stays exact and goes out with the next record written.
 //   - Retention by age and by size: after each batch, when the file passes
 //     85 % of max_bytes, the oldest records are deleted down to 65 % and the
-//     pages given back (auto_vacuum = INCREMENTAL, WAL checkpoint TRUNCATE);
-//     records older than max_age go once an hour.
+//     pages given back (auto_vacuum = INCREMENTAL, WAL checkpoint TRUNCATE
+//     between steps); records older than max_age go once an hour. A
+//     transaction holds 256 records at most, so the WAL stays within a
+//     tenth of max_bytes (store_test.cpp RetentionBySize...UnderTheLimit).
 //   - A file SQLite cannot use (not a database, quick_check fails) is moved
 //     aside to <file>.corrupt-<unix time> with a log line, and a new one
 //     started. When even that fails the store is disabled (ok() false) and

@@ -34,7 +34,9 @@ std::vector<MotionRecord> Store::query(const HistoryQuery& q) const {
     if (b.step()) before_start = b.i64(0);
   }
   if (before_start) {
-    sql += " AND (start_ms < ? OR (start_ms = ? AND id < ?))";
+    // `start_ms <= ?` bounds the index range; the OR alone would make SQLite
+    // walk the axis from its newest record down to the page's start.
+    sql += " AND start_ms <= ? AND (start_ms < ? OR id < ?)";
   } else if (q.before_id) {
     sql += " AND id < ?";  // the record is gone (retention): by id
   }

@@ -103,6 +103,9 @@ CREATE TABLE IF NOT EXISTS motions (
   peak_speed_mm_s REAL, overshoot_mm REAL, final_error_mm REAL, distance_mm REAL, alarms TEXT,
   duration_pm_s REAL);
 CREATE INDEX IF NOT EXISTS motions_axis_start ON motions (axis, start_ms);
+CREATE INDEX IF NOT EXISTS motions_axis_outcome_start ON motions (axis, outcome, start_ms);
+CREATE INDEX IF NOT EXISTS motions_axis_kind_start ON motions (axis, kind, start_ms);
+CREATE INDEX IF NOT EXISTS motions_axis_step_start ON motions (axis, step, start_ms);
 CREATE TABLE IF NOT EXISTS odometer (
   axis TEXT PRIMARY KEY, moves INTEGER, distance_mm REAL, motion_s REAL, pushes INTEGER,
   alarms INTEGER);

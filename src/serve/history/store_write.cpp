@@ -147,15 +147,29 @@ void Store::prune(bool by_age) {
     const int64_t rows = pragma("SELECT COUNT(*) FROM motions");
     const auto keep =
         static_cast<int64_t>(double(rows) * 0.65 * double(config_.max_bytes) / double(used));
+    // In four steps, the WAL emptied after each: one DELETE of a fifth of
+    // the file writes every page it touches (the table's and its four
+    // indexes') to the WAL, which would take the file past its limit.
+    const int64_t excess = std::max<int64_t>(rows - keep, 0);
     Stmt del(writer_,
              "DELETE FROM motions WHERE id IN (SELECT id FROM motions ORDER BY id LIMIT ?)");
-    del.bind(1, std::max<int64_t>(rows - keep, 0));
-    del.step();
-    deleted += static_cast<uint64_t>(sqlite3_changes(writer_));
+    for (int part = 0; part < 4; ++part) {
+      del.reset();
+      del.bind(1, excess / 4 + (part < excess % 4 ? 1 : 0));
+      del.step();
+      deleted += static_cast<uint64_t>(sqlite3_changes(writer_));
+      exec(writer_, "PRAGMA wal_checkpoint(TRUNCATE)");
+    }
   }
   if (deleted == 0) return;
-  exec(writer_, "PRAGMA incremental_vacuum");
-  exec(writer_, "PRAGMA wal_checkpoint(TRUNCATE)");
+  // The pages given back a twentieth of the limit at a time, the WAL emptied
+  // after each: the vacuum moves pages, and every page moved is written to
+  // the WAL first.
+  const int64_t step_pages = std::max<int64_t>(16, int64_t(config_.max_bytes / 20) / page);
+  for (int i = 0; i < 100 && pragma("PRAGMA freelist_count") > 0; ++i) {
+    exec(writer_, fmt::format("PRAGMA incremental_vacuum({})", step_pages).c_str());
+    exec(writer_, "PRAGMA wal_checkpoint(TRUNCATE)");
+  }
   std::lock_guard lock(mutex_);
   stats_.pruned += deleted;
 }

@@ -123,7 +123,8 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
 
 std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::StateData>& state,
                                                      const std::optional<lec::StatusFlags>& flags,
-                                                     TimePoint at, int64_t wall_ms) {
+                                                     TimePoint at, int64_t wall_ms,
+                                                     std::optional<TimePoint> sent) {
   const std::optional<Sample> before = last_;
   if (state) {
     last_ = Sample{at, state->position_001mm / 100.0, double(state->speed_mm_s),
@@ -135,7 +136,7 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   const bool rose = busy && !last_busy_;
   last_busy_ = busy;
   const std::optional<TimePoint> flags_before = last_flags_at_;
-  last_flags_at_ = at;
+  last_flags_at_ = sent && *sent <= at ? *sent : at;
   if (!busy) wait_idle_ = false;
   if (!motion_) {
     if (!rose || wait_idle_) return std::nullopt;

@@ -63,10 +63,13 @@ class MotionTracker {
   // axis. Returns the record of a motion that finished.
   std::optional<MotionRecord> op_event(const nlohmann::json& event, TimePoint at, int64_t wall_ms);
   std::size_t samples_kept() const noexcept { return motion_ ? motion_->samples.size() : 0; }
-  // A telemetry read of the axis: its state and flags as the cache has them.
+  // A telemetry read of the axis: its state and flags as the cache has them,
+  // its reply's end `at` and its start `sent` (nullopt: at). An edge a read
+  // saw happened after the previous flags read's start and before this
+  // one's end (TelemetryBracketsOpenWhenThePreviousReadBegan).
   std::optional<MotionRecord> telemetry(const std::optional<lec::StateData>& state,
                                         const std::optional<lec::StatusFlags>& flags, TimePoint at,
-                                        int64_t wall_ms);
+                                        int64_t wall_ms, std::optional<TimePoint> sent = {});
 
  private:
   struct Sample {
@@ -90,7 +93,7 @@ class MotionTracker {
   std::optional<Motion> motion_;
   std::optional<Sample> last_;
   bool last_busy_ = false;
-  std::optional<TimePoint> last_flags_at_;
+  std::optional<TimePoint> last_flags_at_;  // the last flags read's start
   bool wait_idle_ = false;  // after an operation: BUSY must fall before telemetry starts one
 };
 

@@ -213,7 +213,7 @@ void Scheduler::note_reply(const Flight& f, const modbus::ResponseFrame& reply, 
   const auto before = cache_.snapshot(id).flags;
   const auto block = cache_.update(id, f.job.frame.pdu, reply.pdu, start);
   if (!block) return;
-  TelemetryEvent e{id, *block, false, false, end};
+  TelemetryEvent e{id, *block, false, false, end, start};
   if (*block == Block::Flags) {
     const auto after = cache_.snapshot(id).flags;
     e.flags_changed = !before || before->bits != after->bits;

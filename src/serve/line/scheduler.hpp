@@ -144,7 +144,8 @@ struct TelemetryEvent {
   Block block = Block::Flags;
   bool flags_changed = false;  // Block::Flags and the bits differ from the previous read
   bool online_changed = false;
-  TimePoint at{};
+  TimePoint at{};       // the read's reply ended (on the line's thread)
+  TimePoint started{};  // the read began ({}: at): what it shows was sampled in between
 };
 
 struct PendingCompletion {

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <random>
 
 #include "lec6/client/completion.hpp"
@@ -196,6 +197,74 @@ TEST(Timing, AGrowingSettleTimeRaisesTheSettleWarning) {
     }
   }
   EXPECT_TRUE(warned) << "a settle time 67 % longer never warned";
+}
+
+// Issue 32's proof on the completion rule's own timelines: one axis' 2 s
+// move (0.3 % noise) polled at 25 ms per axis moving on the line (1 to 8,
+// changing every 250 moves, random phases and start latencies). A healthy
+// axis gives no warning in 10^4 moves; the moves whose bracket is too wide
+// at high load are skipped, and counted. +10 % wear is flagged within 50
+// moves where durations are judged (1 and 2 moving axes); at 4 and 8 the
+// brackets (100-200 ms) are too wide for a 10 % judgement and the duration
+// is skipped, not misjudged (thrust still is; docs/history.md).
+struct LoadRun {
+  int first_warning = -1;  // move index of the first duration warning; -1: none
+  std::size_t skipped = 0, moves = 0;
+};
+
+LoadRun run_under_load(int moves, const std::function<int(int)>& axes_at,
+                       const std::function<double(int)>& wear_at, uint32_t seed) {
+  DriftDetector d;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::normal_distribution<double> noise(0, 0.003);
+  LoadRun out;
+  for (int i = 0; i < moves; ++i) {
+    const double gap = 25.0 * axes_at(i);
+    const double busy = 2000 * (1 + wear_at(i)) * (1 + noise(rng));
+    MotionRecord m = read_move(2 + 10 * unit(rng), busy, gap, gap * unit(rng)).record;
+    m.id = i + 1;
+    m.axis = "x";
+    m.start_ms = 1'700'000'000'000 + int64_t(i) * 3000;
+    for (const auto& e : d.add(m)) {
+      if (e.raised && e.warning.metric == Metric::Duration && out.first_warning < 0)
+        out.first_warning = i;
+    }
+  }
+  for (const auto& g : d.groups("x")) {
+    out.skipped += g.skipped_duration;
+    out.moves += g.moves;
+  }
+  return out;
+}
+
+TEST(Timing, AHealthyAxisUnderALoadOfOneToEightAxesNeverWarnsInTenThousandMoves) {
+  const int loads[] = {1, 2, 4, 8, 4, 2};
+  const LoadRun r = run_under_load(
+      10'000, [&](int i) { return loads[(i / 250) % 6]; }, [](int) { return 0.0; }, 11);
+  EXPECT_EQ(r.first_warning, -1) << "a false warning at move " << r.first_warning;
+  EXPECT_EQ(r.moves, 10'000u);
+  EXPECT_GT(r.skipped, 2'000u) << "the wide brackets of 4 and 8 axes are skipped";
+  EXPECT_LT(r.skipped, 8'000u) << "those of 1 and 2 axes are judged";
+  RecordProperty("durations_skipped", std::to_string(r.skipped));
+}
+
+TEST(Timing, TenPercentWearIsFlaggedWithinFiftyMovesWhereDurationsAreJudged) {
+  for (int axes : {1, 2}) {
+    // A baseline on a quiet line, then this load, then +10 % wear from move 300.
+    const LoadRun r = run_under_load(
+        400, [&](int i) { return i < 100 ? 1 : axes; }, [](int i) { return i < 300 ? 0.0 : 0.10; },
+        20 + axes);
+    EXPECT_GE(r.first_warning, 300) << axes << " axes: a warning before the wear";
+    EXPECT_LE(r.first_warning, 350) << axes << " axes: +10 % not flagged within 50 moves";
+  }
+  for (int axes : {4, 8}) {  // too wide to judge: skipped, never a false warning
+    const LoadRun r = run_under_load(
+        400, [&](int i) { return i < 100 ? 1 : axes; }, [](int i) { return i < 300 ? 0.0 : 0.10; },
+        30 + axes);
+    EXPECT_EQ(r.first_warning, -1) << axes << " axes";
+    EXPECT_GE(r.skipped, 250u) << axes << " axes: most are skipped";
+  }
 }
 
 }  // namespace

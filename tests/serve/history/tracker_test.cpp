@@ -103,6 +103,27 @@ TEST(Tracker, AMoveAnotherMasterStartedIsRecordedFromTheTelemetry) {
   EXPECT_NEAR(r->distance_mm, 80, 1e-9);
 }
 
+// Issue 32, rule 1: a telemetry read shows what the controller sampled
+// between the read's start and its reply's end (the line's own times); an
+// edge it saw happened after the previous read began, not after it ended.
+TEST(Tracker, TelemetryBracketsOpenWhenThePreviousReadBegan) {
+  MotionTracker t("x");
+  const TimePoint t0{};
+  auto read = [&](double sent_ms, double mm, bool busy, bool inp) {
+    const auto sent = t0 + std::chrono::milliseconds(int64_t(sent_ms));
+    return t.telemetry(state(mm, busy ? 50 : 0, 10, 20), flags(busy, inp), sent + 15ms, 0, sent);
+  };
+  EXPECT_FALSE(read(0, 100, false, true));
+  EXPECT_FALSE(read(100, 95, true, false));
+  EXPECT_FALSE(read(1100, 30, true, false));
+  const auto r = read(1400, 20, false, true);
+  ASSERT_TRUE(r);
+  // BUSY rose within 0-115 ms and fell within 1100-1415 ms: 1.2 ± 0.215 s
+  // (dated by the reads' ends alone: ± 0.2 s, too narrow by a read each).
+  EXPECT_NEAR(r->duration_s, 1.2, 1e-9);
+  EXPECT_NEAR(*r->duration_pm_s, 0.215, 1e-9);
+}
+
 TEST(Tracker, AfterAnOperationEndsTheTailOfItsBusyIsNotAnotherMotion) {
   MotionTracker t("x");
   TimePoint now{};
