@@ -45,6 +45,24 @@ check "/dev/full is still a character device (never kept as an earlier capture)"
 stop_twin "$SERVE_PID"
 check "lec serve exits 0 on SIGTERM" [ "$STATUS" = 0 ]
 
+# A pipe whose reader goes away (`--record >(zstd >c.zst)` and the compressor
+# died, or a FIFO's reader quit): EPIPE is a write error like a full disk,
+# said once; lec serve must not die of SIGPIPE (found in review: exit 141,
+# the line's gateway gone without a word).
+mkfifo "$TMP/rec.pipe"
+(head -c 200 <"$TMP/rec.pipe" >/dev/null) &
+TWIN_PIDS+=("$!")
+start_serve pipe --port sim --ids 1 --modbus-tcp 127.0.0.1:0 --http "" --record "$TMP/rec.pipe" || {
+  finish
+  exit 1
+}
+logged_pipe() { grep -q "recording stopped: cannot write $TMP/rec.pipe: Broken pipe" "$TMP/pipe.err"; }
+check "a pipe whose reader left: one clear error naming it" wait_for 10 "the broken pipe" -- logged_pipe
+check "lec serve is still alive after its recording pipe broke" kill -0 "$SERVE_PID"
+check "the line still answers through the gateway" L status
+stop_twin "$SERVE_PID"
+check "lec serve exits 0 on SIGTERM (not 141, SIGPIPE)" [ "$STATUS" = 0 ]
+
 # A directory that is gone: the start is refused, naming the file.
 out=$("$LEC" serve --no-history --port sim --modbus-tcp 127.0.0.1:0 --http "" \
   --record "$TMP/gone/c.jsonl" 2>&1 </dev/null)
