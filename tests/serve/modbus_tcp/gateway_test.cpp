@@ -111,6 +111,20 @@ TEST(Gateway, AnFc06GetsTheChecksOfItsFc10) {
   EXPECT_EQ(modbus::encode_response_pdu(l->pdu)[0], 0x86);
 }
 
+// An FC06 to unit 0 (broadcast, when the listener allows it): the line
+// carries no reply, so the gateway answers for the controllers, and to an
+// FC06 that answer is FC06's echo. Found in review: it was FC10's reply
+// (10 91 02 00 01), which an FC06 master takes for a garbled answer.
+TEST(Gateway, ABroadcastFc06IsAnsweredWithItsEcho) {
+  auto p = policy();
+  p.allow_broadcast = true;
+  const Bytes fc06 = {0x06, 0x91, 0x02, 0x00, 0x01};
+  const auto line = std::get<LineRequest>(decide(p, 0, fc06));
+  EXPECT_EQ(line.frame.id, 0);
+  JobResult sent;  // a broadcast: written, no reply
+  EXPECT_EQ(tcp_reply_pdu(line, sent), fc06);
+}
+
 TEST(Gateway, FailedJobsBecomeGatewayExceptions) {
   const modbus::RequestFrame frame{1, modbus::ReadRegistersRequest{0x9000, 7}};
   const auto code = [&](Failure f) {

@@ -44,7 +44,8 @@ const modbus::Request kReadState = modbus::ReadRegistersRequest{0x9000, 7};
 const modbus::Request kResetOn = modbus::WriteCoilRequest{0x1B, modbus::kCoilOn};
 
 struct Rig {
-  explicit Rig(ModbusTcpLimits limits = {}) {
+  explicit Rig(ModbusTcpLimits limits = {},
+               ModbusTcpServer::Framing framing = ModbusTcpServer::Framing::Mbap) {
     for (uint8_t id : {1, 2}) bus.add(id, {}, clock.now());
     LineOptions o;
     o.name = "line1";
@@ -60,7 +61,7 @@ struct Rig {
     GatewayPolicy policy;
     policy.units = {1, 2};
     server = std::make_unique<ModbusTcpServer>(
-        io, ListenerConfig{}, ModbusTcpServer::Framing::Mbap, *line, policy,
+        io, ListenerConfig{}, framing, *line, policy,
         [this](LogLevel, std::string_view text) {
           std::lock_guard lock(log_mutex);
           log.emplace_back(text);
@@ -280,6 +281,31 @@ TEST(ModbusTcpServer, APlcResetOvertakesEveryOtherClientsQueuedReads) {
   plc.non_blocking(false);
   EXPECT_EQ(read_reply(plc), 42);
   EXPECT_EQ(rig.queued(Priority::Command), 160u);
+}
+
+}  // namespace
+}  // namespace lec6::serve
+
+namespace lec6::serve {
+namespace {
+
+// Issue 33 rule 4 over RTU over TCP: FC06 is a function the gateway takes, so
+// its frame has a known length (8 bytes). A PLC that pipelines an FC06 and a
+// stop in one TCP segment must have both taken; the stop most of all. Today
+// the listener sizes FC06 as "unknown" (all that arrived), the CRC over both
+// frames fails, and the buffer is dropped: the stop is silently lost.
+TEST(ModbusTcpServer, RtuOverTcpAnFc06PipelinedWithAStopLosesNeither) {
+  Rig rig({}, ModbusTcpServer::Framing::Rtu);
+  auto s = rig.connect();
+  modbus::Bytes burst = {0x01, 0x06, 0x91, 0x02, 0x00, 0x01};  // D9102 <- 1, FC06
+  modbus::append_crc(burst);
+  const auto stop = *modbus::encode_request({1, kResetOn});
+  burst.insert(burst.end(), stop.begin(), stop.end());
+  asio::write(s, asio::buffer(burst));
+  EXPECT_TRUE(eventually([&] { return rig.queued(Priority::Emergency) == 1; }, 2s))
+      << "the RESET written right after an FC06 never reached the line";
+  EXPECT_TRUE(eventually([&] { return rig.queued(Priority::Command) == 1; }, 2s))
+      << "the FC06 was dropped";
 }
 
 }  // namespace
