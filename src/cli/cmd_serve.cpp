@@ -5,6 +5,7 @@
 #include <fmt/chrono.h>
 
 #include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <mutex>
 
@@ -195,6 +196,8 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
                            .string();
     }
   }
+  // A --record pipe whose reader left is a write error (logged), not a death.
+  std::signal(SIGPIPE, SIG_IGN);
   serve::Daemon daemon(std::move(config), log_line);
   std::string where;
   for (const auto& e : daemon.endpoints()) where += (where.empty() ? "" : ", ") + e;
