@@ -3,7 +3,10 @@
 
 #include "lec6/transport/capture_file.hpp"
 
+#include <sys/resource.h>
 #include <unistd.h>
+
+#include <csignal>
 
 #include <filesystem>
 #include <fstream>
@@ -150,6 +153,38 @@ TEST_F(CaptureFileTest, OnlyARegularFileIsKeptAsAnEarlierCapture) {
   const auto path = dir / "c.jsonl";
   std::ofstream(path) << "x\n";
   EXPECT_EQ(keep_earlier_capture(path.string()), path.string() + ".1");
+}
+
+// A disk that fills in the middle of a write (the kernel writes what fits,
+// then ENOSPC; RLIMIT_FSIZE gives the same partial write and then EFBIG):
+// the records written before must stay readable, so replay and calibrate
+// can use the capture up to the failure. Found in review: the last record
+// is left half written, and the reader refuses the whole file ("the file
+// ends in the middle of this line").
+TEST_F(CaptureFileTest, AWriteCutShortLeavesTheEarlierRecordsReadable) {
+  const auto path = (dir / "c.jsonl").string();
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  struct sigaction before {};
+  sigaction(SIGXFSZ, &ignore, &before);
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
+  {
+    CaptureWriter w(path, header(), std::chrono::hours(1));  // flushed by hand
+    for (int i = 0; i < 3; ++i) w.write({i, i, modbus::CaptureDir::Query, {0x01, 0x03}, ""});
+    w.flush();
+    rlimit small = saved;
+    small.rlim_cur = fs::file_size(path) + 100;  // room for about one record more
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+    for (int i = 3; i < 20; ++i) w.write({i, i, modbus::CaptureDir::Reply, {0x01, 0x03}, ""});
+    EXPECT_THROW(w.flush(), Error);
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &saved), 0);
+    EXPECT_THROW(w.close(), Error);
+  }
+  sigaction(SIGXFSZ, &before, nullptr);
+  modbus::Capture c;
+  EXPECT_NO_THROW(c = read_capture_file(path)) << contents(path);
+  EXPECT_GE(c.records.size(), 3u);
 }
 
 }  // namespace
