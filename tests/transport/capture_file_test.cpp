@@ -3,7 +3,9 @@
 
 #include "lec6/transport/capture_file.hpp"
 
+#include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <csignal>
@@ -185,6 +187,33 @@ TEST_F(CaptureFileTest, AWriteCutShortLeavesTheEarlierRecordsReadable) {
   modbus::Capture c;
   EXPECT_NO_THROW(c = read_capture_file(path)) << contents(path);
   EXPECT_GE(c.records.size(), 3u);
+}
+
+// A capture whose file stops taking bytes without failing (a pipe to a
+// compressor that stalls, an NFS server that hangs): the writer's thread
+// waits in write() and every record after waits in memory. Found in review:
+// nothing bounds it (lec serve grows for as long as the stall lasts, ~17 KB/s
+// at 100 Hz telemetry on one axis) and lec serve's SIGTERM then hangs in
+// close() for ever. The records beyond a bound must be dropped and counted.
+TEST_F(CaptureFileTest, AStalledFileDropsRecordsInsteadOfGrowing) {
+  const auto path = (dir / "stalled.pipe").string();
+  ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0);
+  const int reader = ::open(path.c_str(), O_RDONLY | O_NONBLOCK);  // never reads
+  ASSERT_GE(reader, 0);
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  struct sigaction before {};
+  sigaction(SIGPIPE, &ignore, &before);
+  {
+    CaptureWriter w(path, header(), std::chrono::milliseconds(1));
+    const modbus::Bytes bytes(64, 0x55);
+    for (int i = 0; i < 200000; ++i) w.write({i, i, modbus::CaptureDir::Reply, bytes, ""});
+    // ~35 MB of records against a pipe that holds 64 KiB.
+    EXPECT_GT(w.records_dropped(), 0u) << "every record is held in memory";
+    ::close(reader);  // the writer's write() now fails (EPIPE): close() can end
+    EXPECT_THROW(w.close(), Error);
+  }
+  sigaction(SIGPIPE, &before, nullptr);
 }
 
 }  // namespace
