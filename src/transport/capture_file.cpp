@@ -4,6 +4,7 @@
 #include "lec6/transport/capture_file.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -48,6 +49,11 @@ CaptureWriter::CaptureWriter(const std::string& path, const modbus::CaptureHeade
   fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
   if (fd_ < 0)
     throw InvalidArgument(fmt::format("cannot create {}: {}", path, std::strerror(errno)));
+  // A pipe or a device is written without blocking, so that a reader that
+  // stops reading never holds close() (and a daemon's shutdown) for ever.
+  struct stat st {};
+  regular_ = ::fstat(fd_, &st) == 0 && S_ISREG(st.st_mode);
+  if (!regular_) ::fcntl(fd_, F_SETFL, ::fcntl(fd_, F_GETFL) | O_NONBLOCK);
   pending_ = modbus::encode_capture_header(header);
   thread_ = std::thread([this] { run(); });
 }
@@ -64,6 +70,10 @@ void CaptureWriter::write(const modbus::CaptureRecord& record) {
   std::lock_guard lock(mutex_);
   if (closed_ || stop_) throw Error(fmt::format("{}: the capture is already closed", path_));
   if (!error_.empty()) {  // the file failed: nothing more is kept (memory stays bounded)
+    ++dropped_;
+    return;
+  }
+  if (pending_.size() + line.size() > kMaxPendingBytes) {  // the file takes nothing: bounded
     ++dropped_;
     return;
   }
@@ -98,17 +108,37 @@ void CaptureWriter::write_out(std::unique_lock<std::mutex>& lock) {
     const ssize_t n = ::write(fd_, chunk.data() + done, chunk.size() - done);
     if (n < 0) {
       if (errno == EINTR) continue;
-      failure = fmt::format("cannot write {}: {}", path_, std::strerror(errno));
+      if (errno == EAGAIN && !abandon_) {  // a pipe that is full: wait for room
+        pollfd p{fd_, POLLOUT, 0};
+        ::poll(&p, 1, 100);
+        continue;
+      }
+      failure = fmt::format("cannot write {}: {}", path_,
+                            errno == EAGAIN ? "it takes nothing (stalled)" : std::strerror(errno));
       break;
     }
     done += static_cast<std::size_t>(n);
   }
+  // Whole records only: a write cut short (a full disk) is taken back to the
+  // last complete line, so the capture stays readable up to the failure.
+  std::size_t whole = done;
+  if (!failure.empty()) {
+    const auto nl = chunk.rfind('\n', done == 0 ? std::string::npos : done - 1);
+    whole = (done == 0 || nl == std::string::npos) ? 0 : nl + 1;
+    if (whole != done && regular_) {
+      if (::ftruncate(fd_, static_cast<off_t>(file_bytes_ + whole)) == 0) {
+        ::lseek(fd_, static_cast<off_t>(file_bytes_ + whole), SEEK_SET);
+      }
+    }
+  }
+  file_bytes_ += whole;
   lock.lock();
   writing_ = false;
   const bool first_failure = !failure.empty() && error_.empty();
   if (first_failure) {
     error_ = failure;
-    dropped_ += static_cast<std::size_t>(std::count(chunk.begin(), chunk.end(), '\n'));
+    dropped_ += static_cast<std::size_t>(
+        std::count(chunk.begin() + static_cast<std::ptrdiff_t>(whole), chunk.end(), '\n'));
   }
   written_.notify_all();
   if (first_failure && on_error_) {
@@ -155,6 +185,13 @@ void CaptureWriter::close() {
     stop_ = true;
   }
   wake_.notify_all();
+  {
+    // A file that takes nothing (a reader that stopped reading) is given up
+    // after 2 s: the records still waiting are dropped, close() ends.
+    std::unique_lock lock(mutex_);
+    if (!written_.wait_for(lock, std::chrono::seconds(2), [this] { return !writing_; }))
+      abandon_ = true;
+  }
   if (thread_.joinable()) thread_.join();
   {
     std::unique_lock lock(mutex_);

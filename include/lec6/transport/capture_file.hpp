@@ -36,6 +36,7 @@ std::optional<std::string> keep_earlier_capture(const std::string& path);
 // destructor write out everything before returning.
 class CaptureWriter {
  public:
+  static constexpr std::size_t kMaxPendingBytes = 4u << 20;
   // Creates (or truncates) `path` and writes the header. Throws
   // lec6::InvalidArgument naming the path if it cannot be created.
   explicit CaptureWriter(const std::string& path, const modbus::CaptureHeader& header,
@@ -54,7 +55,8 @@ class CaptureWriter {
   // capture_file_test.cpp, tests/integration/serve_record_errors_test.sh).
   // Set before the first write.
   void on_error(std::function<void(const std::string&)> handler);
-  // Records dropped after a failed write.
+  // Records dropped after a failed write, or while more than
+  // kMaxPendingBytes wait for a file that takes nothing (a stalled pipe).
   std::size_t records_dropped() const;
 
   // Writes out what is buffered now. Throws lec6::Error naming the path if
@@ -78,6 +80,9 @@ class CaptureWriter {
   std::condition_variable wake_;
   std::condition_variable written_;
   std::string pending_;
+  uint64_t file_bytes_ = 0;  // written to the file so far (whole records)
+  bool regular_ = true;      // a regular file (else a pipe, a device: written non-blocking)
+  std::atomic<bool> abandon_{false};  // close() gave up on a file that takes nothing
   bool writing_ = false;
   bool stop_ = false;
   bool closed_ = false;

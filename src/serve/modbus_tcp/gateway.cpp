@@ -103,8 +103,13 @@ std::optional<modbus::Response> tcp_reply(const modbus::RequestFrame& frame, con
 
 std::optional<modbus::Bytes> tcp_reply_pdu(const LineRequest& request, const JobResult& r) {
   const bool fc06 = request.fc06_echo.has_value();
-  if (fc06 && r.failure == Failure::None && r.reply &&
-      !std::holds_alternative<modbus::ExceptionResponse>(r.reply->pdu))
+  // Written: the controller's answer, or a broadcast's (no reply on the
+  // line: the gateway answers for the controllers), is FC06's echo.
+  const bool broadcast_written =
+      r.failure == Failure::None && request.frame.id == modbus::kBroadcastId;
+  if (fc06 &&
+      (broadcast_written || (r.failure == Failure::None && r.reply &&
+                             !std::holds_alternative<modbus::ExceptionResponse>(r.reply->pdu))))
     return *request.fc06_echo;
   auto reply = tcp_reply(request.frame, r);
   if (!reply) return std::nullopt;

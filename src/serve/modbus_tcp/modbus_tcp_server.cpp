@@ -195,7 +195,11 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   // segment) and gets exception 01 if its CRC holds.
   void rtu_frames() {
     while (rtu_.size() >= 4) {
-      const auto length = modbus::request_length(rtu_);
+      auto length = modbus::request_length(rtu_);
+      // FC06 (one register), which the controller's own codec does not size
+      // (it refuses FC06) but the gateway takes: always 8 bytes. Unsized, one
+      // split across segments or pipelined with a stop was dropped with it.
+      if (rtu_[1] == 0x06) length = {modbus::FrameLength::Status::Known, 8};
       std::size_t size = rtu_.size();
       if (length.status == modbus::FrameLength::Status::NeedMore) return;
       if (length.status == modbus::FrameLength::Status::Known) {

@@ -302,10 +302,12 @@ TEST(ModbusTcpServer, RtuOverTcpAnFc06PipelinedWithAStopLosesNeither) {
   const auto stop = *modbus::encode_request({1, kResetOn});
   burst.insert(burst.end(), stop.begin(), stop.end());
   asio::write(s, asio::buffer(burst));
-  EXPECT_TRUE(eventually([&] { return rig.queued(Priority::Emergency) == 1; }, 2s))
+  // Both queued: the stop in the emergency lane, the FC06 (an earlier write
+  // to the same controller) ahead of it, in order (scheduler.hpp).
+  EXPECT_TRUE(eventually([&] { return rig.queued(Priority::Emergency) >= 1; }, 2s))
       << "the RESET written right after an FC06 never reached the line";
-  EXPECT_TRUE(eventually([&] { return rig.queued(Priority::Command) == 1; }, 2s))
-      << "the FC06 was dropped";
+  EXPECT_TRUE(eventually([&] { return rig.queued() == 2; }, 2s))
+      << "the FC06 was dropped: " << rig.queued() << " queued";
 }
 
 }  // namespace
