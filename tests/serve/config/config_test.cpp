@@ -106,7 +106,9 @@ TEST(ServeConfig, AlarmPolarityPerLineAndPerAxis) {
   f.port = "sim";
   f.ids = "1-2";
   f.alarm_polarity = lec::AlarmPolarity::ActiveLow;
-  for (const auto& a : config_from_flags(f).lines[0].axes) {
+  const ServeConfig from_flags =
+      config_from_flags(f);  // kept: a range-for over a temporary's member dangles
+  for (const auto& a : from_flags.lines[0].axes) {
     EXPECT_EQ(a.alarm_polarity, lec::AlarmPolarity::ActiveLow);
   }
 }

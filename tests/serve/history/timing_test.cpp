@@ -222,7 +222,11 @@ LoadRun run_under_load(int moves, const std::function<int(int)>& axes_at,
   for (int i = 0; i < moves; ++i) {
     const double gap = 25.0 * axes_at(i);
     const double busy = 2000 * (1 + wear_at(i)) * (1 + noise(rng));
-    MotionRecord m = read_move(2 + 10 * unit(rng), busy, gap, gap * unit(rng)).record;
+    // Drawn in a stated order (an argument list's is unspecified: GCC and
+    // clang drew these two the other way round, and gave other runs).
+    const double phase_ms = gap * unit(rng);
+    const double latency_ms = 2 + 10 * unit(rng);
+    MotionRecord m = read_move(latency_ms, busy, gap, phase_ms).record;
     m.id = i + 1;
     m.axis = "x";
     m.start_ms = 1'700'000'000'000 + int64_t(i) * 3000;
