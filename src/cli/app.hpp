@@ -16,6 +16,7 @@
 #include "lec6/client/actuator.hpp"
 #include "lec6/client/client.hpp"
 #include "lec6/error.hpp"
+#include "lec6/twin/open_port.hpp"
 
 namespace lec6::cli {
 
@@ -82,6 +83,10 @@ inline uint32_t whole_ms(Duration d) {
 
 // Set by SIGINT/SIGTERM; waiting operations poll it and stop the axis.
 extern std::atomic<bool> g_interrupted;
+
+// The line's timing and RS485 options as the global flags give them (one
+// place: every command that opens a port, sessions and cycles alike).
+twin::PortOptions line_port_options(const GlobalOptions& options);
 
 class Session {
  public:

@@ -23,25 +23,6 @@ struct CycleLines::Impl {
   std::vector<std::string> descriptions;
 };
 
-namespace {
-
-twin::PortOptions port_options(const GlobalOptions& o) {
-  twin::PortOptions po;
-  po.baud = o.baud;
-  po.silent_interval_k = o.silent_interval_k;
-  po.delay_td = o.delay_td;
-  po.timeout_margin = o.reply_margin;
-  po.wait_for_silence = !o.no_silence_wait;
-  po.discard_echo = o.echo;
-  po.rs485.enabled = o.rs485;
-  po.rs485.rts_after_send = o.rs485_rts_after_send;
-  po.rs485.delay_before_send_ms = whole_ms(o.rs485_delay_before);
-  po.rs485.delay_after_send_ms = whole_ms(o.rs485_delay_after);
-  return po;
-}
-
-}  // namespace
-
 CycleLines::CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals,
                        const std::string& port, const std::string& profile_file)
     : impl_(std::make_unique<Impl>()) {
@@ -90,7 +71,7 @@ CycleLines::CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals,
     } else {
       const std::string text = line.empty() ? port : line;
       impl_->ports.push_back(
-          twin::open_port(transport::parse_port_spec(text), port_options(globals)));
+          twin::open_port(transport::parse_port_spec(text), line_port_options(globals)));
       for (const auto& w : impl_->ports.back()->warnings())
         fmt::print(stderr, "lec: warning: {}\n", w);
       master = &impl_->ports.back()->master();

@@ -62,6 +62,21 @@ std::optional<client::SoftLimits> parse_soft_limits(const std::string& text) {
   return l;
 }
 
+twin::PortOptions line_port_options(const GlobalOptions& o) {
+  twin::PortOptions po;
+  po.baud = o.baud;
+  po.silent_interval_k = o.silent_interval_k;
+  po.delay_td = o.delay_td;
+  po.timeout_margin = o.reply_margin;
+  po.wait_for_silence = !o.no_silence_wait;
+  po.discard_echo = o.echo;
+  po.rs485.enabled = o.rs485;
+  po.rs485.rts_after_send = o.rs485_rts_after_send;
+  po.rs485.delay_before_send_ms = whole_ms(o.rs485_delay_before);
+  po.rs485.delay_after_send_ms = whole_ms(o.rs485_delay_after);
+  return po;
+}
+
 client::Client& Session::client(std::string_view default_port) {
   if (impl_) return *impl_->client;
   if (options_.id == modbus::kBroadcastId && !allow_broadcast_) {
@@ -72,17 +87,7 @@ client::Client& Session::client(std::string_view default_port) {
   }
   auto impl = std::make_unique<Impl>();
   const std::string text = resolve_port(options_, default_port);
-  twin::PortOptions po;
-  po.baud = options_.baud;
-  po.silent_interval_k = options_.silent_interval_k;
-  po.delay_td = options_.delay_td;
-  po.timeout_margin = options_.reply_margin;
-  po.wait_for_silence = !options_.no_silence_wait;
-  po.discard_echo = options_.echo;
-  po.rs485.enabled = options_.rs485;
-  po.rs485.rts_after_send = options_.rs485_rts_after_send;
-  po.rs485.delay_before_send_ms = whole_ms(options_.rs485_delay_before);
-  po.rs485.delay_after_send_ms = whole_ms(options_.rs485_delay_after);
+  twin::PortOptions po = line_port_options(options_);
   if (options_.trace) po.trace = print_trace_event;
   // Ctrl-C ends every wait on the line at once (exit 130); stop requests still go out.
   po.interrupted = [] { return g_interrupted.load(); };

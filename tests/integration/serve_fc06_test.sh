@@ -17,26 +17,6 @@ start_twin twin --pty "$PTY" --trace || {
 }
 TRACE=$TMP/twin.err
 
-# start_serve NAME ARGS...: `lec serve ARGS...` in the background, waiting for
-# its ready line (10 s); sets MB to its Modbus TCP port.
-start_serve() {
-  local name=$1
-  shift
-  mkfifo "$TMP/$name.fifo"
-  "$LEC" serve --no-history "$@" >"$TMP/$name.fifo" 2>"$TMP/$name.err" &
-  SERVE_PID=$!
-  TWIN_PIDS+=("$SERVE_PID")
-  local fd ready=""
-  exec {fd}<"$TMP/$name.fifo"
-  IFS= read -r -t 10 -u "$fd" ready || true
-  cat <&"$fd" >"$TMP/$name.out" &
-  exec {fd}<&-
-  MB=$(grep -o 'tcp://127.0.0.1:[0-9]*' <<<"$ready" | head -1 | sed 's|.*:||')
-  [[ -n $MB ]] || {
-    fail "lec serve ($name) did not get ready: '$ready' $(cat "$TMP/$name.err")"
-    return 1
-  }
-}
 
 # mb ARGS... [-- VALUES...]: one mbpoll request to lec serve's Modbus TCP
 # listener, unit 1 (values to write go after the host); output in OUT, status in RC.

@@ -6,26 +6,6 @@
 
 source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
 
-# start_serve NAME ARGS...: `lec serve ARGS...` in the background until its
-# ready line (10 s); sets SERVE_PID and MB (its Modbus TCP port).
-start_serve() {
-  local name=$1
-  shift
-  mkfifo "$TMP/$name.fifo"
-  "$LEC" serve --no-history "$@" >"$TMP/$name.fifo" 2>"$TMP/$name.err" &
-  SERVE_PID=$!
-  TWIN_PIDS+=("$SERVE_PID")
-  local fd ready=""
-  exec {fd}<"$TMP/$name.fifo"
-  IFS= read -r -t 10 -u "$fd" ready || true
-  cat <&"$fd" >"$TMP/$name.out" &
-  exec {fd}<&-
-  MB=$(grep -o 'tcp://127.0.0.1:[0-9]*' <<<"$ready" | head -1 | sed 's|.*:||')
-  [[ -n $MB ]] || {
-    fail "lec serve ($name) did not get ready: '$ready' $(cat "$TMP/$name.err")"
-    return 1
-  }
-}
 
 start_serve full --port sim --ids 1 --modbus-tcp 127.0.0.1:0 --http "" --record /dev/full || {
   finish
