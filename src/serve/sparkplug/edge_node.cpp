@@ -30,7 +30,6 @@ namespace {
 
 constexpr Duration kStopGrace = std::chrono::seconds(2);
 
-
 uint64_t unix_ms() {
   return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
                                    std::chrono::system_clock::now().time_since_epoch())
@@ -318,9 +317,10 @@ void SparkplugNode::Core::on_message(const MqttMessage& m) {
   // Not even copied when it is too big for a command (session.hpp: kMaxCommandBytes).
   if (m.payload.size() > kMaxCommandBytes) {
     const auto axis = session->device_of_dcmd(m.topic);
-    const std::string why = fmt::format("a message of {} bytes on {} is refused unread (a "
-                                        "command is at most {} bytes)",
-                                        m.payload.size(), m.topic, kMaxCommandBytes);
+    const std::string why = fmt::format(
+        "a message of {} bytes on {} is refused unread (a "
+        "command is at most {} bytes)",
+        m.payload.size(), m.topic, kMaxCommandBytes);
     if (!axis) return log(LogLevel::Warning, "sparkplug: " + why);
     asio::post(io, [weak = weak_from_this(), i = *axis, why] {
       if (auto c = weak.lock(); c && !c->stopped) c->refuse(i, why);
