@@ -16,6 +16,10 @@ import { Checks, Host, freePort, http, serveYaml, sleep, sp, startBroker, startS
 
 const GROUP = 'plant';
 const ck = new Checks();
+// The margin a stop behind a burst may take over a lone one: 100 ms, three
+// times that in the sanitizer tree (every DCMD's look for a stop on the MQTT
+// thread is ~3x slower there: 130 ms behind 2000 DCMDs, 5-8 ms optimised).
+const MARGIN_MS = process.env.LEC6_SANITIZED === '1' ? 300 : 100;
 const dir = tmpdir();
 process.env.XDG_STATE_HOME = `${dir}/xdg`;
 delete process.env.STATE_DIRECTORY;
@@ -188,8 +192,8 @@ async function floodStop(broker, n) {
   await sleep(1000);
   const refused = view.value('axis2', 'Command/Count');
   console.log(`# stop alone: BUSY = 0 on the broker ${base.ms} ms after the broker handed the DCMD on; behind ${n} refused DCMDs (burst sent in ${flooded.burstMs} ms): ${flooded.ms} ms; axis2 Command/Count ${refused}`);
-  ck.check('lec6-one-stop-rule: a stop behind a burst of DCMDs', flooded.ms < base.ms + 100 && flooded.outcome === 'done',
-    `a stop sent right after ${n} other DCMDs reaches the line within 100 ms of a lone stop's time (lone ${base.ms} ms, behind the burst ${flooded.ms} ms, outcome ${flooded.outcome})`);
+  ck.check('lec6-one-stop-rule: a stop behind a burst of DCMDs', flooded.ms < base.ms + MARGIN_MS && flooded.outcome === 'done',
+    `a stop sent right after ${n} other DCMDs reaches the line within ${MARGIN_MS} ms of a lone stop's time (lone ${base.ms} ms, behind the burst ${flooded.ms} ms, outcome ${flooded.outcome})`);
   serve.kill('SIGTERM');
   await new Promise((r) => serve.once('exit', r));
 }
@@ -437,8 +441,8 @@ async function bigDcmdStop(broker, mb) {
   const lone = await measure(0);
   const behind = await measure(mb << 20);
   console.log(`# stop alone: BUSY = 0 ${lone} ms after the broker handed it on; behind one ${mb} MB DCMD: ${behind} ms`);
-  ck.check('lec6-one-stop-rule: a stop behind one big DCMD', behind < lone + 100,
-    `a stop right after one ${mb} MB DCMD of empty metrics reaches the line within 100 ms of a lone stop's time (lone ${lone} ms, behind it ${behind} ms)`);
+  ck.check('lec6-one-stop-rule: a stop behind one big DCMD', behind < lone + MARGIN_MS,
+    `a stop right after one ${mb} MB DCMD of empty metrics reaches the line within ${MARGIN_MS} ms of a lone stop's time (lone ${lone} ms, behind it ${behind} ms)`);
   serve.kill('SIGTERM');
   await new Promise((r) => serve.once('exit', r));
 }
