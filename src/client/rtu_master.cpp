@@ -4,12 +4,22 @@
 
 #include <algorithm>
 #include <array>
+#include <random>
 
 #include "lec6/client/interrupt.hpp"
 #include "lec6/lec/explain.hpp"
 
 namespace lec6::client {
 namespace {
+
+// The seed of the pause after a failure: from the process on the wall clock
+// (two `lec` on one line must draw differently), fixed on a virtual clock (a
+// simulation repeats).
+uint32_t backoff_seed(const Clock& clock, std::optional<uint32_t> chosen) {
+  if (chosen) return *chosen;
+  if (dynamic_cast<const SteadyClock*>(&clock) == nullptr) return 1;
+  return std::random_device{}();
+}
 
 TransportErrorKind kind_of(LinkErrorKind k) {
   return k == LinkErrorKind::EchoMismatch ? TransportErrorKind::EchoMismatch
@@ -18,7 +28,10 @@ TransportErrorKind kind_of(LinkErrorKind k) {
 
 }  // namespace
 
-RtuMaster::RtuMaster(Link& link, RtuOptions options) : link_(link), options_(std::move(options)) {
+RtuMaster::RtuMaster(Link& link, RtuOptions options)
+    : link_(link),
+      options_(std::move(options)),
+      backoff_(backoff_seed(link.clock(), options_.backoff_seed)) {
   timing_.line.baud = link_.baud();
   timing_.line.silent_interval_k = options_.silent_interval_k;
   timing_.line.delay_td = options_.delay_td;
@@ -105,6 +118,20 @@ std::size_t RtuMaster::read_some(std::span<uint8_t> buffer, TimePoint deadline, 
   return exact ? link_.read_some_exact(buffer, deadline) : link_.read_some(buffer, deadline);
 }
 
+// After a failure the line is held for the failed query's reply window (a
+// late reply must not land in the next transaction), then for a drawn pause
+// of 0 to kBackoffChars character times. Two masters on one line (a second
+// PC, an HMI during commissioning) whose frames collided both time out at the
+// same instant; with the same fixed hold they would resend together and
+// collide again on every attempt (motion_truth_test saw 11 attempts lost in
+// a row). The drawn pause is the classic way out (Ethernet's backoff); one
+// master alone pays ~32 character times on a resend that already waited a
+// whole reply window.
+Duration RtuMaster::failure_hold(Duration window) {
+  const Duration most = timing_.line.wire_time(kBackoffChars);
+  return window + Duration(std::uniform_int_distribution<Duration::rep>(0, most.count())(backoff_));
+}
+
 void RtuMaster::idle_until(TimePoint t) {
   std::array<uint8_t, 256> sink{};
   try {
@@ -153,7 +180,7 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
     ++stats_.transactions;
     stats_.bytes_discarded += tx.discarded();
     if (tx.step() == Transaction::Step::Failed) {
-      hold_until_ = link_.clock().now() + (tx.deadline() - tx.sent_at());
+      hold_until_ = link_.clock().now() + failure_hold(tx.deadline() - tx.sent_at());
       switch (tx.error_kind()) {
         case TransportErrorKind::Timeout:
           ++stats_.timeouts;

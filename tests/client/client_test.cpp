@@ -3,6 +3,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "lec6/client/rtu_master.hpp"
 #include "lec6/modbus/timing.hpp"
 #include "sim_fixture.hpp"
@@ -109,6 +111,47 @@ TEST(Client, SilentIdTimesOutAfterRetriesWithinTheDeadline) {
   // Before each retry the line stays quiet for a reply window (late replies).
   EXPECT_LE(f.clock.now() - start,
             3 * (per_try + t.silent_interval()) + 2 * window + std::chrono::milliseconds(1));
+}
+
+// Two masters on one line whose frames collided time out together; resending
+// after the same fixed hold they would collide on every attempt (seen in
+// motion_truth_test: 11 attempts lost). After a failure each master waits the
+// reply window and a drawn pause of 0 to 64 character times: the gaps between
+// attempts vary, stay bounded, and two masters draw differently.
+TEST(Client, ResendsWaitADrawnPauseSoTwoMastersDoNotCollideInStep) {
+  const auto gaps_for = [](uint32_t seed) {
+    SimFixture f;
+    std::vector<TimePoint> sends;
+    RtuOptions ro;
+    ro.backoff_seed = seed;
+    ro.trace = [&](const TraceEvent& e) {
+      if (e.outgoing) sends.push_back(e.at);
+    };
+    RtuMaster master(*f.link, ro);
+    ClientOptions o;
+    o.retries = 8;
+    o.id = 7;  // nobody answers
+    Client c(master, o);
+    EXPECT_THROW(c.read_state(), TransportError);
+    std::vector<Duration> gaps;
+    for (std::size_t i = 1; i < sends.size(); ++i) gaps.push_back(sends[i] - sends[i - 1]);
+    return gaps;
+  };
+  const auto a = gaps_for(1);
+  const auto b = gaps_for(2);
+  ASSERT_EQ(a.size(), 8u);
+  ASSERT_EQ(b.size(), 8u);
+  const modbus::LineTiming t;
+  const Duration fixed =
+      std::min(*std::min_element(a.begin(), a.end()), *std::min_element(b.begin(), b.end()));
+  int differ = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_LE(a[i] - fixed, t.wire_time(RtuMaster::kBackoffChars)) << i;
+    EXPECT_LE(b[i] - fixed, t.wire_time(RtuMaster::kBackoffChars)) << i;
+    if (std::chrono::abs(a[i] - b[i]) > t.wire_time(2)) ++differ;
+  }
+  EXPECT_GT(*std::max_element(a.begin(), a.end()) - fixed, t.wire_time(8));  // drawn, not fixed
+  EXPECT_GE(differ, 6) << "two masters resending in step would collide again";
 }
 
 TEST(Client, CorruptedRepliesAreNeverAcceptedAndClassifiedAsCrc) {

@@ -8,6 +8,8 @@
 // Thread safety: one thread at a time (it owns the line while it runs).
 
 #include <functional>
+#include <optional>
+#include <random>
 
 #include "lec6/client/master.hpp"
 #include "lec6/client/transaction.hpp"
@@ -30,6 +32,9 @@ struct RtuOptions {
   // stop or release the axis (client/interrupt.hpp) are never interrupted,
   // so a stop after Ctrl-C still goes out.
   std::function<bool()> interrupted{};
+  // Seeds the pause drawn after a failed transaction (RtuMaster::kBackoffChars).
+  // Unset: from the process on the wall clock, 1 on a virtual clock.
+  std::optional<uint32_t> backoff_seed{};
 };
 
 inline constexpr Duration kInterruptCheck = std::chrono::milliseconds(20);
@@ -52,7 +57,12 @@ class RtuMaster final : public Master {
 
   const TransactionTiming& timing() const noexcept { return timing_; }
 
+  // After a failed transaction the next query waits its reply window and then
+  // a drawn pause of 0 to kBackoffChars character times (rtu_master.cpp).
+  static constexpr std::size_t kBackoffChars = 64;
+
  private:
+  Duration failure_hold(Duration window);
   void wait_for_silence(bool interruptible);
   // read_some with the deadline cut to the next interrupt check; `exact`:
   // the deadline is an instant to keep (Link::read_some_exact).
@@ -68,6 +78,7 @@ class RtuMaster final : public Master {
   TimePoint line_busy_until_{};
   TimePoint
       hold_until_{};  // after a failure: no query before the failed one's reply window is over
+  std::minstd_rand backoff_;  // draws the pause after a failure (failure_hold)
   LinkStats stats_;
   Duration last_round_trip_{};
   std::optional<WireTimes> last_wire_times_;
