@@ -70,7 +70,13 @@ for (const viewport of [
     const page = await open(browser, daemon, "#/axis/axis2", viewport);
     // A slow move, started by another client (the page only watches).
     const moving = api(daemon, "/api/axes/axis2/move", { method: "POST", body: { position_mm: 390, speed_mm_s: 10 } });
-    await page.waitForSelector(`${row("Motion")} .reason:text("stop it first")`, { timeout: 10000 });
+    // 20 s: beside a -j2 ctest the page once took over 10 s (CI); what it
+    // showed and what the move answered are in the failure.
+    await page.waitForSelector(`${row("Motion")} .reason:text("stop it first")`, { timeout: 20000 }).catch(async (e) => {
+      const motion = await page.locator(row("Motion")).innerText().catch((err) => `unreadable: ${err.message}`);
+      const move = await Promise.race([moving.then((r) => JSON.stringify(r.body)), sleep(0).then(() => "still under way")]);
+      throw new Error(`${e.message}\nthe page's Motion row: ${motion}\nthe move: ${move}`);
+    });
     await sleep(300); // the notes and the card settle
     for (const name of ["STOP", "HOLD"]) {
       const box = await page.locator(`.controls .stops button:text-is("${name}")`).boundingBox();
