@@ -58,17 +58,18 @@ bool stops(std::size_t count, Levels level) noexcept {
   return release && !starts;
 }
 
-}  // namespace
-
-bool stops_or_releases(const modbus::Request& request) noexcept {
+// Calls `judge(count, level)` with the coil levels a write sets (FC05,
+// FC0F, FC10 to the control words); false for every other request.
+template <typename Judge>
+bool judge_levels(const modbus::Request& request, Judge judge) noexcept {
   if (const auto* w = std::get_if<modbus::WriteCoilRequest>(&request)) {
     // Any other value is refused by the controller (exception 03): it does nothing.
     if (w->value != modbus::kCoilOn && w->value != modbus::kCoilOff) return false;
-    return stops(1, [&](std::size_t) { return std::pair<uint16_t, bool>{w->coil, w->on()}; });
+    return judge(1, [&](std::size_t) { return std::pair<uint16_t, bool>{w->coil, w->on()}; });
   }
   if (const auto* w = std::get_if<modbus::WriteCoilsRequest>(&request)) {
     const std::size_t count = std::min<std::size_t>(w->count, w->packed.size() * 8);
-    return stops(count, [&](std::size_t i) {
+    return judge(count, [&](std::size_t i) {
       return std::pair<uint16_t, bool>{static_cast<uint16_t>(w->start + i), w->bit(i)};
     });
   }
@@ -95,9 +96,37 @@ bool stops_or_releases(const modbus::Request& request) noexcept {
         levels[n++] = {static_cast<uint16_t>(first_coil + bit), ((word >> bit) & 1U) != 0};
     }
     if (n == 0) return false;
-    return stops(n, [&](std::size_t i) { return levels[i]; });
+    return judge(n, [&](std::size_t i) { return levels[i]; });
   }
   return false;
+}
+
+template <typename Levels>
+bool any_effect(std::size_t count, Levels level, Effect wanted) noexcept {
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto [coil, on] = level(i);
+    if (effect(coil, on) == wanted) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+bool stops_or_releases(const modbus::Request& request) noexcept {
+  return judge_levels(request, [](std::size_t n, auto level) { return stops(n, level); });
+}
+
+bool stops_hard(const modbus::Request& request) noexcept {
+  return judge_levels(
+      request, [](std::size_t n, auto level) { return any_effect(n, level, Effect::HardStop); });
+}
+
+bool starts_motion(const modbus::Request& request) noexcept {
+  if (const auto* w = std::get_if<modbus::WriteRegistersRequest>(&request)) {
+    if (w->start <= lec::kDirectStart && lec::kDirectStart < w->start + w->count) return true;
+  }
+  return judge_levels(
+      request, [](std::size_t n, auto level) { return any_effect(n, level, Effect::Starts); });
 }
 
 }  // namespace lec6::client

@@ -133,5 +133,57 @@ TEST(StopRule, APlcsControlWordImages) {
   EXPECT_FALSE(stops_or_releases(words(0x90C3, {0}))) << "past the control words";
 }
 
+// The two halves lec serve's supersede rule needs (scheduler.cpp): a hard
+// stop (RESET, HOLD <- 1, SVON <- 0) and a write that may start motion. Every
+// coil at both levels, in each encoding (FC05, FC0F, the control word).
+TEST(StopRule, HardStopsAndStartsForEveryCoilInEveryEncoding) {
+  struct Row {
+    uint16_t address;
+    bool hard_on, hard_off, starts_on, starts_off;
+  };
+  const std::vector<Row> table = {
+      {0x10, false, false, false, false},  // IN0
+      {0x15, false, false, false, false},  // IN5
+      {0x18, true, false, false, true},    // HOLD: 0 resumes
+      {0x19, false, true, true, false},    // SVON
+      {0x1A, false, false, true, false},   // DRIVE
+      {0x1B, true, false, false, false},   // RESET
+      {0x1C, false, false, true, false},   // SETUP
+      {0x1D, false, false, true, false},   // JOG-
+      {0x1E, false, false, true, false},   // JOG+
+      {0x30, false, false, false, false},  // serial mode
+  };
+  for (const Row& r : table) {
+    for (bool on : {true, false}) {
+      const bool hard = on ? r.hard_on : r.hard_off;
+      const bool starts = on ? r.starts_on : r.starts_off;
+      std::vector<modbus::Request> encodings = {coil(r.address, on), coils(r.address, {on})};
+      if (r.address < 0x20) {
+        const uint16_t word[] = {static_cast<uint16_t>(on ? 1U << (r.address - 0x10) : 0U)};
+        // A word writes all 16 coils: only the 1 written is judged alone when
+        // the others are 0 (HOLD <- 0 among them starts, SVON <- 0 stops).
+        if (on) encodings.push_back(modbus::WriteRegistersRequest::of(lec::kControlWordY10, word));
+      }
+      for (const auto& e : encodings) {
+        if (std::holds_alternative<modbus::WriteRegistersRequest>(e)) {
+          // The word also writes HOLD <- 0 (starts, unless this is HOLD)
+          // and SVON <- 0 (a hard stop, unless this is SVON).
+          EXPECT_EQ(stops_hard(e), hard || r.address != 0x19) << std::hex << r.address;
+          EXPECT_EQ(starts_motion(e), starts || r.address != 0x18) << std::hex << r.address;
+        } else {
+          EXPECT_EQ(stops_hard(e), hard) << std::hex << r.address << " <- " << on;
+          EXPECT_EQ(starts_motion(e), starts) << std::hex << r.address << " <- " << on;
+        }
+      }
+    }
+  }
+  const uint16_t start[] = {lec::kDirectStartValue};
+  EXPECT_TRUE(starts_motion(modbus::WriteRegistersRequest::of(lec::kDirectStart, start)));
+  EXPECT_FALSE(stops_hard(modbus::WriteRegistersRequest::of(lec::kDirectStart, start)));
+  const uint16_t data[] = {1, 2};
+  EXPECT_FALSE(starts_motion(modbus::WriteRegistersRequest::of(lec::kDirectData, data)));
+  EXPECT_FALSE(starts_motion(modbus::ReadRegistersRequest{lec::kDirectStart, 1}));
+}
+
 }  // namespace
 }  // namespace lec6::client

@@ -11,8 +11,8 @@
 
 namespace lec6::client {
 
-// A coil write (FC05, or FC0F over several coils, or FC10 to the control words) that stops or releases the
-// axis and starts nothing:
+// A coil write (FC05, or FC0F over several coils, or FC10 to the control words) that stops or
+// releases the axis and starts nothing:
 //   - it stops when it writes RESET ← 1, HOLD ← 1 or SVON ← 0;
 //   - otherwise, when each coil it writes that matters releases (RESET,
 //     DRIVE, SETUP, JOG−, JOG+ ← 0) and none starts (SVON, DRIVE, SETUP,
@@ -25,5 +25,16 @@ namespace lec6::client {
 // tests/client/stop_rule_test.cpp (every coil at both levels, every value of
 // both control words).
 bool stops_or_releases(const modbus::Request& request) noexcept;
+
+// A write that stops by itself: RESET ← 1, HOLD ← 1 or SVON ← 0 among the
+// coil levels it writes (FC05, FC0F, FC10 to the control words, as above).
+// A release alone (RESET, DRIVE, JOG ← 0) is not: it ends a pulse.
+bool stops_hard(const modbus::Request& request) noexcept;
+
+// A write that may start or resume motion: SVON, DRIVE, SETUP, JOG−, JOG+ ← 1
+// or HOLD ← 0 among its coil levels, or a write of D9100 (a direct start).
+// lec serve refuses such a write still queued when a hard stop to its
+// controller arrives (scheduler.cpp: a stop supersedes it).
+bool starts_motion(const modbus::Request& request) noexcept;
 
 }  // namespace lec6::client

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "lec6/client/interrupt.hpp"
 #include "lec6/error.hpp"
 
 namespace lec6::serve {
@@ -60,6 +61,8 @@ std::string_view failure_name(Failure f) noexcept {
       return "cancelled";
     case Failure::ShuttingDown:
       return "shutting down";
+    case Failure::Superseded:
+      return "superseded by a stop";
   }
   return "failure";
 }
@@ -133,15 +136,33 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     return id;
   }
   if (job.priority == Priority::Emergency) {
-    // The controller's writes queued before it go first, in order: a stop
-    // must not overtake an earlier write to its controller (a HOLD <- 0 left
-    // behind would undo the HOLD that overtook it).
     const uint8_t to = job.frame.id;
+    const auto same_controller = [&](const Queued& q) {
+      return (q.job.frame.id == to || to == modbus::kBroadcastId) &&
+             modbus::is_write(q.job.frame.pdu);
+    };
+    // A hard stop (RESET <- 1, HOLD <- 1, SVON <- 0) supersedes the writes
+    // queued before it to its controller that would start or resume motion
+    // (DRIVE, JOG, SVON <- 1, HOLD <- 0, a D9100 start): they are refused,
+    // not sent, and its controller's other writes (step data, IN0-IN5) go
+    // after it. Sending them first, in order, would put a start on the wire
+    // ahead of the stop the operator pressed, and made each stop wait for
+    // every write a PLC had queued to that controller (issue 31, rule 2: p99
+    // 888 ms in the line simulation). A release (RESET, DRIVE, JOG <- 0)
+    // ends a pulse: the writes queued before it still go first, in order (a
+    // DRIVE <- 1 it overtook would start a move after its own release).
+    // Decision row: docs/protocol-decisions.md, "A stop supersedes".
+    const bool hard = client::stops_hard(job.frame.pdu);
+    if (hard) hard_stop_[to] = id;
     std::vector<Queued> earlier;
     for (auto& q : queues_) {
       for (auto it = q.begin(); it != q.end();) {
-        if ((it->job.frame.id == to || to == modbus::kBroadcastId) &&
-            modbus::is_write(it->job.frame.pdu)) {
+        if (!same_controller(*it)) {
+          ++it;
+        } else if (superseded(it->job, it->id)) {
+          supersede(it->job, it->submitted, now);
+          it = q.erase(it);
+        } else if (!hard) {
           earlier.push_back(std::move(*it));
           it = q.erase(it);
         } else {
@@ -304,6 +325,12 @@ void Scheduler::failed(const client::TransportError& error, TimePoint start, Tim
   const bool emergency = f.job.priority == Priority::Emergency;
   if (!f.internal && f.job.attempts > 1 && (!offline || emergency)) {
     --f.job.attempts;
+    if (superseded(f.job, f.id)) {
+      // Its reply was lost while a stop to its controller came: the stop went
+      // (or goes) first, and the start is not sent after it.
+      supersede(f.job, f.submitted, end);
+      return;
+    }
     if (emergency) {
       // Other controllers' stops go first; a controller that stopped
       // answering waits its backoff (emergency_lane.hpp).
@@ -355,6 +382,28 @@ void Scheduler::fail_one(Queued& x, Failure why, const std::string& text, TimePo
   r.submitted = x.submitted;
   r.started = r.finished = now;
   complete(x.job, std::move(r));
+}
+
+bool Scheduler::superseded(const Job& job, JobId id) const {
+  if (job.priority == Priority::Emergency || !client::starts_motion(job.frame.pdu)) return false;
+  const auto after = [&](uint8_t to) {
+    const auto it = hard_stop_.find(to);
+    return it != hard_stop_.end() && it->second > id;
+  };
+  return after(job.frame.id) || after(modbus::kBroadcastId);
+}
+
+void Scheduler::supersede(Job& job, TimePoint submitted, TimePoint now) {
+  JobResult r;
+  r.failure = Failure::Superseded;
+  r.error_kind = TransportErrorKind::Port;
+  r.error = fmt::format(
+      "not sent: a stop to ID {} accepted after this write supersedes the writes queued before it "
+      "that would start or resume motion",
+      job.frame.id);
+  r.submitted = submitted;
+  r.started = r.finished = now;
+  complete(job, std::move(r));
 }
 
 void Scheduler::fail_all_queued(Failure why, const std::string& text, TimePoint now) {

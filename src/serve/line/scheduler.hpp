@@ -77,6 +77,7 @@ enum class Failure : uint8_t {
   LineDown,      // the port is gone (unplugged adapter); being reopened
   Cancelled,     // the submitter cancelled it before it started (client gone)
   ShuttingDown,  // lec serve is stopping
+  Superseded,    // a write that starts motion, still queued when a stop to its controller came
 };
 std::string_view failure_name(Failure f) noexcept;
 
@@ -248,6 +249,10 @@ class Scheduler {
   void fail_queued(uint8_t id, Failure why, const std::string& text, TimePoint now);
   void fail_all_queued(Failure why, const std::string& text, TimePoint now);
   void fail_one(Queued& x, Failure why, const std::string& text, TimePoint now);
+  // A write that starts motion, submitted before a hard stop to its
+  // controller was accepted: refused with Failure::Superseded (submit()).
+  bool superseded(const Job& job, JobId id) const;
+  void supersede(Job& job, TimePoint submitted, TimePoint now);
   std::optional<JobResult> refuse_now(const Job& job, TimePoint now) const;
   bool answer_from_cache(Job& job, TimePoint submitted, TimePoint now);
   void complete(Job& job, JobResult result);
@@ -258,6 +263,7 @@ class Scheduler {
   std::optional<Flight> flight_;
   std::map<uint8_t, Telemetry> telemetry_;
   std::map<uint8_t, DeviceHealth> health_;
+  std::map<uint8_t, JobId> hard_stop_;  // the last hard stop accepted, per ID (0: broadcast)
   TelemetryCache cache_;
   LineStats stats_;
   std::vector<PendingCompletion> completions_;

@@ -95,6 +95,8 @@ std::optional<modbus::Response> tcp_reply(const modbus::RequestFrame& frame, con
       return ex(ExceptionCode::GatewayPathUnavailable);
     case Failure::ShuttingDown:
       return ex(ExceptionCode::ServerBusy);
+    case Failure::Superseded:  // not carried out: a stop came (docs/protocol-decisions.md)
+      return ex(ExceptionCode::ServerDeviceFailure);
     case Failure::Cancelled:
       return std::nullopt;
   }

@@ -56,6 +56,10 @@ struct Tracked {
   std::optional<JobResult> result;
   Actor* from = nullptr;  // a PLC connection, bounded like lec serve's
   Duration bound{};       // for a stop: the lane's bound, as the line stood at its submit
+  bool hard = false;      // a hard stop (client::stops_hard)
+  bool starts = false;    // a write that may start motion (client::starts_motion)
+  bool in_lane = false;   // in the emergency lane: a stop, or a write a release moved there
+  bool by_operator = false;
 };
 
 struct Actor {
@@ -271,12 +275,12 @@ class World {
     const uint8_t id = static_cast<uint8_t>(pick(1, static_cast<int>(devices_.size())));
     if (chance(0.5)) {
       submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::RESET), modbus::kCoilOn},
-                 a.hangs_up);
+                 a.hangs_up, nullptr, true);
       submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::RESET), modbus::kCoilOff},
-                 a.hangs_up);
+                 a.hangs_up, nullptr, true);
     } else {
       submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::HOLD), modbus::kCoilOn},
-                 a.hangs_up);
+                 a.hangs_up, nullptr, true);
     }
   }
 
@@ -296,7 +300,8 @@ class World {
 
   // As the Modbus TCP listener does (modbus_tcp_server.cpp): the gateway
   // rule decides; a master that hangs up cancels what it had queued.
-  void submit_tcp(uint8_t id, modbus::Request request, bool hangs_up, Actor* from = nullptr) {
+  void submit_tcp(uint8_t id, modbus::Request request, bool hangs_up, Actor* from = nullptr,
+                  bool by_operator = false) {
     const auto pdu = modbus::encode_request_pdu(request);
     const auto decision = decide(policy_, id, *pdu);
     const auto* line = std::get_if<LineRequest>(&decision);
@@ -311,17 +316,31 @@ class World {
     const bool hold_on = coil && coil->coil == lec::address(Coil::HOLD) && coil->on();
     const std::size_t key = next_key_++;
     Tracked t{clock_, id, stop, hold_on, modbus::is_write(request), 0, 0, std::nullopt, from};
+    t.hard = client::stops_hard(request);
+    t.starts = client::starts_motion(request);
+    t.in_lane = stop;
+    t.by_operator = by_operator;
     if (from) ++from->outstanding;
-    // Ahead of it in its controller's lane: the stops and writes queued
-    // before it (the scheduler keeps a controller's writes in order).
-    if (stop) t.same_queued = pending_writes_[id];
-    if (stop) t.bound = stop_bound(t);
+    // Ahead of it in its controller's lane: a release moves every write
+    // queued before it to its controller there, in order; a hard stop
+    // refuses the starts among them and leaves the rest behind it
+    // (scheduler.cpp): only the lane's entries are ahead of it.
+    if (stop) {
+      for (auto& [k, x] : tracked_) {
+        if (x.id != id || !x.write || x.answers > 0) continue;
+        if (!t.hard) x.in_lane = true;
+        if (x.in_lane && !(t.hard && x.starts && !x.stop)) ++t.same_queued;
+      }
+      t.bound = stop_bound(t);
+      if (t.hard) last_hard_stop_[id] = key;
+    }
     if (modbus::is_write(request)) ++pending_writes_[id];
     tracked_[key] = t;
     job.done = [this, key](const JobResult& r) { answered(key, r); };
     if (stop) ++queued_stops_[id], ++run_.stops;
     ++run_.jobs;
     const JobId jid = s_->submit(std::move(job), clock_);
+    key_of_[jid] = key;
     note(1, key, [&] {
       return fmt::format("submit #{} job {} to ID {}{}", key, jid, id, stop ? " STOP" : "");
     });
@@ -356,6 +375,7 @@ class World {
       if (d.kind == Kind::Clean && r.failure == Failure::None) {
         const Duration wait = r.started - t.submitted;
         run_.stop_wait_ms.push_back(ms(wait));
+        if (t.by_operator && t.hard) run_.operator_stop_wait_ms.push_back(ms(wait));
         const Duration bound = t.bound;
         if (wait > bound)
           violation(
@@ -398,6 +418,16 @@ class World {
 
   void exchange(const Dispatch& d) {
     ++run_.exchanges;
+    if (const auto k = key_of_.find(d.id); k != key_of_.end()) {
+      const Tracked& t = tracked_[k->second];
+      // Invariant 6: a start queued before a hard stop to its controller
+      // never reaches the wire after that stop.
+      if (t.starts && !t.stop && on_wire_hard_[t.id] > k->second)
+        violation(
+            fmt::format("start #{} to ID {} went to the wire after stop #{}, accepted after it",
+                        k->second, t.id, on_wire_hard_[t.id]));
+      if (t.hard) on_wire_hard_[t.id] = std::max(on_wire_hard_[t.id], k->second);
+    }
     Device& dev = devices_[d.frame.id];
     const TimePoint start = clock_;
     const bool flap_dead =
@@ -483,6 +513,9 @@ class World {
   };
   std::vector<Hold> holds_;
   std::size_t next_key_ = 1;
+  std::map<JobId, std::size_t> key_of_;            // the scheduler's job id -> our key
+  std::map<uint8_t, std::size_t> last_hard_stop_;  // per ID, the last hard stop's key
+  std::map<uint8_t, std::size_t> on_wire_hard_;    // per ID, the latest hard stop on the wire
   std::optional<TimePoint> shutdown_at_;
   bool shutting_down_ = false;
   bool closed_ = false;

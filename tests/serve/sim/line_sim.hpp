@@ -17,7 +17,10 @@
 //   4. no job waits without bound (each is answered within kMaxWait, or by
 //      the line's close);
 //   5. a HOLD the line answered as done holds the twin's axis: at rest within
-//      its deceleration time, unless a later write released it.
+//      its deceleration time, unless a later write released it;
+//   6. a write that starts motion, queued before a hard stop to its
+//      controller, never reaches the wire after that stop (scheduler.cpp:
+//      a stop supersedes it).
 //
 // What it does not simulate yet: lec serve's operations (moves, jogs,
 // judged stops: they block on threads of their own) and the HTTP/MQTT
@@ -34,9 +37,10 @@ struct SimRun {
   uint64_t seed = 0;
   std::vector<std::string> violations;  // empty: every invariant held
   std::vector<double> stop_wait_ms;     // submit -> on the wire, stops to answering controllers
-  std::string plant;                    // what the seed drew, in words
-  std::string trace;                    // with `trace`: every event, one per line
-  uint64_t hash = 0;                    // of every event: equal runs, equal hashes
+  std::vector<double> operator_stop_wait_ms;  // of those, the operators' hard stops (RESET, HOLD)
+  std::string plant;                          // what the seed drew, in words
+  std::string trace;                          // with `trace`: every event, one per line
+  uint64_t hash = 0;                          // of every event: equal runs, equal hashes
   std::size_t jobs = 0, stops = 0, exchanges = 0;
 };
 

@@ -42,7 +42,7 @@ int main(int argc, char** argv) {
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
-  std::vector<double> waits;
+  std::vector<double> waits, operator_waits;
   std::vector<std::pair<double, uint64_t>> worst;  // a seed's longest stop wait
   uint64_t failed = 0;
   std::size_t jobs = 0, stops = 0;
@@ -50,6 +50,8 @@ int main(int argc, char** argv) {
     const auto r = run_line_sim(seed, trace);
     if (trace) fmt::print("{}\n{}", r.plant, r.trace);
     waits.insert(waits.end(), r.stop_wait_ms.begin(), r.stop_wait_ms.end());
+    operator_waits.insert(operator_waits.end(), r.operator_stop_wait_ms.begin(),
+                          r.operator_stop_wait_ms.end());
     if (!r.stop_wait_ms.empty())
       worst.emplace_back(*std::max_element(r.stop_wait_ms.begin(), r.stop_wait_ms.end()), seed);
     jobs += r.jobs;
@@ -61,16 +63,20 @@ int main(int argc, char** argv) {
     }
   }
   std::sort(waits.begin(), waits.end());
-  const auto at = [&](double q) {
-    return waits.empty()
-               ? 0.0
-               : waits[std::min(waits.size() - 1, static_cast<std::size_t>(q * waits.size()))];
+  std::sort(operator_waits.begin(), operator_waits.end());
+  const auto at = [](const std::vector<double>& w, double q) {
+    return w.empty() ? 0.0 : w[std::min(w.size() - 1, static_cast<std::size_t>(q * w.size()))];
   };
   fmt::print(
       "{} passed, {} failed; {} jobs, {} stops; stop to the wire (answering controllers, "
       "{} stops): p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms\n",
-      last - first - failed, failed, jobs, stops, waits.size(), at(0.5), at(0.99),
+      last - first - failed, failed, jobs, stops, waits.size(), at(waits, 0.5), at(waits, 0.99),
       waits.empty() ? 0.0 : waits.back());
+  fmt::print(
+      "the operators' RESET and HOLD among them ({} stops): p50 {:.1f} ms, p99 {:.1f} ms, max "
+      "{:.1f} ms\n",
+      operator_waits.size(), at(operator_waits, 0.5), at(operator_waits, 0.99),
+      operator_waits.empty() ? 0.0 : operator_waits.back());
   std::sort(worst.rbegin(), worst.rend());
   if (!trace && !worst.empty()) {
     fmt::print("longest waits:");

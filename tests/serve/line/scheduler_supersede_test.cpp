@@ -1,0 +1,169 @@
+// A hard stop supersedes the writes queued before it to its controller that
+// would start or resume motion (scheduler.cpp, docs/protocol-decisions.md "A
+// stop supersedes"): they are refused, the stop goes to the wire next, and
+// nothing queued before it moves the axis after it. A release (the second half
+// of a pulse) keeps the earlier writes in order ahead of it.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "lec6/client/interrupt.hpp"
+#include "lec6/lec/memory_map.hpp"
+#include "modbus_tcp/gateway.hpp"
+#include "serve/line/scheduler_harness.hpp"
+
+namespace lec6::serve {
+// Named, not anonymous: the unity build puts scheduler_stop_test.cpp's kResetOn in the same unit.
+namespace supersede_testing {
+
+using namespace scheduler_testing;
+using modbus::WriteCoilRequest;
+using ::testing::HasSubstr;
+
+const modbus::Request kDriveOn = WriteCoilRequest{0x1A, modbus::kCoilOn};
+const modbus::Request kDriveOff = WriteCoilRequest{0x1A, modbus::kCoilOff};
+const modbus::Request kHoldOn = WriteCoilRequest{0x18, modbus::kCoilOn};
+const modbus::Request kHoldOff = WriteCoilRequest{0x18, modbus::kCoilOff};
+const modbus::Request kJogOn = WriteCoilRequest{0x1D, modbus::kCoilOn};
+const modbus::Request kJogOff = WriteCoilRequest{0x1D, modbus::kCoilOff};
+const modbus::Request kResetOn = WriteCoilRequest{0x1B, modbus::kCoilOn};
+const modbus::Request kSelectStep3 = modbus::WriteCoilsRequest::of(
+    0x10, std::array<bool, 8>{true, true, false, false, false, false, false, false});
+
+modbus::Request direct_start() {
+  const uint16_t v[] = {lec::kDirectStartValue};
+  return modbus::WriteRegistersRequest::of(lec::kDirectStart, v);
+}
+
+struct Submitted {
+  std::vector<std::pair<std::string, JobResult>> results;
+};
+
+// Submits `r` to `id` at Command priority, or where the gateway's rule puts it.
+void submit(Harness& h, Submitted& out, std::string name, uint8_t id, modbus::Request r) {
+  Job j;
+  j.priority = client::stops_or_releases(r) ? Priority::Emergency : Priority::Command;
+  j.frame = {id, std::move(r)};
+  j.attempts = 3;  // as the gateway gives a write (GatewayPolicy)
+  j.done = [&out, name = std::move(name)](const JobResult& res) {
+    out.results.emplace_back(name, res);
+  };
+  h.s.submit(std::move(j), h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+}
+
+const JobResult& result_of(const Submitted& s, const std::string& name) {
+  for (const auto& [n, r] : s.results)
+    if (n == name) return r;
+  throw std::runtime_error("no result for " + name);
+}
+
+TEST(SchedulerSupersede, AHoldGoesFirstAndTheStartsQueuedBeforeItAreRefused) {
+  Harness h;
+  Submitted s;
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  const auto first = h.s.next(h.clock.now());  // on the wire first
+  ASSERT_TRUE(first);
+  submit(h, s, "select", 1, kSelectStep3);
+  submit(h, s, "drive", 1, kDriveOn);
+  submit(h, s, "start", 1, direct_start());
+  submit(h, s, "hold off", 1, kHoldOff);
+  submit(h, s, "drive on 2", 2, kDriveOn);  // another controller's: untouched
+  submit(h, s, "hold", 1, kHoldOn);
+  // The three writes that would move ID 1 are refused at once, saying why.
+  for (const char* name : {"drive", "start", "hold off"}) {
+    const JobResult& r = result_of(s, name);
+    EXPECT_EQ(r.failure, Failure::Superseded) << name;
+    EXPECT_THAT(r.error, HasSubstr("stop to ID 1")) << name;
+  }
+  // The exchange on the wire ends; the HOLD is next, then the rest in order.
+  h.clock.advance(10ms);
+  h.s.completed(answer(*first), h.clock.now() - 10ms, h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+  std::vector<std::pair<uint8_t, modbus::Request>> wire;
+  for (const auto& d : h.run_for(1s)) wire.emplace_back(d.frame.id, d.frame.pdu);
+  ASSERT_GE(wire.size(), 3u);
+  EXPECT_EQ(wire[0], (std::pair<uint8_t, modbus::Request>{1, kHoldOn}));
+  std::vector<std::pair<uint8_t, modbus::Request>> rest(wire.begin() + 1, wire.end());
+  EXPECT_THAT(rest, ::testing::Contains(std::pair<uint8_t, modbus::Request>{1, kSelectStep3}));
+  EXPECT_THAT(rest, ::testing::Contains(std::pair<uint8_t, modbus::Request>{2, kDriveOn}));
+  for (const auto& [id, pdu] : rest) {
+    EXPECT_FALSE(id == 1 && client::starts_motion(pdu)) << "a start to ID 1 went after its HOLD";
+  }
+  EXPECT_EQ(result_of(s, "hold").failure, Failure::None);
+}
+
+TEST(SchedulerSupersede, AReleaseKeepsTheWritesBeforeItInOrder) {
+  // JOG+ <- 1 then JOG+ <- 0 (a short jog pressed and let go): the release
+  // must not eat its own start; both go, in order.
+  Harness h;
+  Submitted s;
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  ASSERT_TRUE(h.s.next(h.clock.now()));
+  submit(h, s, "jog", 1, kJogOn);
+  submit(h, s, "release", 1, kJogOff);
+  submit(h, s, "drive", 1, kDriveOn);
+  submit(h, s, "drive off", 1, kDriveOff);
+  h.clock.advance(10ms);
+  h.s.failed(kTimeout, h.clock.now() - 10ms, h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+  std::vector<modbus::Request> to_1;
+  for (const auto& d : h.run_for(1s))
+    if (d.frame.id == 1) to_1.push_back(d.frame.pdu);
+  EXPECT_EQ(to_1, (std::vector<modbus::Request>{kJogOn, kJogOff, kDriveOn, kDriveOff}));
+  for (const auto& [name, r] : s.results) EXPECT_EQ(r.failure, Failure::None) << name;
+}
+
+TEST(SchedulerSupersede, AStartWhoseReplyWasLostIsNotResentAfterAStopAcceptedMeanwhile) {
+  Harness h;
+  Submitted s;
+  submit(h, s, "drive", 1, kDriveOn);
+  const auto d = h.s.next(h.clock.now());  // DRIVE <- 1 on the wire
+  ASSERT_TRUE(d);
+  ASSERT_EQ(d->frame.pdu, kDriveOn);
+  submit(h, s, "reset", 1, kResetOn);  // the operator's stop, while it is out
+  h.clock.advance(65ms);
+  h.s.failed(kTimeout, h.clock.now() - 65ms, h.clock.now());  // its reply is lost
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+  EXPECT_EQ(result_of(s, "drive").failure, Failure::Superseded);
+  std::vector<modbus::Request> wire;
+  for (const auto& x : h.run_for(1s)) wire.push_back(x.frame.pdu);
+  EXPECT_EQ(wire, (std::vector<modbus::Request>{kResetOn}));
+}
+
+TEST(SchedulerSupersede, AStartAcceptedAfterTheStopIsNotRefused) {
+  Harness h;
+  Submitted s;
+  submit(h, s, "hold", 1, kHoldOn);
+  submit(h, s, "hold off", 1, kHoldOff);  // the operator resumes: a new command
+  h.run_for(1s);
+  EXPECT_EQ(result_of(s, "hold").failure, Failure::None);
+  EXPECT_EQ(result_of(s, "hold off").failure, Failure::None);
+}
+
+TEST(SchedulerSupersede, ABroadcastStopSupersedesEveryControllersStarts) {
+  Harness h;
+  Submitted s;
+  h.s.submit(h.job(Priority::Command, 3), h.clock.now());
+  ASSERT_TRUE(h.s.next(h.clock.now()));
+  submit(h, s, "drive 1", 1, kDriveOn);
+  submit(h, s, "drive 2", 2, kDriveOn);
+  submit(h, s, "hold all", modbus::kBroadcastId, kHoldOn);
+  EXPECT_EQ(result_of(s, "drive 1").failure, Failure::Superseded);
+  EXPECT_EQ(result_of(s, "drive 2").failure, Failure::Superseded);
+}
+
+// Modbus TCP: a superseded write is answered with exception 04 (not carried
+// out), never 0B (which would say the controller is dead).
+TEST(SchedulerSupersede, TheGatewayAnswersASupersededWriteWithException04) {
+  JobResult r;
+  r.failure = Failure::Superseded;
+  const auto reply = tcp_reply(modbus::RequestFrame{1, kDriveOn}, r);
+  ASSERT_TRUE(reply);
+  const auto* ex = std::get_if<modbus::ExceptionResponse>(&*reply);
+  ASSERT_TRUE(ex);
+  EXPECT_EQ(ex->code, modbus::ExceptionCode::ServerDeviceFailure);
+}
+
+}  // namespace supersede_testing
+}  // namespace lec6::serve
