@@ -199,9 +199,13 @@ void Sniffer::emit_no_reply() {
 }
 
 // A frame of a function code no table sizes (see the header): its length
-// from its CRC, checked where the frame must end.
-std::optional<std::size_t> Sniffer::unknown_frame(std::span<const uint8_t> head,
-                                                  bool settle) const {
+// from its CRC, checked where the frame must end: its chunk's end (or a
+// settled end), a frame a table confirms, or another unknown frame that ends
+// so (a device answering an unknown function, delivered with its query in one
+// lump by a USB adapter: the query's CRC ends neither the chunk nor a known
+// frame; its answer's does).
+std::optional<std::size_t> Sniffer::unknown_frame(std::span<const uint8_t> head, bool settle,
+                                                  std::size_t offset, bool followed) const {
   constexpr std::size_t kShortest = 4, kLongest = 256;
   if (head.size() < kShortest || head[0] > 247 || head[1] == 0 || (head[1] & kExceptionFlag))
     return std::nullopt;
@@ -209,13 +213,13 @@ std::optional<std::size_t> Sniffer::unknown_frame(std::span<const uint8_t> head,
   for (std::size_t length = kShortest; length <= std::min(head.size(), kLongest); ++length) {
     if (length > kShortest) crc = crc16_update(crc, head.subspan(length - 3, 1));
     if (head[length - 2] != (crc & 0xFFU) || head[length - 1] != (crc >> 8)) continue;
-    // Where it ends: its chunk's end (or a settled end), or a confirmed frame.
-    if ((marks_[head_ + length - 1] & kChunkLast) || (settle && length == head.size()))
+    if ((marks_[head_ + offset + length - 1] & kChunkLast) || (settle && length == head.size()))
       return length;
     std::size_t next = 0;
     const auto rest = head.subspan(length);
     if (try_query(rest, next) == Reading::Confirmed || try_reply(rest, next) == Reading::Confirmed)
       return length;
+    if (followed && unknown_frame(rest, settle, offset + length, false)) return length;
   }
   return std::nullopt;
 }

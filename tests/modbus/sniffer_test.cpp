@@ -402,11 +402,8 @@ std::string fmt_kind(const SniffEvent& e) {
 // its CRC and the answer after it is another unknown frame, so both must be
 // found and paired. Found in review: the query's CRC ends neither the chunk
 // nor a frame a table confirms, so the query became noise and its answer
-// was shown as an unpaired query.
-// OPEN (issue 33, a reviewer's finding not fixed yet): disabled so that
-// make test passes; the closing note lists it. Run it with
-// --gtest_also_run_disabled_tests.
-TEST(Sniffer, DISABLED_AnUnknownFunctionAndItsAnswerInOneChunkArePaired) {
+// was shown as an unpaired query (issue 33, a reviewer's finding).
+TEST(Sniffer, AnUnknownFunctionAndItsAnswerInOneChunkArePaired) {
   const Bytes query = frame({0x02, 0x41, 0x00, 0x07});
   const Bytes answer = frame({0x02, 0x41, 0x03, 0x10, 0x20, 0x30});
   Line l;

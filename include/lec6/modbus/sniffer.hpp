@@ -157,7 +157,10 @@ class Sniffer {
   Reading try_query(std::span<const uint8_t> head, std::size_t& length) const;
   Reading try_reply(std::span<const uint8_t> head, std::size_t& length) const;
   bool matches_pending(std::span<const uint8_t> frame) const;
-  std::optional<std::size_t> unknown_frame(std::span<const uint8_t> head, bool settle) const;
+  // `offset`: where `head` begins after head_; `followed`: whether an unknown
+  // frame after this one may confirm where it ends (one level deep).
+  std::optional<std::size_t> unknown_frame(std::span<const uint8_t> head, bool settle,
+                                           std::size_t offset = 0, bool followed = true) const;
   void emit_query(std::size_t length, uint32_t flags = 0);
   void emit_reply(std::size_t length, bool paired, uint32_t flags = 0);
   void emit_no_reply();
