@@ -225,6 +225,11 @@ class Client:
         self.msgs = []
         self.cv = threading.Condition()
         self.connected = threading.Event()
+        # Set when the broker acknowledged every subscription (SUBACK): a
+        # message published before that is not delivered to this client (CI:
+        # a reply on a response topic missed by a checker made a moment before).
+        self.subscribed = threading.Event()
+        self.unacked = set()
         self.subscriptions = list(subscribe)
         self.c = mqtt.Client(client_id=f"{name}-{os.getpid()}-{time.monotonic_ns()}",
                              protocol=mqtt.MQTTv5)
@@ -234,6 +239,7 @@ class Client:
             self.c.username_pw_set(*auth)
         self.c.on_connect = self._on_connect
         self.c.on_message = self._on_message
+        self.c.on_subscribe = self._on_subscribe
         self.c.connect("127.0.0.1", port)
         # paho leaves Nagle's algorithm on: a command published right after a
         # PUBACK would wait for the broker's delayed ACK (~40 ms). A plant's
@@ -242,11 +248,22 @@ class Client:
         self.c.loop_start()
         if not self.connected.wait(10):
             raise Timeout("test client connected")
+        if not self.subscribed.wait(10):
+            raise Timeout(f"test client's subscriptions acknowledged: {self.subscriptions}")
 
     def _on_connect(self, c, userdata, flags, rc, props=None):
+        self.unacked = set()
         for t in self.subscriptions:
-            c.subscribe(t, qos=1)
+            _, mid = c.subscribe(t, qos=1)
+            self.unacked.add(mid)
+        if not self.unacked:
+            self.subscribed.set()
         self.connected.set()
+
+    def _on_subscribe(self, c, userdata, mid, *granted):
+        self.unacked.discard(mid)
+        if not self.unacked:
+            self.subscribed.set()
 
     def _on_message(self, c, userdata, m):
         with self.cv:
