@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <random>
 
 #include "lec6/client/interrupt.hpp"
@@ -13,11 +14,14 @@ namespace lec6::client {
 namespace {
 
 // The seed of the pause after a failure: from the process on the wall clock
-// (two `lec` on one line must draw differently), fixed on a virtual clock (a
-// simulation repeats).
+// (two `lec` on one line must draw differently); on a virtual clock the
+// masters' count in this process (a simulation that makes its masters in the
+// same order repeats, with one standard library: the distribution's algorithm
+// is the library's; two masters on one simulated line still draw apart).
 uint32_t backoff_seed(const Clock& clock, std::optional<uint32_t> chosen) {
+  static std::atomic<uint32_t> made{0};
   if (chosen) return *chosen;
-  if (dynamic_cast<const SteadyClock*>(&clock) == nullptr) return 1;
+  if (dynamic_cast<const SteadyClock*>(&clock) == nullptr) return 1 + made++;
   return std::random_device{}();
 }
 
@@ -60,11 +64,14 @@ void RtuMaster::trace(bool outgoing, TimePoint at, std::span<const uint8_t> byte
 // that hold into a wait for a silence that never comes.)
 // The wait is bounded: a line that never goes quiet (noise, a second master)
 // fails within a transaction timeout instead of hanging.
-void RtuMaster::wait_for_silence(bool interruptible) {
+void RtuMaster::wait_for_silence(bool interruptible, bool urgent) {
   const Duration quiet = options_.wait_for_silence ? timing_.line.silent_interval() : Duration{};
   const TimePoint began = link_.clock().now();
-  const TimePoint give_up = std::max(began, hold_until_) + quiet +
-                            timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
+  // A stop or release waits neither the late-reply hold nor the drawn pause
+  // after a failure, only Ts of silence (below): see the header.
+  const TimePoint held = urgent ? TimePoint{} : hold_until_ + pause_;
+  const TimePoint give_up =
+      std::max(began, held) + quiet + timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
   std::array<uint8_t, 256> sink;  // only read into
   const auto never_silent = [&] {
     return TransportError(
@@ -75,7 +82,7 @@ void RtuMaster::wait_for_silence(bool interruptible) {
   };
   for (;;) {
     const TimePoint now = link_.clock().now();
-    const TimePoint quiet_at = std::max(line_busy_until_ + quiet, hold_until_);
+    const TimePoint quiet_at = std::max(line_busy_until_ + quiet, held);
     if (now >= quiet_at) {
       // Silent by the clock since the last byte we saw: one look at the line
       // without waiting for what arrived unseen since then (the caller may
@@ -120,16 +127,23 @@ std::size_t RtuMaster::read_some(std::span<uint8_t> buffer, TimePoint deadline, 
 
 // After a failure the line is held for the failed query's reply window (a
 // late reply must not land in the next transaction), then for a drawn pause
-// of 0 to kBackoffChars character times. Two masters on one line (a second
-// PC, an HMI during commissioning) whose frames collided both time out at the
-// same instant; with the same fixed hold they would resend together and
-// collide again on every attempt (motion_truth_test saw 11 attempts lost in
-// a row). The drawn pause is the classic way out (Ethernet's backoff); one
-// master alone pays ~32 character times on a resend that already waited a
+// of 0 to kBackoffChars character times, unless the next query stops or
+// releases the axis (client::stops_or_releases): a stop waits only for Ts of
+// silence, listening (a late reply already under way is heard and waited
+// for). Behind a dead neighbour on lec serve's line the hold cost every stop
+// a second reply window (the line simulation: the operators' stops' p99
+// 311 ms with it). What a stop risks without it: a late reply that begins
+// while the stop is on the wire garbles it (the stop is resent: its
+// attempts), or arrives as its reply and is refused (a stop's reply is the
+// echo of its own write: a late reply to another request never fits). Two masters on one line (a
+// second PC, an HMI during commissioning) whose frames collided both time out at the same instant;
+// with the same fixed hold they would resend together and collide again on every attempt
+// (motion_truth_test saw 11 attempts lost in a row). The drawn pause is the classic way out
+// (Ethernet's backoff); one master alone pays ~32 character times on a resend that already waited a
 // whole reply window.
-Duration RtuMaster::failure_hold(Duration window) {
+Duration RtuMaster::failure_pause() {
   const Duration most = timing_.line.wire_time(kBackoffChars);
-  return window + Duration(std::uniform_int_distribution<Duration::rep>(0, most.count())(backoff_));
+  return Duration(std::uniform_int_distribution<Duration::rep>(0, most.count())(backoff_));
 }
 
 void RtuMaster::idle_until(TimePoint t) {
@@ -155,7 +169,7 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
       static_cast<bool>(options_.interrupted) && !stops_or_releases(frame.pdu);
   try {
     check_interrupt(interruptible, "about to send; nothing was sent");
-    wait_for_silence(interruptible);
+    wait_for_silence(interruptible, stops_or_releases(frame.pdu));
     const TimePoint start = link_.clock().now();
     link_.write(tx.bytes());
     tx.sent(link_.clock().now());
@@ -180,7 +194,8 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
     ++stats_.transactions;
     stats_.bytes_discarded += tx.discarded();
     if (tx.step() == Transaction::Step::Failed) {
-      hold_until_ = link_.clock().now() + failure_hold(tx.deadline() - tx.sent_at());
+      hold_until_ = link_.clock().now() + (tx.deadline() - tx.sent_at());
+      pause_ = failure_pause();
       switch (tx.error_kind()) {
         case TransportErrorKind::Timeout:
           ++stats_.timeouts;

@@ -108,9 +108,11 @@ TEST(Client, SilentIdTimesOutAfterRetriesWithinTheDeadline) {
   const modbus::LineTiming t;
   const Duration window = t.response_time(19) + std::chrono::milliseconds(50);
   const Duration per_try = t.wire_time(8) + window;
-  // Before each retry the line stays quiet for a reply window (late replies).
-  EXPECT_LE(f.clock.now() - start,
-            3 * (per_try + t.silent_interval()) + 2 * window + std::chrono::milliseconds(1));
+  // Before each retry the line stays quiet for a reply window (late replies)
+  // and a drawn pause of at most 64 character times (two masters apart).
+  EXPECT_LE(f.clock.now() - start, 3 * (per_try + t.silent_interval()) + 2 * window +
+                                       2 * t.wire_time(RtuMaster::kBackoffChars) +
+                                       std::chrono::milliseconds(1));
 }
 
 // Two masters on one line whose frames collided time out together; resending
@@ -152,6 +154,38 @@ TEST(Client, ResendsWaitADrawnPauseSoTwoMastersDoNotCollideInStep) {
   }
   EXPECT_GT(*std::max_element(a.begin(), a.end()) - fixed, t.wire_time(8));  // drawn, not fixed
   EXPECT_GE(differ, 6) << "two masters resending in step would collide again";
+}
+
+// A stop after a failure waits neither the drawn pause nor the late-reply
+// hold, only Ts of silence: from the failure to the stop's first byte is the
+// same for every draw.
+TEST(Client, AStopAfterAFailureDoesNotWaitTheDrawnPause) {
+  std::vector<Duration> gaps;
+  for (uint32_t seed = 1; seed <= 8; ++seed) {
+    SimFixture f;
+    std::vector<TimePoint> sends;
+    RtuOptions ro;
+    ro.backoff_seed = seed;
+    ro.trace = [&](const TraceEvent& e) {
+      if (e.outgoing) sends.push_back(e.at);
+    };
+    RtuMaster master(*f.link, ro);
+    ClientOptions o;
+    o.retries = 0;
+    o.id = 7;  // nobody answers
+    Client c(master, o);
+    EXPECT_THROW(c.read_state(), TransportError);
+    EXPECT_THROW(c.write_coil(lec::Coil::RESET, true), TransportError);
+    ASSERT_EQ(sends.size(), 2u);
+    gaps.push_back(sends[1] - sends[0]);
+  }
+  for (const Duration g : gaps) EXPECT_EQ(g, gaps.front());
+  // Nor the late-reply hold (a second reply window): only Ts of silence
+  // after the failed read's window.
+  const modbus::LineTiming t;
+  const Duration window = t.response_time(19) + std::chrono::milliseconds(50);
+  EXPECT_LE(gaps.front(),
+            t.wire_time(8) + window + t.silent_interval() + std::chrono::milliseconds(1));
 }
 
 TEST(Client, CorruptedRepliesAreNeverAcceptedAndClassifiedAsCrc) {

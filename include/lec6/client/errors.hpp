@@ -98,6 +98,14 @@ class Cancelled : public Error, public WithMoveResult {
       : Error(what), WithMoveResult(std::move(result)) {}
 };
 
+// lec serve did not carry out a write that would start or resume motion: a
+// stop to its controller, accepted after it, came first (docs/serve.md, "A
+// stop supersedes the starts queued before it"). Not retried.
+class Superseded : public Cancelled {
+ public:
+  using Cancelled::Cancelled;
+};
+
 // Nothing showed that the controller started a move within the start window
 // (client/completion.hpp): never taken for success. A stop (RESET pulse) was
 // sent before this was thrown, so a start processed late cannot run unattended.

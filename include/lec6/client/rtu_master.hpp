@@ -62,8 +62,9 @@ class RtuMaster final : public Master {
   static constexpr std::size_t kBackoffChars = 64;
 
  private:
-  Duration failure_hold(Duration window);
-  void wait_for_silence(bool interruptible);
+  Duration failure_pause();
+  // `urgent`: the query stops or releases the axis (no drawn pause).
+  void wait_for_silence(bool interruptible, bool urgent);
   // read_some with the deadline cut to the next interrupt check; `exact`:
   // the deadline is an instant to keep (Link::read_some_exact).
   std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible,
@@ -78,7 +79,8 @@ class RtuMaster final : public Master {
   TimePoint line_busy_until_{};
   TimePoint
       hold_until_{};  // after a failure: no query before the failed one's reply window is over
-  std::minstd_rand backoff_;  // draws the pause after a failure (failure_hold)
+  std::minstd_rand backoff_;  // draws the pause after a failure (failure_pause)
+  Duration pause_{};          // the last one drawn, waited beyond hold_until_
   LinkStats stats_;
   Duration last_round_trip_{};
   std::optional<WireTimes> last_wire_times_;

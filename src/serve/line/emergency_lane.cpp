@@ -141,6 +141,24 @@ bool EmergencyLane::ready(TimePoint now) const {
   return false;
 }
 
+std::vector<Queued> EmergencyLane::take_if(const std::function<bool(const Queued&)>& pred) {
+  std::vector<Queued> taken;
+  for (auto it = controllers_.begin(); it != controllers_.end();) {
+    auto& jobs = it->second.jobs;
+    for (auto j = jobs.begin(); j != jobs.end();) {
+      if (pred(*j)) {
+        taken.push_back(std::move(*j));
+        j = jobs.erase(j);
+        --size_;
+      } else {
+        ++j;
+      }
+    }
+    it = jobs.empty() ? controllers_.erase(it) : std::next(it);
+  }
+  return taken;
+}
+
 std::vector<Queued> EmergencyLane::take_all() {
   std::vector<Queued> all;
   for (auto& [id, c] : controllers_)

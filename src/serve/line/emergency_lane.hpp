@@ -66,6 +66,9 @@ class EmergencyLane {
   std::size_t size() const noexcept { return size_; }
   // Every queued stop, in no particular order (the line went down).
   std::vector<Queued> take_all();
+  // The entries `pred` picks, taken out in queue order (a start that a
+  // release moved here, superseded by a later hard stop: scheduler.cpp).
+  std::vector<Queued> take_if(const std::function<bool(const Queued&)>& pred);
 
  private:
   struct Controller {

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 
 #include "lec6/clock.hpp"
 #include "lec6/modbus/pdu.hpp"
@@ -24,6 +25,10 @@ struct Job {
   TimePoint not_before{};
   // Exchanges to try on a line fault (timeout, CRC, framing); reads may retry, starts never.
   int attempts = 1;
+  // A resend of a write whose reply was lost (LineMaster): when the scheduler
+  // took its first attempt. A stop accepted after that supersedes it as it
+  // would have superseded the first attempt (scheduler.cpp).
+  std::optional<TimePoint> first_submitted{};
 };
 
 // A job waiting for the wire.

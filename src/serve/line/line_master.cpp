@@ -31,10 +31,18 @@ modbus::ResponseFrame LineMaster::exchange(const modbus::RequestFrame& frame) {
   Job job;
   job.priority = priority_of(frame, reads_, writes_);
   job.frame = frame;
+  const bool resend = lost_write_ && lost_write_->first == frame;
+  if (resend) job.first_submitted = lost_write_->second;
   job.done = [promise](const JobResult& r) { promise->set_value(r); };
   line_.submit(std::move(job));
   const JobResult r = result.get();  // the line always answers: on the wire, or failed
   ++stats_.transactions;
+  if (r.failure == Failure::NoAnswer && modbus::is_write(frame.pdu)) {
+    if (!resend) lost_write_.emplace(frame, r.submitted);
+  } else {
+    lost_write_.reset();
+  }
+  if (r.failure == Failure::Superseded) throw client::Superseded(r.error);
   if (r.failure != Failure::None) {
     if (r.error_kind == client::TransportErrorKind::Timeout) ++stats_.timeouts;
     throw transport_error(r);

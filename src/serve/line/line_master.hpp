@@ -50,6 +50,10 @@ class LineMaster final : public client::Master {
   client::LinkStats stats_;
   Duration last_round_trip_{};
   std::optional<client::WireTimes> last_wire_times_;
+  // The last write whose reply was lost, and when the line took its first
+  // attempt: a Client resends it as a new job, which a stop accepted after
+  // that first attempt supersedes all the same (Job::first_submitted).
+  std::optional<std::pair<modbus::RequestFrame, TimePoint>> lost_write_;
 };
 
 }  // namespace lec6::serve

@@ -135,34 +135,43 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     complete(job, std::move(*refused));
     return id;
   }
+  if (job.first_submitted && superseded(job, id)) {  // a resend of a lost start, after a stop
+    supersede(job, now, now, true);
+    return id;
+  }
   if (job.priority == Priority::Emergency) {
-    const uint8_t to = job.frame.id;
-    const auto same_controller = [&](const Queued& q) {
-      return (q.job.frame.id == to || to == modbus::kBroadcastId) &&
-             modbus::is_write(q.job.frame.pdu);
-    };
     // A hard stop (RESET <- 1, HOLD <- 1, SVON <- 0) supersedes the writes
-    // queued before it to its controller that would start or resume motion
-    // (DRIVE, JOG, SVON <- 1, HOLD <- 0, a D9100 start): they are refused,
-    // not sent, and its controller's other writes (step data, IN0-IN5) go
-    // after it. Sending them first, in order, would put a start on the wire
-    // ahead of the stop the operator pressed, and made each stop wait for
-    // every write a PLC had queued to that controller (issue 31, rule 2: p99
-    // 888 ms in the line simulation). A release (RESET, DRIVE, JOG <- 0)
-    // ends a pulse: the writes queued before it still go first, in order (a
-    // DRIVE <- 1 it overtook would start a move after its own release).
-    // Decision row: docs/protocol-decisions.md, "A stop supersedes".
-    const bool hard = client::stops_hard(job.frame.pdu);
-    if (hard) hard_stop_[to] = id;
+    // queued before it that would start or resume motion (DRIVE, SETUP, JOG,
+    // SVON <- 1, HOLD <- 0, a D9100 start) on its controller: its own, a
+    // broadcast's, or any one's for a broadcast stop. They are refused, not
+    // sent, wherever they wait (a queue, or the lane, where a release moved
+    // them), and so is a resend of one whose reply was lost. Sending them
+    // first, in order, put a start on the wire ahead of the stop the operator
+    // pressed, and made each stop wait for every start a PLC had queued to
+    // that controller (issue 31, rule 2: p99 888 ms in the line simulation).
+    // The controller's other writes queued before the stop (step data,
+    // IN0-IN5, Y30) still go first, in order, and a release (RESET, DRIVE,
+    // JOG <- 0) refuses nothing: it ends a pulse, and the DRIVE <- 1 it ends
+    // must go. Decision row: docs/protocol-decisions.md, "A stop supersedes".
+    const uint8_t to = job.frame.id;
+    if (client::stops_hard(job.frame.pdu)) {
+      hard_stop_[to] = {id, now};
+      any_hard_stop_ = HardStop{id, now};
+    }
+    const auto reaches = [&](uint8_t target) {
+      return target == to || to == modbus::kBroadcastId || target == modbus::kBroadcastId;
+    };
+    for (Queued& q : lane_.take_if(
+             [&](const Queued& q) { return reaches(q.job.frame.id) && superseded(q.job, q.id); }))
+      supersede(q.job, q.submitted, now);
     std::vector<Queued> earlier;
     for (auto& q : queues_) {
       for (auto it = q.begin(); it != q.end();) {
-        if (!same_controller(*it)) {
-          ++it;
-        } else if (superseded(it->job, it->id)) {
+        const bool write = modbus::is_write(it->job.frame.pdu);
+        if (write && reaches(it->job.frame.id) && superseded(it->job, it->id)) {
           supersede(it->job, it->submitted, now);
           it = q.erase(it);
-        } else if (!hard) {
+        } else if (write && (it->job.frame.id == to || to == modbus::kBroadcastId)) {
           earlier.push_back(std::move(*it));
           it = q.erase(it);
         } else {
@@ -328,7 +337,7 @@ void Scheduler::failed(const client::TransportError& error, TimePoint start, Tim
     if (superseded(f.job, f.id)) {
       // Its reply was lost while a stop to its controller came: the stop went
       // (or goes) first, and the start is not sent after it.
-      supersede(f.job, f.submitted, end);
+      supersede(f.job, f.submitted, end, true);
       return;
     }
     if (emergency) {
@@ -386,21 +395,31 @@ void Scheduler::fail_one(Queued& x, Failure why, const std::string& text, TimePo
 
 bool Scheduler::superseded(const Job& job, JobId id) const {
   if (job.priority == Priority::Emergency || !client::starts_motion(job.frame.pdu)) return false;
-  const auto after = [&](uint8_t to) {
-    const auto it = hard_stop_.find(to);
-    return it != hard_stop_.end() && it->second > id;
+  const auto after = [&](const HardStop& s) {
+    return s.id > id || (job.first_submitted && s.accepted > *job.first_submitted);
   };
-  return after(job.frame.id) || after(modbus::kBroadcastId);
+  if (job.frame.id == modbus::kBroadcastId) return any_hard_stop_ && after(*any_hard_stop_);
+  for (const uint8_t to : {job.frame.id, modbus::kBroadcastId}) {
+    const auto it = hard_stop_.find(to);
+    if (it != hard_stop_.end() && after(it->second)) return true;
+  }
+  return false;
 }
 
-void Scheduler::supersede(Job& job, TimePoint submitted, TimePoint now) {
+void Scheduler::supersede(Job& job, TimePoint submitted, TimePoint now, bool lost) {
   JobResult r;
   r.failure = Failure::Superseded;
   r.error_kind = TransportErrorKind::Port;
-  r.error = fmt::format(
-      "not sent: a stop to ID {} accepted after this write supersedes the writes queued before it "
-      "that would start or resume motion",
-      job.frame.id);
+  r.error = lost
+                ? fmt::format(
+                      "its reply was lost, and a stop to ID {} came meanwhile: not sent again (a "
+                      "stop supersedes the writes before it that would start or resume motion; the "
+                      "controller may have heard the first attempt, and the stop came after it)",
+                      job.frame.id)
+                : fmt::format(
+                      "not carried out: a stop to ID {} accepted after it came first (a stop "
+                      "supersedes the writes queued before it that would start or resume motion)",
+                      job.frame.id);
   r.submitted = submitted;
   r.started = r.finished = now;
   complete(job, std::move(r));

@@ -252,7 +252,8 @@ class Scheduler {
   // A write that starts motion, submitted before a hard stop to its
   // controller was accepted: refused with Failure::Superseded (submit()).
   bool superseded(const Job& job, JobId id) const;
-  void supersede(Job& job, TimePoint submitted, TimePoint now);
+  // `lost`: its reply was lost, and it is not sent again.
+  void supersede(Job& job, TimePoint submitted, TimePoint now, bool lost = false);
   std::optional<JobResult> refuse_now(const Job& job, TimePoint now) const;
   bool answer_from_cache(Job& job, TimePoint submitted, TimePoint now);
   void complete(Job& job, JobResult result);
@@ -263,7 +264,12 @@ class Scheduler {
   std::optional<Flight> flight_;
   std::map<uint8_t, Telemetry> telemetry_;
   std::map<uint8_t, DeviceHealth> health_;
-  std::map<uint8_t, JobId> hard_stop_;  // the last hard stop accepted, per ID (0: broadcast)
+  struct HardStop {
+    JobId id = 0;
+    TimePoint accepted{};
+  };
+  std::map<uint8_t, HardStop> hard_stop_;  // the last hard stop accepted, per ID (0: broadcast)
+  std::optional<HardStop> any_hard_stop_;  // the last one to any ID (a broadcast start's)
   TelemetryCache cache_;
   LineStats stats_;
   std::vector<PendingCompletion> completions_;

@@ -196,6 +196,12 @@ OpResult result_of(std::exception_ptr e, bool stopped_by_other) {
     add_move_of(r.body, x);
     r.body["outcome"] = "deadline";
     return r;
+  } catch (const client::Superseded& x) {
+    // A stop from anywhere (a PLC's HOLD too) came before its start.
+    auto r = refusal(422, x.what());
+    add_move_of(r.body, x);
+    r.body["outcome"] = "stopped";
+    return r;
   } catch (const client::Cancelled& x) {
     auto r = refusal(stopped_by_other ? 422 : 503, x.what());
     add_move_of(r.body, x);

@@ -10,6 +10,7 @@
 #include "lec6/client/interrupt.hpp"
 #include "lec6/lec/memory_map.hpp"
 #include "modbus_tcp/gateway.hpp"
+#include "ops/op_results.hpp"
 #include "serve/line/scheduler_harness.hpp"
 
 namespace lec6::serve {
@@ -40,11 +41,12 @@ struct Submitted {
 };
 
 // Submits `r` to `id` at Command priority, or where the gateway's rule puts it.
-void submit(Harness& h, Submitted& out, std::string name, uint8_t id, modbus::Request r) {
+void submit(Harness& h, Submitted& out, std::string name, uint8_t id, modbus::Request r,
+            int attempts = 3) {
   Job j;
   j.priority = client::stops_or_releases(r) ? Priority::Emergency : Priority::Command;
   j.frame = {id, std::move(r)};
-  j.attempts = 3;  // as the gateway gives a write (GatewayPolicy)
+  j.attempts = attempts;
   j.done = [&out, name = std::move(name)](const JobResult& res) {
     out.results.emplace_back(name, res);
   };
@@ -76,16 +78,17 @@ TEST(SchedulerSupersede, AHoldGoesFirstAndTheStartsQueuedBeforeItAreRefused) {
     EXPECT_EQ(r.failure, Failure::Superseded) << name;
     EXPECT_THAT(r.error, HasSubstr("stop to ID 1")) << name;
   }
-  // The exchange on the wire ends; the HOLD is next, then the rest in order.
+  // The exchange on the wire ends; ID 1's other write queued before the HOLD
+  // (a step selection) goes first, in order, then the HOLD, then the rest.
   h.clock.advance(10ms);
   h.s.completed(answer(*first), h.clock.now() - 10ms, h.clock.now());
   for (auto& c : h.s.take_completions()) c.done(c.result);
   std::vector<std::pair<uint8_t, modbus::Request>> wire;
   for (const auto& d : h.run_for(1s)) wire.emplace_back(d.frame.id, d.frame.pdu);
   ASSERT_GE(wire.size(), 3u);
-  EXPECT_EQ(wire[0], (std::pair<uint8_t, modbus::Request>{1, kHoldOn}));
-  std::vector<std::pair<uint8_t, modbus::Request>> rest(wire.begin() + 1, wire.end());
-  EXPECT_THAT(rest, ::testing::Contains(std::pair<uint8_t, modbus::Request>{1, kSelectStep3}));
+  EXPECT_EQ(wire[0], (std::pair<uint8_t, modbus::Request>{1, kSelectStep3}));
+  EXPECT_EQ(wire[1], (std::pair<uint8_t, modbus::Request>{1, kHoldOn}));
+  std::vector<std::pair<uint8_t, modbus::Request>> rest(wire.begin() + 2, wire.end());
   EXPECT_THAT(rest, ::testing::Contains(std::pair<uint8_t, modbus::Request>{2, kDriveOn}));
   for (const auto& [id, pdu] : rest) {
     EXPECT_FALSE(id == 1 && client::starts_motion(pdu)) << "a start to ID 1 went after its HOLD";
@@ -153,6 +156,69 @@ TEST(SchedulerSupersede, ABroadcastStopSupersedesEveryControllersStarts) {
   EXPECT_EQ(result_of(s, "drive 2").failure, Failure::Superseded);
 }
 
+// A reviewer's finding: a start a release had moved into the emergency lane
+// (DRIVE <- 1, then RESET <- 0) went to the wire ahead of the HOLD after them.
+TEST(SchedulerSupersede, AStartAReleaseMovedIntoTheLaneIsRefusedToo) {
+  Harness h;
+  Submitted s;
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  const auto first = h.s.next(h.clock.now());
+  ASSERT_TRUE(first);
+  submit(h, s, "drive", 1, kDriveOn);
+  submit(h, s, "release", 1, modbus::WriteCoilRequest{0x1B, modbus::kCoilOff});
+  submit(h, s, "hold", 1, kHoldOn);
+  EXPECT_EQ(result_of(s, "drive").failure, Failure::Superseded);
+  h.clock.advance(10ms);
+  h.s.completed(answer(*first), h.clock.now() - 10ms, h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+  std::vector<modbus::Request> to_1;
+  for (const auto& d : h.run_for(1s))
+    if (d.frame.id == 1) to_1.push_back(d.frame.pdu);
+  EXPECT_EQ(to_1, (std::vector<modbus::Request>{modbus::WriteCoilRequest{0x1B, modbus::kCoilOff},
+                                                kHoldOn}));
+}
+
+// A reviewer's finding: a broadcast start queued before a stop to one
+// controller reached the wire after that stop (it starts that controller too).
+TEST(SchedulerSupersede, ABroadcastStartQueuedBeforeAStopToOneControllerIsRefused) {
+  Harness h;
+  Submitted s;
+  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
+  ASSERT_TRUE(h.s.next(h.clock.now()));
+  submit(h, s, "drive all", modbus::kBroadcastId, kDriveOn);
+  submit(h, s, "hold 1", 1, kHoldOn);
+  EXPECT_EQ(result_of(s, "drive all").failure, Failure::Superseded);
+}
+
+// A reviewer's finding: lec serve's own operations resend a write whose reply
+// was lost as a new job (Client's retries through LineMaster); a stop accepted
+// after the first attempt supersedes the resend too (Job::first_submitted).
+TEST(SchedulerSupersede, AResendOfALostStartIsRefusedAfterAStopThatCameAfterTheFirstAttempt) {
+  Harness h;
+  Submitted s;
+  submit(h, s, "drive", 1, kDriveOn, 1);  // one attempt: as every write gets (gateway, LineMaster)
+  Job resend;
+  ASSERT_TRUE(h.s.next(h.clock.now()));
+  h.clock.advance(65ms);
+  h.s.failed(kTimeout, h.clock.now() - 65ms, h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+  const JobResult lost = result_of(s, "drive");
+  ASSERT_EQ(lost.failure, Failure::NoAnswer);  // one attempt: the Client resends
+  submit(h, s, "reset", 1, kResetOn);
+  h.clock.advance(1ms);
+  resend.priority = Priority::Command;
+  resend.frame = {1, kDriveOn};
+  resend.first_submitted = lost.submitted;
+  resend.done = [&s](const JobResult& r) { s.results.emplace_back("resend", r); };
+  h.s.submit(std::move(resend), h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+  EXPECT_EQ(result_of(s, "resend").failure, Failure::Superseded);
+  // A new start, not a resend, after the stop: carried out.
+  submit(h, s, "new drive", 1, kDriveOn);
+  h.run_for(1s);
+  EXPECT_EQ(result_of(s, "new drive").failure, Failure::None);
+}
+
 // Modbus TCP: a superseded write is answered with exception 04 (not carried
 // out), never 0B (which would say the controller is dead).
 TEST(SchedulerSupersede, TheGatewayAnswersASupersededWriteWithException04) {
@@ -163,6 +229,17 @@ TEST(SchedulerSupersede, TheGatewayAnswersASupersededWriteWithException04) {
   const auto* ex = std::get_if<modbus::ExceptionResponse>(&*reply);
   ASSERT_TRUE(ex);
   EXPECT_EQ(ex->code, modbus::ExceptionCode::ServerDeviceFailure);
+}
+
+// lec serve's own operations (HTTP, MQTT, Sparkplug) see a superseded start
+// as the stop it is: 422 "stopped", never 503 "line down" (a reviewer's
+// finding: it came through as a port error).
+TEST(SchedulerSupersede, AnOperationWhoseStartWasSupersededSaysItWasStopped) {
+  const OpResult r = serve::result_of(
+      std::make_exception_ptr(client::Superseded("not carried out: a stop to ID 1 ...")), false);
+  EXPECT_EQ(r.status, 422);
+  EXPECT_EQ(r.body.value("outcome", ""), "stopped");
+  EXPECT_THAT(r.body.dump(), HasSubstr("a stop to ID 1"));
 }
 
 }  // namespace supersede_testing

@@ -321,15 +321,14 @@ class World {
     t.in_lane = stop;
     t.by_operator = by_operator;
     if (from) ++from->outstanding;
-    // Ahead of it in its controller's lane: a release moves every write
-    // queued before it to its controller there, in order; a hard stop
-    // refuses the starts among them and leaves the rest behind it
-    // (scheduler.cpp): only the lane's entries are ahead of it.
+    // Ahead of it in its controller's lane: every write queued before it to
+    // its controller, moved there in order, but for the starts a hard stop
+    // refuses (scheduler.cpp).
     if (stop) {
       for (auto& [k, x] : tracked_) {
         if (x.id != id || !x.write || x.answers > 0) continue;
-        if (!t.hard) x.in_lane = true;
-        if (x.in_lane && !(t.hard && x.starts && !x.stop)) ++t.same_queued;
+        x.in_lane = true;
+        if (!(t.hard && x.starts && !x.stop)) ++t.same_queued;
       }
       t.bound = stop_bound(t);
       if (t.hard) last_hard_stop_[id] = key;
@@ -397,7 +396,9 @@ class World {
   Duration stop_bound(const Tracked& t) const {
     const Duration answered =
         exchange_time(modbus::ReadRegistersRequest{lec::kStateData, 7}, 1) * 3 / 2;
-    const Duration lost = kTimeout + timing_.wire_time(17);
+    // A lost exchange, and the quiet the line keeps after it before a write
+    // moved into the lane ahead of the stop (exchange()).
+    const Duration lost = 2 * kTimeout + timing_.wire_time(17);
     Duration round = lost;  // the non-answering ones' turn
     for (const auto& [id, d] : devices_) {
       if (id == t.id) continue;
@@ -418,6 +419,9 @@ class World {
 
   void exchange(const Dispatch& d) {
     ++run_.exchanges;
+    // After a lost exchange the line's RtuMaster keeps the line quiet for a
+    // reply window (late replies), except for a stop or release.
+    if (!client::stops_or_releases(d.frame.pdu)) clock_ = std::max(clock_, quiet_at_);
     if (const auto k = key_of_.find(d.id); k != key_of_.end()) {
       const Tracked& t = tracked_[k->second];
       // Invariant 6: a start queued before a hard stop to its controller
@@ -439,6 +443,7 @@ class World {
     });
     if (lost) {
       clock_ += timing_.wire_time(12) + kTimeout;
+      quiet_at_ = clock_ + kTimeout;
       if (dev.twin && dev.kind == Kind::Noisy)
         dev.twin->handle(d.frame.pdu, start);  // heard, reply lost
       s_->failed(kNoReply, start, clock_);
@@ -513,6 +518,7 @@ class World {
   };
   std::vector<Hold> holds_;
   std::size_t next_key_ = 1;
+  TimePoint quiet_at_{};                           // the end of the quiet after a lost exchange
   std::map<JobId, std::size_t> key_of_;            // the scheduler's job id -> our key
   std::map<uint8_t, std::size_t> last_hard_stop_;  // per ID, the last hard stop's key
   std::map<uint8_t, std::size_t> on_wire_hard_;    // per ID, the latest hard stop on the wire
