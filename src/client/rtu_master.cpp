@@ -64,12 +64,14 @@ void RtuMaster::trace(bool outgoing, TimePoint at, std::span<const uint8_t> byte
 // that hold into a wait for a silence that never comes.)
 // The wait is bounded: a line that never goes quiet (noise, a second master)
 // fails within a transaction timeout instead of hanging.
-void RtuMaster::wait_for_silence(bool interruptible, bool urgent) {
+void RtuMaster::wait_for_silence(bool interruptible, bool urgent, uint8_t to) {
   const Duration quiet = options_.wait_for_silence ? timing_.line.silent_interval() : Duration{};
   const TimePoint began = link_.clock().now();
-  // A stop or release waits neither the late-reply hold nor the drawn pause
-  // after a failure, only Ts of silence (below): see the header.
-  const TimePoint held = urgent ? TimePoint{} : hold_until_ + pause_;
+  // A stop or release to another ID (or a broadcast: no reply) waits neither
+  // the late-reply hold nor the drawn pause, only Ts of silence (below); to
+  // the ID whose reply was lost it waits the hold: see failure_pause.
+  const bool skip = urgent && (to != failed_id_ || to == modbus::kBroadcastId);
+  const TimePoint held = skip ? TimePoint{} : hold_until_ + (urgent ? Duration{} : pause_);
   const TimePoint give_up =
       std::max(began, held) + quiet + timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
   std::array<uint8_t, 256> sink;  // only read into
@@ -127,15 +129,18 @@ std::size_t RtuMaster::read_some(std::span<uint8_t> buffer, TimePoint deadline, 
 
 // After a failure the line is held for the failed query's reply window (a
 // late reply must not land in the next transaction), then for a drawn pause
-// of 0 to kBackoffChars character times, unless the next query stops or
-// releases the axis (client::stops_or_releases): a stop waits only for Ts of
+// of 0 to kBackoffChars character times. A query that stops or releases the
+// axis (client::stops_or_releases) never waits the drawn pause; to another
+// ID than the failed query's (or a broadcast) it waits only for Ts of
 // silence, listening (a late reply already under way is heard and waited
-// for). Behind a dead neighbour on lec serve's line the hold cost every stop
+// for): behind a dead neighbour on lec serve's line the hold cost every stop
 // a second reply window (the line simulation: the operators' stops' p99
-// 311 ms with it). What a stop risks without it: a late reply that begins
-// while the stop is on the wire garbles it (the stop is resent: its
-// attempts), or arrives as its reply and is refused (a stop's reply is the
-// echo of its own write: a late reply to another request never fits). Two masters on one line (a
+// 311 ms with it). A late reply from another ID cannot pass for the stop's
+// (the reply must carry the stop's ID); one that begins while the stop is on
+// the wire garbles it, and the stop is resent. To the same ID the hold stays:
+// a late echo of an earlier write to the same coil or block can look like
+// the stop's own reply (a reviewer's finding: HOLD <- 0's echo taken for
+// HOLD <- 1's). Two masters on one line (a
 // second PC, an HMI during commissioning) whose frames collided both time out at the same instant;
 // with the same fixed hold they would resend together and collide again on every attempt
 // (motion_truth_test saw 11 attempts lost in a row). The drawn pause is the classic way out
@@ -169,7 +174,7 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
       static_cast<bool>(options_.interrupted) && !stops_or_releases(frame.pdu);
   try {
     check_interrupt(interruptible, "about to send; nothing was sent");
-    wait_for_silence(interruptible, stops_or_releases(frame.pdu));
+    wait_for_silence(interruptible, stops_or_releases(frame.pdu), frame.id);
     const TimePoint start = link_.clock().now();
     link_.write(tx.bytes());
     tx.sent(link_.clock().now());
@@ -178,6 +183,8 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
       if (interruptible && options_.interrupted()) {
         line_busy_until_ = link_.clock().now();
         hold_until_ = link_.clock().now() + (tx.deadline() - tx.sent_at());  // its reply may come
+        pause_ = {};
+        failed_id_ = frame.id;
         throw Cancelled(
             "interrupted while waiting for the reply: the request was sent and may "
             "have been carried out");
@@ -196,6 +203,7 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
     if (tx.step() == Transaction::Step::Failed) {
       hold_until_ = link_.clock().now() + (tx.deadline() - tx.sent_at());
       pause_ = failure_pause();
+      failed_id_ = frame.id;
       switch (tx.error_kind()) {
         case TransportErrorKind::Timeout:
           ++stats_.timeouts;
@@ -220,6 +228,8 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
     line_busy_until_ = link_.clock().now();
     hold_until_ =
         link_.clock().now() + timing_.line.response_time(modbus::kMaxAdu) + timing_.margin;
+    pause_ = {};
+    failed_id_ = frame.id;
     throw TransportError(kind_of(e.kind()), e.what());
   }
 }

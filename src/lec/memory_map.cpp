@@ -179,7 +179,9 @@ std::string explain_exception(modbus::ExceptionCode code) {
              "of "
              "its area, or a coil value is not FF00h/0000h";
     case modbus::ExceptionCode::ServerDeviceFailure:
-      return "04: the gateway failed while handling the request (see the lec serve log)";
+      return "04: not carried out by the gateway: lec serve refuses a write that would start or "
+             "resume motion when a stop to its controller came after it; otherwise the gateway "
+             "failed while handling the request (see the lec serve log)";
     case modbus::ExceptionCode::ServerBusy:
       return "06: the gateway is busy (shutting down): try again later";
     case modbus::ExceptionCode::GatewayPathUnavailable:

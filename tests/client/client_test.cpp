@@ -115,32 +115,37 @@ TEST(Client, SilentIdTimesOutAfterRetriesWithinTheDeadline) {
                                        std::chrono::milliseconds(1));
 }
 
+// The gaps between the queries a Client sends to ID 7 (nobody answers) on a
+// master of its own whose drawn pauses are seeded `seed`; `calls` makes them.
+template <typename Calls>
+std::vector<Duration> gaps_to_a_silent_id(uint32_t seed, int retries, Calls calls) {
+  SimFixture f;
+  std::vector<TimePoint> sends;
+  RtuOptions ro;
+  ro.backoff_seed = seed;
+  ro.trace = [&](const TraceEvent& e) {
+    if (e.outgoing) sends.push_back(e.at);
+  };
+  RtuMaster master(*f.link, ro);
+  ClientOptions o;
+  o.retries = retries;
+  o.id = 7;
+  Client c(master, o);
+  calls(c);
+  std::vector<Duration> gaps;
+  for (std::size_t i = 1; i < sends.size(); ++i) gaps.push_back(sends[i] - sends[i - 1]);
+  return gaps;
+}
+
 // Two masters on one line whose frames collided time out together; resending
 // after the same fixed hold they would collide on every attempt (seen in
 // motion_truth_test: 11 attempts lost). After a failure each master waits the
 // reply window and a drawn pause of 0 to 64 character times: the gaps between
 // attempts vary, stay bounded, and two masters draw differently.
 TEST(Client, ResendsWaitADrawnPauseSoTwoMastersDoNotCollideInStep) {
-  const auto gaps_for = [](uint32_t seed) {
-    SimFixture f;
-    std::vector<TimePoint> sends;
-    RtuOptions ro;
-    ro.backoff_seed = seed;
-    ro.trace = [&](const TraceEvent& e) {
-      if (e.outgoing) sends.push_back(e.at);
-    };
-    RtuMaster master(*f.link, ro);
-    ClientOptions o;
-    o.retries = 8;
-    o.id = 7;  // nobody answers
-    Client c(master, o);
-    EXPECT_THROW(c.read_state(), TransportError);
-    std::vector<Duration> gaps;
-    for (std::size_t i = 1; i < sends.size(); ++i) gaps.push_back(sends[i] - sends[i - 1]);
-    return gaps;
-  };
-  const auto a = gaps_for(1);
-  const auto b = gaps_for(2);
+  const auto read = [](Client& c) { EXPECT_THROW(c.read_state(), TransportError); };
+  const auto a = gaps_to_a_silent_id(1, 8, read);
+  const auto b = gaps_to_a_silent_id(2, 8, read);
   ASSERT_EQ(a.size(), 8u);
   ASSERT_EQ(b.size(), 8u);
   const modbus::LineTiming t;
@@ -156,36 +161,37 @@ TEST(Client, ResendsWaitADrawnPauseSoTwoMastersDoNotCollideInStep) {
   EXPECT_GE(differ, 6) << "two masters resending in step would collide again";
 }
 
-// A stop after a failure waits neither the drawn pause nor the late-reply
-// hold, only Ts of silence: from the failure to the stop's first byte is the
-// same for every draw.
+// A stop after a failure waits neither the drawn pause nor, to another ID,
+// the late-reply hold: only Ts of silence after the failed query's window
+// (behind a dead neighbour a stop must not wait a second window). To the ID
+// whose reply was lost it waits the hold: a late echo of an earlier write to
+// the same coil could pass for the stop's reply (a reviewer's finding).
 TEST(Client, AStopAfterAFailureDoesNotWaitTheDrawnPause) {
-  std::vector<Duration> gaps;
-  for (uint32_t seed = 1; seed <= 8; ++seed) {
-    SimFixture f;
-    std::vector<TimePoint> sends;
-    RtuOptions ro;
-    ro.backoff_seed = seed;
-    ro.trace = [&](const TraceEvent& e) {
-      if (e.outgoing) sends.push_back(e.at);
-    };
-    RtuMaster master(*f.link, ro);
-    ClientOptions o;
-    o.retries = 0;
-    o.id = 7;  // nobody answers
-    Client c(master, o);
-    EXPECT_THROW(c.read_state(), TransportError);
-    EXPECT_THROW(c.write_coil(lec::Coil::RESET, true), TransportError);
-    ASSERT_EQ(sends.size(), 2u);
-    gaps.push_back(sends[1] - sends[0]);
-  }
-  for (const Duration g : gaps) EXPECT_EQ(g, gaps.front());
-  // Nor the late-reply hold (a second reply window): only Ts of silence
-  // after the failed read's window.
   const modbus::LineTiming t;
   const Duration window = t.response_time(19) + std::chrono::milliseconds(50);
-  EXPECT_LE(gaps.front(),
+  const modbus::Request reset_on =
+      modbus::WriteCoilRequest{lec::address(lec::Coil::RESET), modbus::kCoilOn};
+  std::vector<Duration> other, same;
+  for (uint32_t seed = 1; seed <= 8; ++seed) {
+    const auto g = gaps_to_a_silent_id(seed, 0, [&](Client& c) {
+      EXPECT_THROW(c.read_state(), TransportError);  // ID 7: nobody answers
+      // ID 1 answers (exception 02: parallel mode; an answer all the same)
+      EXPECT_THROW(c.transact(reset_on, Retry::Safe, 1), ControllerException);
+    });
+    ASSERT_EQ(g.size(), 1u);
+    other.push_back(g[0]);
+    const auto h = gaps_to_a_silent_id(seed, 0, [](Client& c) {
+      EXPECT_THROW(c.read_state(), TransportError);
+      EXPECT_THROW(c.write_coil(lec::Coil::RESET, true), TransportError);  // ID 7 again
+    });
+    ASSERT_EQ(h.size(), 1u);
+    same.push_back(h[0]);
+  }
+  for (const Duration g : other) EXPECT_EQ(g, other.front());
+  for (const Duration g : same) EXPECT_EQ(g, same.front());
+  EXPECT_LE(other.front(),
             t.wire_time(8) + window + t.silent_interval() + std::chrono::milliseconds(1));
+  EXPECT_GE(same.front(), t.wire_time(8) + 2 * window);
 }
 
 TEST(Client, CorruptedRepliesAreNeverAcceptedAndClassifiedAsCrc) {

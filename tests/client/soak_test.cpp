@@ -26,6 +26,7 @@
 
 #include "lec6/client/client.hpp"
 #include "lec6/client/errors.hpp"
+#include "lec6/client/rtu_master.hpp"
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/lec/step_data.hpp"
 #include "sim_fixture.hpp"
@@ -477,11 +478,13 @@ TEST(BadInput, AWrongIdTimesOutWithAClearMessageAndNoHang) {
   const auto& t = f.client->timing();
   // Three attempts, each: Ts of silence, the query on the wire, Tx + margin;
   // before each retry the line must also stay quiet for a reply window
-  // (a late reply must not be taken for the next one).
+  // (a late reply must not be taken for the next one), and a drawn pause of
+  // at most 64 characters (two masters on one line must not resend together).
   const Duration window = t.response_time(19) + f.client->options().timeout_margin;
   const Duration attempt = t.silent_interval() + t.wire_time(8) + window;
-  EXPECT_LE(f.clock.now() - start,
-            3 * attempt + 2 * window + to_duration(FractionalMilliseconds(0.01)));
+  EXPECT_LE(f.clock.now() - start, 3 * attempt + 2 * window +
+                                       2 * t.wire_time(RtuMaster::kBackoffChars) +
+                                       to_duration(FractionalMilliseconds(0.01)));
   EXPECT_EQ(f.client->stats().retries, 2u);
 }
 

@@ -33,7 +33,8 @@ struct RtuOptions {
   // so a stop after Ctrl-C still goes out.
   std::function<bool()> interrupted{};
   // Seeds the pause drawn after a failed transaction (RtuMaster::kBackoffChars).
-  // Unset: from the process on the wall clock, 1 on a virtual clock.
+  // Unset: from the process on the wall clock; on a virtual clock, 1 + the
+  // number of RtuMasters this process made before (rtu_master.cpp).
   std::optional<uint32_t> backoff_seed{};
 };
 
@@ -63,8 +64,8 @@ class RtuMaster final : public Master {
 
  private:
   Duration failure_pause();
-  // `urgent`: the query stops or releases the axis (no drawn pause).
-  void wait_for_silence(bool interruptible, bool urgent);
+  // `urgent`: the query stops or releases the axis; `to`: its ID.
+  void wait_for_silence(bool interruptible, bool urgent, uint8_t to);
   // read_some with the deadline cut to the next interrupt check; `exact`:
   // the deadline is an instant to keep (Link::read_some_exact).
   std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible,
@@ -81,6 +82,7 @@ class RtuMaster final : public Master {
       hold_until_{};  // after a failure: no query before the failed one's reply window is over
   std::minstd_rand backoff_;  // draws the pause after a failure (failure_pause)
   Duration pause_{};          // the last one drawn, waited beyond hold_until_
+  uint8_t failed_id_ = 0;     // the ID the failed transaction was for
   LinkStats stats_;
   Duration last_round_trip_{};
   std::optional<WireTimes> last_wire_times_;

@@ -8,14 +8,15 @@
 
 namespace lec6::serve {
 
-bool EmergencyLane::push(Queued q) {
-  Controller& c = controllers_[q.job.frame.id];
-  c.not_before = std::max(c.not_before, backoff_until_[q.job.frame.id]);
+bool EmergencyLane::push(Queued q, std::optional<uint8_t> under) {
+  const uint8_t key = under.value_or(q.job.frame.id);
+  Controller& c = controllers_[key];
+  c.not_before = std::max(c.not_before, backoff_until_[key]);
   // Joins only the last one queued: joining an earlier one would reorder the
   // writes (RESET <- 1 then <- 0 joined to an earlier 0 leaves RESET at 1).
   if (!c.jobs.empty()) {
     Queued& waiting = c.jobs.back();
-    if (waiting.retry || !(waiting.job.frame.pdu == q.job.frame.pdu)) {
+    if (waiting.retry || !(waiting.job.frame == q.job.frame)) {
       c.jobs.push_back(std::move(q));
       ++size_;
       return false;
@@ -50,13 +51,13 @@ bool writes_levels(const modbus::Request& r) {
 
 }  // namespace
 
-void EmergencyLane::push_in_order(Queued q) {
+void EmergencyLane::push_in_order(Queued q, uint8_t under) {
   if (writes_levels(q.job.frame.pdu)) {
-    push(std::move(q));  // joins an identical last one
+    push(std::move(q), under);  // joins an identical last one
     return;
   }
-  Controller& c = controllers_[q.job.frame.id];
-  c.not_before = std::max(c.not_before, backoff_until_[q.job.frame.id]);
+  Controller& c = controllers_[under];
+  c.not_before = std::max(c.not_before, backoff_until_[under]);
   if (c.jobs.empty()) c.waiting_since = std::max(q.submitted, c.not_before);
   c.jobs.push_back(std::move(q));
   ++size_;

@@ -44,12 +44,15 @@ class EmergencyLane {
   explicit EmergencyLane(Duration backoff) : backoff_(backoff) {}
 
   // A new stop: joins an identical one queued for its controller, or queues.
-  // Returns true when it joined.
-  bool push(Queued q);
-  // A write queued before a stop to the same controller, moved here so that
-  // the wire sees the controller's writes in the order they were sent
-  // (never joined).
-  void push_in_order(Queued q);
+  // Returns true when it joined. `under`: the controller whose turn it takes
+  // (its own unless given).
+  bool push(Queued q, std::optional<uint8_t> under = std::nullopt);
+  // A write queued before a stop, moved here so that the wire sees it before
+  // the stop: queued under the stop's controller `under` (a broadcast write
+  // before a stop to ID 1, or any ID's write before a broadcast stop, would
+  // otherwise take another controller's turn, after the stop's). Joined only
+  // as a write of levels identical to the last one queued there.
+  void push_in_order(Queued q, uint8_t under);
   // A stop whose exchange failed and has attempts left: first in its
   // controller's queue again. `answering`: whether the controller still
   // counts as answering (only its replies may be lost); if not, it waits

@@ -37,10 +37,15 @@ modbus::ResponseFrame LineMaster::exchange(const modbus::RequestFrame& frame) {
   line_.submit(std::move(job));
   const JobResult r = result.get();  // the line always answers: on the wire, or failed
   ++stats_.transactions;
-  if (r.failure == Failure::NoAnswer && modbus::is_write(frame.pdu)) {
-    if (!resend) lost_write_.emplace(frame, r.submitted);
-  } else {
-    lost_write_.reset();
+  // Kept across reads: an INC move reads the position before it decides
+  // to resend its start (actuator_move.cpp; a reviewer's finding). Dropped
+  // when a write reaches the controller, or another write is sent.
+  if (modbus::is_write(frame.pdu)) {
+    if (r.failure == Failure::NoAnswer || r.failure == Failure::Offline) {
+      if (!resend) lost_write_.emplace(frame, r.submitted);
+    } else {
+      lost_write_.reset();
+    }
   }
   if (r.failure == Failure::Superseded) throw client::Superseded(r.error);
   if (r.failure != Failure::None) {

@@ -171,7 +171,7 @@ JobId Scheduler::submit(Job job, TimePoint now) {
         if (write && reaches(it->job.frame.id) && superseded(it->job, it->id)) {
           supersede(it->job, it->submitted, now);
           it = q.erase(it);
-        } else if (write && (it->job.frame.id == to || to == modbus::kBroadcastId)) {
+        } else if (write && reaches(it->job.frame.id)) {
           earlier.push_back(std::move(*it));
           it = q.erase(it);
         } else {
@@ -181,7 +181,7 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     }
     std::sort(earlier.begin(), earlier.end(),
               [](const Queued& a, const Queued& b) { return a.id < b.id; });
-    for (Queued& q : earlier) lane_.push_in_order(std::move(q));
+    for (Queued& q : earlier) lane_.push_in_order(std::move(q), to);
     lane_.push(Queued{id, std::move(job), now});
     return id;
   }
@@ -396,7 +396,7 @@ void Scheduler::fail_one(Queued& x, Failure why, const std::string& text, TimePo
 bool Scheduler::superseded(const Job& job, JobId id) const {
   if (job.priority == Priority::Emergency || !client::starts_motion(job.frame.pdu)) return false;
   const auto after = [&](const HardStop& s) {
-    return s.id > id || (job.first_submitted && s.accepted > *job.first_submitted);
+    return s.id > id || (job.first_submitted && s.accepted >= *job.first_submitted);
   };
   if (job.frame.id == modbus::kBroadcastId) return any_hard_stop_ && after(*any_hard_stop_);
   for (const uint8_t to : {job.frame.id, modbus::kBroadcastId}) {

@@ -60,12 +60,25 @@ const JobResult& result_of(const Submitted& s, const std::string& name) {
   throw std::runtime_error("no result for " + name);
 }
 
+// Puts a read of `id` on the wire (the line busy when the test's writes come).
+Dispatch occupy(Harness& h, uint8_t id) {
+  h.s.submit(h.job(Priority::Command, id), h.clock.now());
+  auto d = h.s.next(h.clock.now());
+  EXPECT_TRUE(d);
+  return d.value_or(Dispatch{});
+}
+
+// Ends the exchange on the wire: answered after 10 ms.
+void answer_it(Harness& h, const Dispatch& d) {
+  h.clock.advance(10ms);
+  h.s.completed(answer(d), h.clock.now() - 10ms, h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+}
+
 TEST(SchedulerSupersede, AHoldGoesFirstAndTheStartsQueuedBeforeItAreRefused) {
   Harness h;
   Submitted s;
-  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
-  const auto first = h.s.next(h.clock.now());  // on the wire first
-  ASSERT_TRUE(first);
+  const Dispatch first = occupy(h, 2);
   submit(h, s, "select", 1, kSelectStep3);
   submit(h, s, "drive", 1, kDriveOn);
   submit(h, s, "start", 1, direct_start());
@@ -80,9 +93,7 @@ TEST(SchedulerSupersede, AHoldGoesFirstAndTheStartsQueuedBeforeItAreRefused) {
   }
   // The exchange on the wire ends; ID 1's other write queued before the HOLD
   // (a step selection) goes first, in order, then the HOLD, then the rest.
-  h.clock.advance(10ms);
-  h.s.completed(answer(*first), h.clock.now() - 10ms, h.clock.now());
-  for (auto& c : h.s.take_completions()) c.done(c.result);
+  answer_it(h, first);
   std::vector<std::pair<uint8_t, modbus::Request>> wire;
   for (const auto& d : h.run_for(1s)) wire.emplace_back(d.frame.id, d.frame.pdu);
   ASSERT_GE(wire.size(), 3u);
@@ -101,8 +112,7 @@ TEST(SchedulerSupersede, AReleaseKeepsTheWritesBeforeItInOrder) {
   // must not eat its own start; both go, in order.
   Harness h;
   Submitted s;
-  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
-  ASSERT_TRUE(h.s.next(h.clock.now()));
+  occupy(h, 2);
   submit(h, s, "jog", 1, kJogOn);
   submit(h, s, "release", 1, kJogOff);
   submit(h, s, "drive", 1, kDriveOn);
@@ -147,8 +157,7 @@ TEST(SchedulerSupersede, AStartAcceptedAfterTheStopIsNotRefused) {
 TEST(SchedulerSupersede, ABroadcastStopSupersedesEveryControllersStarts) {
   Harness h;
   Submitted s;
-  h.s.submit(h.job(Priority::Command, 3), h.clock.now());
-  ASSERT_TRUE(h.s.next(h.clock.now()));
+  occupy(h, 3);
   submit(h, s, "drive 1", 1, kDriveOn);
   submit(h, s, "drive 2", 2, kDriveOn);
   submit(h, s, "hold all", modbus::kBroadcastId, kHoldOn);
@@ -161,16 +170,12 @@ TEST(SchedulerSupersede, ABroadcastStopSupersedesEveryControllersStarts) {
 TEST(SchedulerSupersede, AStartAReleaseMovedIntoTheLaneIsRefusedToo) {
   Harness h;
   Submitted s;
-  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
-  const auto first = h.s.next(h.clock.now());
-  ASSERT_TRUE(first);
+  const Dispatch first = occupy(h, 2);
   submit(h, s, "drive", 1, kDriveOn);
   submit(h, s, "release", 1, modbus::WriteCoilRequest{0x1B, modbus::kCoilOff});
   submit(h, s, "hold", 1, kHoldOn);
   EXPECT_EQ(result_of(s, "drive").failure, Failure::Superseded);
-  h.clock.advance(10ms);
-  h.s.completed(answer(*first), h.clock.now() - 10ms, h.clock.now());
-  for (auto& c : h.s.take_completions()) c.done(c.result);
+  answer_it(h, first);
   std::vector<modbus::Request> to_1;
   for (const auto& d : h.run_for(1s))
     if (d.frame.id == 1) to_1.push_back(d.frame.pdu);
@@ -183,8 +188,7 @@ TEST(SchedulerSupersede, AStartAReleaseMovedIntoTheLaneIsRefusedToo) {
 TEST(SchedulerSupersede, ABroadcastStartQueuedBeforeAStopToOneControllerIsRefused) {
   Harness h;
   Submitted s;
-  h.s.submit(h.job(Priority::Command, 2), h.clock.now());
-  ASSERT_TRUE(h.s.next(h.clock.now()));
+  occupy(h, 2);
   submit(h, s, "drive all", modbus::kBroadcastId, kDriveOn);
   submit(h, s, "hold 1", 1, kHoldOn);
   EXPECT_EQ(result_of(s, "drive all").failure, Failure::Superseded);
@@ -229,6 +233,38 @@ TEST(SchedulerSupersede, TheGatewayAnswersASupersededWriteWithException04) {
   const auto* ex = std::get_if<modbus::ExceptionResponse>(&*reply);
   ASSERT_TRUE(ex);
   EXPECT_EQ(ex->code, modbus::ExceptionCode::ServerDeviceFailure);
+}
+
+// A reviewer's finding: a broadcast write that starts nothing (Y30 <- 0: the
+// parallel inputs take over) queued before a stop to ID 1 went after it; and
+// for a broadcast stop, other controllers' earlier writes could take their
+// turns after the stop's. Every earlier write goes first.
+TEST(SchedulerSupersede, EarlierWritesGoBeforeTheStopWhicheverControllerTheyAreFor) {
+  const modbus::Request parallel = WriteCoilRequest{0x30, modbus::kCoilOff};
+  {
+    Harness h;
+    Submitted s;
+    const Dispatch first = occupy(h, 2);
+    submit(h, s, "parallel all", modbus::kBroadcastId, parallel);
+    submit(h, s, "hold 1", 1, kHoldOn);
+    answer_it(h, first);
+    std::vector<std::pair<uint8_t, modbus::Request>> wire;
+    for (const auto& d : h.run_for(1s)) wire.emplace_back(d.frame.id, d.frame.pdu);
+    EXPECT_EQ(wire, (std::vector<std::pair<uint8_t, modbus::Request>>{
+                        {modbus::kBroadcastId, parallel}, {1, kHoldOn}}));
+  }
+  {
+    Harness h;
+    Submitted s;
+    const Dispatch first = occupy(h, 3);
+    submit(h, s, "select 1", 1, kSelectStep3);
+    submit(h, s, "select 2", 2, kSelectStep3);
+    submit(h, s, "hold all", modbus::kBroadcastId, kHoldOn);
+    answer_it(h, first);
+    std::vector<uint8_t> ids;
+    for (const auto& d : h.run_for(1s)) ids.push_back(d.frame.id);
+    EXPECT_EQ(ids, (std::vector<uint8_t>{1, 2, modbus::kBroadcastId}));
+  }
 }
 
 // lec serve's own operations (HTTP, MQTT, Sparkplug) see a superseded start

@@ -120,9 +120,10 @@ TEST(HomeAssistant, AvailableOnlyWhileTheBridgeAndTheAxisAre) {
 
 TEST(HomeAssistant, IdsStayValidWithASlashedPrefix) {
   for (auto& p : home_assistant_discovery(MqttTopics("plant/hall3", "b"), "press", "x", 1)) {
-    EXPECT_THAT(p.topic, testing::StartsWith("homeassistant/"));
+    EXPECT_THAT(p.topic, ::testing::StartsWith("homeassistant/"));
     EXPECT_EQ(std::count(p.topic.begin(), p.topic.end(), '/'), 4) << p.topic;
-    EXPECT_THAT(p.payload["unique_id"].get<std::string>(), testing::MatchesRegex("[A-Za-z0-9_-]+"));
+    EXPECT_THAT(p.payload["unique_id"].get<std::string>(),
+                ::testing::MatchesRegex("[A-Za-z0-9_-]+"));
   }
 }
 

@@ -420,8 +420,9 @@ class World {
   void exchange(const Dispatch& d) {
     ++run_.exchanges;
     // After a lost exchange the line's RtuMaster keeps the line quiet for a
-    // reply window (late replies), except for a stop or release.
-    if (!client::stops_or_releases(d.frame.pdu)) clock_ = std::max(clock_, quiet_at_);
+    // reply window (late replies), except for a stop or release to another ID.
+    if (!client::stops_or_releases(d.frame.pdu) || d.frame.id == lost_id_)
+      clock_ = std::max(clock_, quiet_at_);
     if (const auto k = key_of_.find(d.id); k != key_of_.end()) {
       const Tracked& t = tracked_[k->second];
       // Invariant 6: a start queued before a hard stop to its controller
@@ -444,6 +445,7 @@ class World {
     if (lost) {
       clock_ += timing_.wire_time(12) + kTimeout;
       quiet_at_ = clock_ + kTimeout;
+      lost_id_ = d.frame.id;
       if (dev.twin && dev.kind == Kind::Noisy)
         dev.twin->handle(d.frame.pdu, start);  // heard, reply lost
       s_->failed(kNoReply, start, clock_);
@@ -519,6 +521,7 @@ class World {
   std::vector<Hold> holds_;
   std::size_t next_key_ = 1;
   TimePoint quiet_at_{};                           // the end of the quiet after a lost exchange
+  uint8_t lost_id_ = 0;                            // the ID of the last lost exchange
   std::map<JobId, std::size_t> key_of_;            // the scheduler's job id -> our key
   std::map<uint8_t, std::size_t> last_hard_stop_;  // per ID, the last hard stop's key
   std::map<uint8_t, std::size_t> on_wire_hard_;    // per ID, the latest hard stop on the wire
