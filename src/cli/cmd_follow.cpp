@@ -211,6 +211,13 @@ void run_follow(Session& s, const FollowArgs& a) {
                             fmt::format("following stopped: the servo is off ({})",
                                         follower.last_flags().estop() ? "ESTOP = 1" : "SVRE = 0"));
       }
+      if (follower.stopped_elsewhere()) {
+        throw CommandFailed(
+            kFailure,
+            fmt::format("following stopped: {} = 1, set by another master (an HMI, lec serve): "
+                        "lec follow sends nothing more and leaves it set",
+                        follower.last_controls().test(lec::Coil::HOLD) ? "HOLD" : "RESET"));
+      }
     }
     if (g_interrupted) throw client::Cancelled("interrupted");
   } catch (const client::Cancelled&) {
@@ -246,7 +253,8 @@ void add_follow_command(CLI::App& app, Session& session) {
   f->add_option("--decel", a->decel, "Deceleration, mm/s² (1-65535)");
   f->add_option("--in-position", a->in_position, "In-position width for the last move, mm");
   f->add_option("--check-every", a->check_every,
-                "Read the flags (alarm, servo) after this many setpoints")
+                "Read the flags (alarm, servo) and the control coils (a HOLD or RESET another "
+                "master set) after this many setpoints")
       ->capture_default_str()
       ->check(CLI::Range(1u, 1000u));
   add_deadline_option(f, a->timeout, "Deadline for the last move after the input ends");

@@ -34,20 +34,20 @@ void Follower::apply(int32_t position_001mm) {
     last_ = axis_.retarget(position_001mm, options_.move.speed_mm_s);
   }
   ++applied_;
-  if (options_.check_every > 0 && ++since_check_ >= options_.check_every) {
-    since_check_ = 0;
-    ++checks_;
-    judge(axis_.client().read_flags());
-  }
+  if (options_.check_every > 0 && ++since_check_ >= options_.check_every) look();
+}
+
+void Follower::look() {
+  since_check_ = 0;
+  ++checks_;
+  controls_ = axis_.client().read_controls();
+  judge(axis_.client().read_flags());
 }
 
 lec::StatusFlags Follower::check() {
-  since_check_ = 0;
-  ++checks_;
-  const auto flags = axis_.client().read_flags();
+  look();
   state_ = axis_.client().read_state();
-  judge(flags);
-  return flags;
+  return flags_;
 }
 
 std::optional<MoveResult> Follower::finish(TimePoint deadline, const WaitOptions& wait) {

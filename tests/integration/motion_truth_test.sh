@@ -113,6 +113,27 @@ expect_exit 0 "follow file" -- lec follow --json "$tmp/path.txt"
 printf '130\nabc\n' >"$tmp/bad.txt"
 expect_exit 2 "follow bad line" -- lec follow "$tmp/bad.txt"
 contains "follow bad line" "input line 2: 'abc'"
+# A HOLD another master sets ends the following (issue 31 rule 6): exit 1, saying so; the
+# HOLD is left set. The stream is slow (a setpoint every 50 ms, for up to 20 s).
+(for i in $(seq 1 400); do echo "$((150 + i % 20))"; sleep 0.05; done) |
+  "$LEC" --retries 10 follow --speed 100 >"$tmp/follow.out" 2>&1 &
+follower=$!
+sleep 1
+held=0
+for _ in 1 2 3 4 5; do
+  if lec --port "$tcp_url" --retries 5 hold on >/dev/null 2>&1; then held=1; break; fi
+done
+[[ $held -eq 1 ]] && ok || bad "hold from another master: 5 attempts, none answered"
+set +e
+timeout 10 tail -s 0.05 --pid=$follower -f /dev/null
+kill $follower 2>/dev/null
+wait $follower
+code=$?
+set -e
+[[ $code -eq 1 ]] && ok || bad "follow held by another master: exit $code: $(cat "$tmp/follow.out")"
+grep -q "following stopped: HOLD = 1, set by another master" "$tmp/follow.out" && ok ||
+  bad "follow held message: $(cat "$tmp/follow.out")"
+lec --retries 5 hold off >/dev/null 2>&1 || lec --retries 5 hold off
 
 # ---- frames over 260 bytes: exception 03 (docs/protocol-decisions.md) -------------------
 start_twin plain

@@ -3,8 +3,10 @@
 // a new position many times a second. Each setpoint is a retarget of the
 // running direct operation — two writes (the position, D9104–D9105, and
 // the start, D9100; D9101 refuses writes, so they cannot be one FC10) — and
-// every `check_every`-th setpoint the flags are read, so an alarm or a servo
-// that went off stops the follower within a few setpoints.
+// every `check_every`-th setpoint the flags and the control coils are read,
+// so an alarm, a servo that went off, or a HOLD or RESET another master set
+// (issue 31 rule 6: a stop ends what moves) stops the follower within a few
+// setpoints (tests/client/follower_test.cpp).
 //
 //   Follower f(axis, {.move = {.speed_mm_s = 200}});
 //   while (auto p = newest_setpoint()) f.apply(*p);   // drop stale ones yourself
@@ -26,7 +28,7 @@ struct FollowOptions {
   // Speed, accelerations, in-position width of every setpoint (the first
   // setpoint writes them; position is ignored here).
   DirectMove move;
-  unsigned check_every = 8;  // read the flags after this many setpoints
+  unsigned check_every = 8;  // read the flags and the control coils after this many setpoints
 };
 
 class Follower {
@@ -49,6 +51,13 @@ class Follower {
   // The last flags read show the servo off (SVRE = 0 or ESTOP): following
   // cannot go on.
   bool servo_lost() const noexcept { return checks_ > 0 && (!flags_.svre() || flags_.estop()); }
+  // The last control coils read show HOLD or RESET at 1: another master (an
+  // HMI, lec serve) holds or stops the axis. Following must not go on (each
+  // setpoint is a start); nothing is written to undo it.
+  bool stopped_elsewhere() const noexcept {
+    return checks_ > 0 && (controls_.test(lec::Coil::HOLD) || controls_.test(lec::Coil::RESET));
+  }
+  const lec::ControlFlags& last_controls() const noexcept { return controls_; }
   const lec::StateData& last_state() const noexcept { return state_; }
 
  private:
@@ -60,7 +69,9 @@ class Follower {
   unsigned since_check_ = 0;
   uint64_t applied_ = 0;
   uint64_t checks_ = 0;
+  void look();  // reads the flags and the control coils, and judges them
   lec::StatusFlags flags_;
+  lec::ControlFlags controls_;
   lec::StateData state_;
 };
 
