@@ -30,6 +30,7 @@ struct ReplayArgs {
   std::string report;
   double position_tolerance_mm = twin::ReplayTolerance{}.position_mm;
   double response_tolerance_pct = twin::ReplayTolerance{}.response_ratio * 100.0;
+  double edge_tolerance_ms = twin::ReplayTolerance{}.edge_ms;
 };
 
 // The IDs the capture's queries address (the twin gets one controller each).
@@ -95,6 +96,7 @@ void run_replay_command(const ReplayArgs& a, const GlobalOptions& g) {
   twin::ReplayTolerance tol;
   tol.position_mm = a.position_tolerance_mm;
   tol.response_ratio = a.response_tolerance_pct / 100.0;
+  tol.edge_ms = a.edge_tolerance_ms;
   auto report = twin::compare(captured, replayed, tol);
   report.timing = timing;
   report.target =
@@ -152,6 +154,12 @@ void add_replay_command(CLI::App& app, const GlobalOptions& globals) {
                   "Response times match when the median of twin/captured, exchange by "
                   "exchange, is within this, %")
       ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
+  cmd->add_option("--edge-tolerance", a->edge_tolerance_ms,
+                  "A flag (BUSY, INP, an output) that differs matches when the twin shows the "
+                  "captured value at another exchange within this many ms: its edge fell on the "
+                  "other side of a poll. 0: flags must agree exchange by exchange")
+      ->check(CLI::Range(0.0, 60000.0))
       ->capture_default_str();
   cmd->callback([a, &globals] { run_replay_command(*a, globals); });
 }

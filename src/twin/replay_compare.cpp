@@ -218,12 +218,47 @@ ResponseStats response_stats(std::span<const Exchange> exchanges) {
 std::string ValueDifference::text() const {
   std::string s = fmt::format("line {}, {:.3f} s: {}: captured {}, twin {}", line,
                               static_cast<double>(at_us) / 1e6, what, captured, replayed);
-  if (motion) s += within_tolerance ? " (within tolerance)" : " (beyond tolerance)";
+  if (edge)
+    s += " (an edge within tolerance: the twin shows it at a neighbouring exchange)";
+  else if (motion)
+    s += within_tolerance ? " (within tolerance)" : " (beyond tolerance)";
   return s;
 }
 
+namespace {
+
+// Whether the twin shows `name` = `raw` at another exchange whose query starts
+// within `edge_us` of exchange i: the flag's edge fell on the other side of a
+// poll, not a different behaviour.
+bool twin_shows_nearby(std::span<const Exchange> captured,
+                       const std::vector<std::optional<std::vector<Value>>>& twin_values,
+                       std::size_t i, const std::string& name, int64_t raw, int64_t edge_us) {
+  if (edge_us <= 0) return false;
+  const int64_t t = captured[i].query_start_us;
+  auto shows = [&](std::size_t j) {
+    if (!twin_values[j]) return false;
+    for (const auto& v : *twin_values[j])
+      if (v.name == name) return v.raw == raw;
+    return false;
+  };
+  for (std::size_t j = i; j-- > 0 && t - captured[j].query_start_us <= edge_us;)
+    if (shows(j)) return true;
+  for (std::size_t j = i + 1;
+       j < captured.size() && captured[j].query_start_us - t <= edge_us; ++j)
+    if (shows(j)) return true;
+  return false;
+}
+
+}  // namespace
+
 FidelityReport compare(std::span<const Exchange> captured, std::span<const Exchange> replayed,
                        const ReplayTolerance& tolerance) {
+  // Every twin reply's values, for the edge rule (a flag seen at a
+  // neighbouring exchange).
+  std::vector<std::optional<std::vector<Value>>> twin_values(captured.size());
+  for (std::size_t i = 0; i < captured.size() && i < replayed.size(); ++i)
+    if (replayed[i].reply) twin_values[i] = values_of(captured[i].query, *replayed[i].reply);
+  const auto edge_us = static_cast<int64_t>(std::llround(tolerance.edge_ms * 1000.0));
   FidelityReport rep;
   rep.tolerance = tolerance;
   rep.exchanges = captured.size();
@@ -277,6 +312,8 @@ FidelityReport compare(std::span<const Exchange> captured, std::span<const Excha
       d.motion = a.kind != ValueKind::Discrete;
       const double delta = std::abs(static_cast<double>(a.raw - b.raw));
       d.within_tolerance = d.motion && delta <= tolerance_of(a.kind, tolerance) + 1e-9;
+      if (!d.motion && twin_shows_nearby(captured, twin_values, i, a.name, a.raw, edge_us))
+        d.edge = d.within_tolerance = true;
       if (a.kind == ValueKind::Position)
         rep.max_position_delta_mm = std::max(rep.max_position_delta_mm, delta / 100.0);
       beyond = beyond || !d.within_tolerance;
@@ -308,9 +345,11 @@ std::string FidelityReport::text(std::size_t max_lines) const {
       matches() ? "matches" : "differs");
   s += fmt::format(
       "  identical {}, motion within tolerance {} (position ±{:.2f} mm, speed ±{:g} mm/s, thrust "
-      "±{:g} %), differing {}\n",
+      "±{:g} %{}), differing {}\n",
       identical, within_tolerance, tolerance.position_mm, tolerance.speed_mm_s,
-      tolerance.thrust_pct, differing);
+      tolerance.thrust_pct,
+      tolerance.edge_ms > 0 ? fmt::format(", flag edges ±{:g} ms", tolerance.edge_ms) : "",
+      differing);
   if (max_position_delta_mm > 0)
     s += fmt::format("  largest position difference: {:.2f} mm\n", max_position_delta_mm);
   const auto& c = captured_response;
@@ -343,6 +382,7 @@ std::string FidelityReport::json() const {
                      {"captured", d.captured},
                      {"twin", d.replayed},
                      {"motion", d.motion},
+                     {"edge", d.edge},
                      {"within_tolerance", d.within_tolerance}});
   }
   auto stats = [](const ResponseStats& s) {
@@ -361,7 +401,8 @@ std::string FidelityReport::json() const {
        {{"position_mm", tolerance.position_mm},
         {"speed_mm_s", tolerance.speed_mm_s},
         {"thrust_pct", tolerance.thrust_pct},
-        {"response_ratio", tolerance.response_ratio}}},
+        {"response_ratio", tolerance.response_ratio},
+        {"edge_ms", tolerance.edge_ms}}},
       {"max_position_delta_mm", max_position_delta_mm},
       {"response_time",
        {{"captured", stats(captured_response)},

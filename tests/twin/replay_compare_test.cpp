@@ -87,5 +87,49 @@ TEST(ReplayCompare, SilenceAndExceptionsAreDifferences) {
   EXPECT_FALSE(r.matches());
 }
 
+TEST(ReplayCompare, AFlagEdgeOnePollApartMatchesOnlyWithinTheEdgeTolerance) {
+  // The captured controller still says BUSY at 60 ms; the twin's BUSY fell
+  // between the polls at 30 and 60 ms, and it said BUSY at 30 ms.
+  const std::vector<Exchange> captured{ex("01 02 0040 0010", "01 02 02 00 01", 0, 9000),
+                                       ex("01 02 0040 0010", "01 02 02 00 01", 30000, 9000),
+                                       ex("01 02 0040 0010", "01 02 02 00 01", 60000, 9000),
+                                       ex("01 02 0040 0010", "01 02 02 00 08", 90000, 9000)};
+  const std::vector<Exchange> twin{ex("01 02 0040 0010", "01 02 02 00 01", 0, 9000),
+                                   ex("01 02 0040 0010", "01 02 02 00 01", 30000, 9000),
+                                   ex("01 02 0040 0010", "01 02 02 00 08", 60000, 9000),
+                                   ex("01 02 0040 0010", "01 02 02 00 08", 90000, 9000)};
+  // Strict by default: BUSY and INP at 60 ms differ.
+  const auto strict = compare(captured, twin);
+  EXPECT_EQ(strict.differing, 1u);
+  EXPECT_FALSE(strict.matches());
+  // 20 ms reaches no neighbour (30 ms away): still differs.
+  ReplayTolerance near;
+  near.edge_ms = 20;
+  EXPECT_EQ(compare(captured, twin, near).differing, 1u);
+  // 30 ms: the twin shows BUSY=1 and INP=0 at 30 ms, one poll before.
+  ReplayTolerance poll;
+  poll.edge_ms = 30;
+  const auto r = compare(captured, twin, poll);
+  EXPECT_EQ(r.differing, 0u);
+  EXPECT_EQ(r.within_tolerance, 1u);
+  ASSERT_EQ(r.differences.size(), 2u);
+  EXPECT_TRUE(r.differences[0].edge);
+  EXPECT_TRUE(r.differences[0].within_tolerance);
+  EXPECT_NE(r.differences[0].text().find("an edge within tolerance"), std::string::npos);
+  EXPECT_NE(r.text().find("flag edges ±30 ms"), std::string::npos) << r.text();
+  EXPECT_NE(r.json().find("\"edge_ms\": 30"), std::string::npos);
+  // A flag the twin never shows that way is not an edge, however wide the tolerance.
+  auto never = captured;
+  never[2] = ex("01 02 0040 0010", "01 02 02 00 81", 60000, 9000);  // BUSY, ALARM = 1
+  ReplayTolerance wide;
+  wide.edge_ms = 1000;
+  const auto a = compare(never, twin, wide);
+  EXPECT_EQ(a.differing, 1u);
+  bool alarm_beyond = false;
+  for (const auto& d : a.differences)
+    if (d.what == "X4F ALARM") alarm_beyond = !d.within_tolerance && !d.edge;
+  EXPECT_TRUE(alarm_beyond) << a.text();
+}
+
 }  // namespace
 }  // namespace lec6::twin

@@ -75,6 +75,12 @@ struct ReplayTolerance {
   double speed_mm_s = 5.0;     // D9002
   double thrust_pct = 5.0;     // D9003
   double response_ratio = 0.10;  // response time, exchange by exchange (median of the ratios)
+  // A discrete value (BUSY, INP, an output bit) that differs only because it
+  // changed at a slightly other instant: it matches when the twin shows the
+  // captured value at another exchange within this many ms (0: flags must
+  // agree exchange by exchange). A capture taken from a twin or a controller
+  // polled every 30 ms can see an edge one poll apart without any fault.
+  double edge_ms = 0.0;
 };
 
 // What one value read was, in the manual's terms.
@@ -86,6 +92,7 @@ struct ValueDifference {
   std::string captured;      // shown with its unit: "149.98 mm", "1", "01 03 04 …"
   std::string replayed;
   bool motion = false;       // compared as motion (with a tolerance)
+  bool edge = false;         // a discrete value the twin shows within edge_ms of this exchange
   bool within_tolerance = false;
   std::string text() const;  // "line 17, 1.234 s: D9000 position: captured 149.98 mm, twin 150.00 mm"
 };
@@ -101,7 +108,7 @@ struct FidelityReport {
   ReplayTolerance tolerance;
   std::size_t exchanges = 0;
   std::size_t identical = 0;         // reply bytes identical (or both silent)
-  std::size_t within_tolerance = 0;  // differ only in motion values, within tolerance
+  std::size_t within_tolerance = 0;  // differ only in motion values or flag edges, within tolerance
   std::size_t differing = 0;         // a discrete value, an exception, silence, or motion beyond
   std::vector<ValueDifference> differences;  // every value that differs (motion within tolerance too)
   double max_position_delta_mm = 0;
