@@ -1,0 +1,212 @@
+// A clean stop never fires the will (issue 35): MqttClient::stop() while
+// messages stream in to the client and its own QoS 1 publish awaits a PUBACK.
+// The will is what the broker says for a lost client; a Sparkplug node whose
+// will is its NDEATH would say it twice for one bdSeq. libmosquitto 2 marks
+// the connection disconnected when a DISCONNECT is queued, and a packet read
+// before it is written closes the socket without it: the DISCONNECT must be
+// queued and written on the loop's thread with no read between. Real
+// mosquitto on loopback; a checker and a flooder of plain libmosquitto.
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <mosquitto.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <thread>
+
+#include "mqtt/mqtt_client.hpp"
+
+extern char** environ;
+
+namespace lec6::serve::will_test {
+namespace {
+
+using namespace std::chrono_literals;
+
+uint16_t free_port() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  ::close(fd);
+  return ntohs(a.sin_port);
+}
+
+bool listening(uint16_t port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  a.sin_port = htons(port);
+  const bool ok = ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+  ::close(fd);
+  return ok;
+}
+
+// Polls `pred` until it holds or `limit` passes (real I/O: the broker).
+bool wait_for(const std::function<bool()>& pred, std::chrono::milliseconds limit) {
+  const auto end = std::chrono::steady_clock::now() + limit;
+  while (!pred()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(2ms);
+  }
+  return true;
+}
+
+struct Broker {
+  uint16_t port = free_port();
+  pid_t pid = -1;
+  std::filesystem::path dir;
+
+  Broker() {
+    char tmpl[] = "/tmp/lec6-will-XXXXXX";
+    dir = ::mkdtemp(tmpl);
+    const auto conf = dir / "mosquitto.conf";
+    std::ofstream(conf) << (::geteuid() == 0 ? "user root\n" : "") << "listener " << port
+                        << " 127.0.0.1\nallow_anonymous true\npersistence false\n";
+    const std::string log = (dir / "mosquitto.log").string();
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    std::string c = conf.string();
+    char* argv[] = {const_cast<char*>("mosquitto"), const_cast<char*>("-c"), c.data(), nullptr};
+    const int rc = posix_spawnp(&pid, "mosquitto", &fa, nullptr, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0) pid = -1;
+  }
+  ~Broker() {
+    if (pid > 0) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+    }
+    std::error_code ec;
+    if (!std::getenv("KEEP")) std::filesystem::remove_all(dir, ec);
+  }
+};
+
+// A plain libmosquitto client with its own loop thread.
+struct Peer {
+  mosquitto* m = nullptr;
+  std::atomic<int> wills{0};   // "died …" on t/will: a client's will
+  std::atomic<int> probes{0};  // the checker's own probe
+  std::atomic<bool> connected{false};
+
+  explicit Peer(const char* id) {
+    m = mosquitto_new(id, true, this);
+    mosquitto_connect_callback_set(m, [](mosquitto*, void* self, int rc) {
+      if (rc == 0) static_cast<Peer*>(self)->connected = true;
+    });
+    mosquitto_message_callback_set(m, [](mosquitto*, void* self, const mosquitto_message* msg) {
+      const std::string text(static_cast<const char*>(msg->payload),
+                             static_cast<std::size_t>(msg->payloadlen));
+      ++(text.starts_with("died") ? static_cast<Peer*>(self)->wills
+                                  : static_cast<Peer*>(self)->probes);
+    });
+  }
+  bool start(uint16_t port) {
+    return mosquitto_connect(m, "127.0.0.1", port, 30) == MOSQ_ERR_SUCCESS &&
+           mosquitto_loop_start(m) == MOSQ_ERR_SUCCESS &&
+           wait_for([this] { return connected.load(); }, 5s);
+  }
+  ~Peer() {
+    mosquitto_disconnect(m);
+    mosquitto_loop_stop(m, false);
+    mosquitto_destroy(m);
+  }
+};
+
+TEST(MqttClientWill, AStopWhileMessagesStreamInNeverFiresTheWill) {
+  mosquitto_lib_init();
+  Broker broker;
+  ASSERT_GT(broker.pid, 0) << "cannot start mosquitto (tools/deps.txt lists it)";
+  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s)) << "mosquitto not listening";
+
+  Peer checker("will-checker");
+  ASSERT_TRUE(checker.start(broker.port));
+  int mid = 0;
+  ASSERT_EQ(mosquitto_subscribe(checker.m, &mid, "t/will", 1), MOSQ_ERR_SUCCESS);
+  // The checker's subscription is in place before any client can die: it
+  // hears its own probe, then counts from zero.
+  ASSERT_TRUE(wait_for(
+      [&] {
+        mosquitto_publish(checker.m, nullptr, "t/will", 5, "probe", 1, false);
+        return wait_for([&] { return checker.probes.load() > 0; }, 100ms);
+      },
+      5s));
+
+  // The flooder keeps the client's socket readable: a packet is there to be
+  // read at any instant the DISCONNECT could be queued.
+  Peer flooder("will-flooder");
+  ASSERT_TRUE(flooder.start(broker.port));
+  std::atomic<bool> flooding{true};
+  std::thread flood([&] {
+    const std::string payload(64, 'x');
+    while (flooding) {
+      mosquitto_publish(flooder.m, nullptr, "t/in", static_cast<int>(payload.size()),
+                        payload.data(), 0, false);
+      std::this_thread::sleep_for(200us);
+    }
+  });
+
+  constexpr int kRounds = 30;
+  int connected_rounds = 0;
+  for (int i = 0; i < kRounds; ++i) {
+    MqttClientOptions o;
+    o.url = BrokerUrl{false, "127.0.0.1", broker.port};
+    o.client_id = "will-client-" + std::to_string(i);
+    o.will_topic = "t/will";
+    o.will_payload = "died " + std::to_string(i);
+    o.will_retain = false;
+    o.last_retain = false;
+    std::atomic<bool> up{false};
+    MqttClientHandlers h;
+    h.connected = [&up] { up = true; };
+    h.message = [](const MqttMessage&) {};
+    MqttClient client(o, h);
+    client.start();
+    if (!wait_for([&] { return up.load(); }, 5s)) continue;
+    ++connected_rounds;
+    client.subscribe({"t/in"});
+    // Messages arriving, and a QoS 1 publish whose PUBACK comes any moment.
+    wait_for([&] { return client.stats().received > 5; }, 2s);
+    client.publish("t/out", "last words", 1, false);
+    client.stop({}, 2s);
+  }
+  flooding = false;
+  flood.join();
+  // A will is published the moment the broker sees the socket close; give
+  // the checker's delivery a bounded wait for the last one.
+  wait_for([&] { return checker.wills.load() > 0; }, 500ms);
+  EXPECT_EQ(connected_rounds, kRounds);
+  std::string unclean;  // the broker's word for each socket closed without a DISCONNECT
+  {
+    std::ifstream log(broker.dir / "mosquitto.log");
+    for (std::string line; std::getline(log, line);)
+      if (line.find("closed its connection") != std::string::npos ||
+          line.find("disconnected,") != std::string::npos)
+        unclean += "\n  " + line;
+  }
+  EXPECT_EQ(checker.wills.load(), 0) << "a clean stop fired the will " << checker.wills.load()
+                                     << " times in " << kRounds << " rounds; the broker said:"
+                                     << unclean;
+}
+
+}  // namespace
+}  // namespace lec6::serve::will_test
