@@ -12,6 +12,7 @@
 #include "lec6/client/errors.hpp"
 #include "lec6/client/rtu_master.hpp"
 #include "lec6/transport/serial_link.hpp"
+#include "lec6/twin/field_profile.hpp"
 #include "lec6/twin/sim_link.hpp"
 #include "lec6/twin/sim_server.hpp"
 
@@ -21,6 +22,7 @@ namespace {
 struct TwinSettings {
   std::vector<int> ids;
   std::string timing;
+  std::string profile;  // its name: "default", "ideal", or the file's
   sim::ActuatorConfig actuator;
   sim::LineConfig line;
   sim::FaultConfig faults;
@@ -158,22 +160,46 @@ class Twin {
   bool closed_ = false;
 };
 
-double rate(std::string_view keyword, double r) {
-  if (!(r >= 0.0 && r <= 1.0))
-    throw client::InvalidRequest(fmt::format("{}={}: a probability per reply, 0 to 1", keyword, r));
-  return r;
+// A fault keyword: given, it replaces the profile's value; None keeps it.
+void rate(std::string_view keyword, std::optional<double> r, double& into) {
+  if (!r) return;
+  if (!(*r >= 0.0 && *r <= 1.0))
+    throw client::InvalidRequest(fmt::format("{}={}: a probability per reply, 0 to 1", keyword, *r));
+  into = *r;
+}
+
+// profile: "default" (the field evidence), "ideal" (the manual's), or a
+// profile file (lec sim --profile's) read over the default.
+twin::FieldProfile twin_profile(const py::object& profile) {
+  const std::string name = py::str(py::module_::import("os").attr("fspath")(profile));
+  try {
+    return twin::named_profile(name);
+  } catch (const twin::ProfileError& e) {
+    throw client::InvalidRequest(
+        fmt::format("profile: 'default', 'ideal' or a field profile file: {}", e.what()));
+  }
 }
 
 std::unique_ptr<Twin> make_twin(std::vector<int> ids, const std::string& timing,
                                 std::optional<double> workpiece_mm,
                                 std::optional<std::pair<double, double>> stroke_mm,
-                                std::optional<double> initial_position_mm, double max_speed_mm_s,
-                                const std::string& name, double drop_rate, double corrupt_rate,
-                                double garbage_rate, double delay_rate, double extra_delay_ms,
-                                uint64_t seed, uint32_t baud, const py::object& pty) {
+                                std::optional<double> initial_position_mm,
+                                std::optional<double> max_speed_mm_s,
+                                std::optional<std::string> name, std::optional<double> drop_rate,
+                                std::optional<double> corrupt_rate,
+                                std::optional<double> garbage_rate,
+                                std::optional<double> delay_rate,
+                                std::optional<double> extra_delay_ms, std::optional<uint64_t> seed,
+                                uint32_t baud, const py::object& pty, const py::object& profile) {
   TwinSettings s;
   if (ids.empty()) throw client::InvalidRequest("ids: give at least one controller ID (1-255)");
   s.ids = std::move(ids);
+  // The profile first; every keyword given replaces its value.
+  const twin::FieldProfile fp = twin_profile(profile);
+  s.profile = fp.name.empty() ? py::str(profile).cast<std::string>() : fp.name;
+  s.actuator = fp.actuator;
+  s.line = fp.line;
+  s.faults = fp.faults;
   if (timing != "fast" && timing != "real")
     throw client::InvalidRequest(fmt::format("timing='{}': 'fast' or 'real'", timing));
   s.timing = timing;
@@ -187,22 +213,24 @@ std::unique_ptr<Twin> make_twin(std::vector<int> ids, const std::string& timing,
     s.actuator.stroke_max_mm = stroke_mm->second;
   }
   if (initial_position_mm) s.actuator.initial_position_mm = *initial_position_mm;
-  s.actuator.workpiece_mm = workpiece_mm;
-  s.actuator.max_speed_mm_s = max_speed_mm_s;
-  s.actuator.equipment_name = name;
+  if (workpiece_mm) s.actuator.workpiece_mm = workpiece_mm;
+  if (max_speed_mm_s) s.actuator.max_speed_mm_s = *max_speed_mm_s;
+  if (name) s.actuator.equipment_name = *name;
   if (auto problems = sim::validate(s.actuator); !problems.empty()) {
     std::string all;
     for (const auto& p : problems) all += (all.empty() ? "" : "; ") + p;
     throw client::InvalidRequest("Twin: " + all);
   }
-  s.faults.drop = rate("drop_rate", drop_rate);
-  s.faults.corrupt = rate("corrupt_rate", corrupt_rate);
-  s.faults.garbage = rate("garbage_rate", garbage_rate);
-  s.faults.delay = rate("delay_rate", delay_rate);
-  if (!(extra_delay_ms >= 0 && extra_delay_ms <= 10000))
-    throw client::InvalidRequest("extra_delay_ms: 0 to 10000 ms");
-  s.faults.extra_delay = to_duration(FractionalMilliseconds(extra_delay_ms));
-  s.faults.seed = seed;
+  rate("drop_rate", drop_rate, s.faults.drop);
+  rate("corrupt_rate", corrupt_rate, s.faults.corrupt);
+  rate("garbage_rate", garbage_rate, s.faults.garbage);
+  rate("delay_rate", delay_rate, s.faults.delay);
+  if (extra_delay_ms) {
+    if (!(*extra_delay_ms >= 0 && *extra_delay_ms <= 10000))
+      throw client::InvalidRequest("extra_delay_ms: 0 to 10000 ms");
+    s.faults.extra_delay = to_duration(FractionalMilliseconds(*extra_delay_ms));
+  }
+  if (seed) s.faults.seed = *seed;
   return std::make_unique<Twin>(std::move(s), pty);
 }
 
@@ -212,15 +240,19 @@ void bind_twin(py::module_& m) {
   py::class_<Twin>(m, "Twin",
                    "The controller twin, for testing scripts without hardware: in this process "
                    "(default), or on a pseudo-terminal (pty=True, or a path for a symlink) that "
-                   "any Modbus master can open. Use as a context manager, or close() it.")
+                   "any Modbus master can open. profile: 'default' (the field's evidence: BUSY "
+                   "20 ms late, homing at 50 mm/s, ...), 'ideal' (the manual's controller), or a "
+                   "profile file as lec sim --profile reads (e.g. from lec sim --calibrate); "
+                   "every other keyword given replaces the profile's value. Use as a context "
+                   "manager, or close() it.")
       .def(py::init(&make_twin), py::arg("ids") = std::vector<int>{1}, py::kw_only(),
            py::arg("timing") = "fast", py::arg("workpiece_mm") = py::none(),
            py::arg("stroke_mm") = py::none(), py::arg("initial_position_mm") = py::none(),
-           py::arg("max_speed_mm_s") = sim::ActuatorConfig{}.max_speed_mm_s,
-           py::arg("name") = sim::ActuatorConfig{}.equipment_name, py::arg("drop_rate") = 0.0,
-           py::arg("corrupt_rate") = 0.0, py::arg("garbage_rate") = 0.0,
-           py::arg("delay_rate") = 0.0, py::arg("extra_delay_ms") = 50.0, py::arg("seed") = 1,
-           py::arg("baud") = 38400, py::arg("pty") = false)
+           py::arg("max_speed_mm_s") = py::none(), py::arg("name") = py::none(),
+           py::arg("drop_rate") = py::none(), py::arg("corrupt_rate") = py::none(),
+           py::arg("garbage_rate") = py::none(), py::arg("delay_rate") = py::none(),
+           py::arg("extra_delay_ms") = py::none(), py::arg("seed") = py::none(),
+           py::arg("baud") = 38400, py::arg("pty") = false, py::arg("profile") = "default")
       // keep_alive: the twin lives as long as a bus to it, so that
       // `lec6.Twin().connect()` does not close the twin under its bus.
       .def("connect", &Twin::connect, py::kw_only(), py::arg("retries") = 2,
@@ -230,6 +262,9 @@ void bind_twin(py::module_& m) {
                              "The pty path to open (pty twins), or 'in-process'.")
       .def_property_readonly("ids", [](const Twin& t) { return t.settings().ids; })
       .def_property_readonly("timing", [](const Twin& t) { return t.settings().timing; })
+      .def_property_readonly(
+          "profile", [](const Twin& t) { return t.settings().profile; },
+          "The twin's profile: 'default', 'ideal', or the name of the file's profile.")
       .def_property_readonly("closed", &Twin::closed)
       .def(
           "set_estop",
@@ -257,8 +292,8 @@ void bind_twin(py::module_& m) {
       .def("__repr__", [](const Twin& t) {
         std::string ids;
         for (int id : t.settings().ids) ids += (ids.empty() ? "" : ", ") + std::to_string(id);
-        return fmt::format("Twin(ids=[{}], timing='{}', port='{}')", ids, t.settings().timing,
-                           t.port());
+        return fmt::format("Twin(ids=[{}], timing='{}', profile='{}', port='{}')", ids,
+                           t.settings().timing, t.settings().profile, t.port());
       });
 }
 
