@@ -48,6 +48,9 @@ struct DeviceCounters {
   uint64_t crc_errors = 0;
   uint64_t framing_errors = 0;
   uint64_t exceptions = 0;
+  // Writes to it that would start motion, refused because a stop to it came
+  // first (Failure::Superseded): never on the wire, each told to its sender.
+  uint64_t superseded = 0;
   TimePoint last_answer{};  // epoch when never
 };
 
@@ -75,6 +78,8 @@ class LineStats {
   // A request's first attempt went on the wire `d` after its submit.
   void wait(Priority p, Duration d);
   void cache_hit() { ++cache_hits_; }
+  // A start to `id` superseded by a stop (not an exchange: no transaction counted).
+  void superseded(uint8_t id) { ++devices_[id].superseded; }
 
   LineStatsSnapshot snapshot(TimePoint now,
                              const std::array<std::size_t, kPriorities>& queue_depth) const;

@@ -422,6 +422,7 @@ void Scheduler::supersede(Job& job, TimePoint submitted, TimePoint now, bool los
                       job.frame.id);
   r.submitted = submitted;
   r.started = r.finished = now;
+  stats_.superseded(job.frame.id);
   complete(job, std::move(r));
 }
 

@@ -100,6 +100,9 @@ std::string prometheus_metrics(const AxisDirectory& directory) {
              [](auto& d) { return d.framing_errors; });
   per_device("lec6_device_exceptions_total", "Exception replies",
              [](auto& d) { return d.exceptions; });
+  per_device("lec6_device_superseded_total",
+             "Writes that would start motion, refused because a stop to the controller came first",
+             [](auto& d) { return d.superseded; });
   family(out, "lec6_device_online", "gauge", "0 while the controller is backed off");
   for (const auto& a : directory.axes()) {
     sample(out, "lec6_device_online",

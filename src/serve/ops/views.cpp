@@ -171,7 +171,8 @@ nlohmann::json stats_json(const LineStatsSnapshot& s, const LineConfig& config) 
                        {"timeouts", d.timeouts},
                        {"crc_errors", d.crc_errors},
                        {"framing_errors", d.framing_errors},
-                       {"exceptions", d.exceptions}});
+                       {"exceptions", d.exceptions},
+                       {"superseded", d.superseded}});
   }
   return {{"transactions_per_s", s.transactions_per_s},
           {"utilisation", s.utilisation},

@@ -105,6 +105,11 @@ TEST(SchedulerSupersede, AHoldGoesFirstAndTheStartsQueuedBeforeItAreRefused) {
     EXPECT_FALSE(id == 1 && client::starts_motion(pdu)) << "a start to ID 1 went after its HOLD";
   }
   EXPECT_EQ(result_of(s, "hold").failure, Failure::None);
+  // Counted per controller (lec serve's /api/lines and /metrics), none of
+  // them a transaction: they never went on the wire.
+  const auto snap = h.s.stats(h.clock.now());
+  EXPECT_EQ(snap.devices.at(1).superseded, 3u);
+  EXPECT_EQ(snap.devices.count(2) ? snap.devices.at(2).superseded : 0u, 0u);
 }
 
 TEST(SchedulerSupersede, AReleaseKeepsTheWritesBeforeItInOrder) {
