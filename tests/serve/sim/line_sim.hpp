@@ -14,13 +14,17 @@
 //   2. an accepted stop is never cancelled, and fails with ShuttingDown only
 //      once the line has closed;
 //   3. every job is answered exactly once (none lost, none twice);
-//   4. no job waits without bound (each is answered within kMaxWait, or by
-//      the line's close);
+//   4. no job waits without bound: clients' commands reach the wire in the
+//      order they came (only one whose controller backs off before a resend
+//      may be overtaken); every job is answered by the line's close;
 //   5. a HOLD the line answered as done holds the twin's axis: at rest within
 //      its deceleration time, unless a later write released it;
 //   6. a write that starts motion, queued before a hard stop to its
 //      controller, never reaches the wire after that stop (scheduler.cpp:
-//      a stop supersedes it).
+//      a stop supersedes it);
+//   7. no answer says success where the twin disagrees: each coil of a
+//      controller that hears only what it answers holds, at the end, what
+//      the last write answered done set it to.
 //
 // What it does not simulate yet: lec serve's operations (moves, jogs,
 // judged stops: they block on threads of their own) and the HTTP/MQTT
