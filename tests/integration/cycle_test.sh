@@ -81,4 +81,20 @@ contains stop "stopped by request"
 contains stop "where each axis stood:"
 [[ $(grep -cE '^  (x|z) +[0-9.]+ mm  stopped at' <<<"$out") -eq 2 ]] && ok || bad "stop: two axes at rest: $out"
 
+# --- teach-in: where x stopped becomes a point, the file otherwise kept -------
+cp "$example" "$tmp/cell.yaml"
+expect_exit 0 teach -- lec --json teach "$tmp/cell.yaml" x.stopped --port "$tmp/line"
+taught=$(json 'd["position_mm"]')
+expect_exit 0 status -- lec --json --port "$tmp/line" --id 1 status
+stood=$(json 'd["position_mm"]')
+[[ $taught == "$stood" ]] && ok || bad "teach wrote $taught mm, x stands at $stood mm"
+diff "$example" "$tmp/cell.yaml" >"$tmp/teach.diff" || true
+[[ $(grep -c '^[<>]' "$tmp/teach.diff") -eq 2 ]] && grep -q "place: 350, stopped: " "$tmp/teach.diff" &&
+  ok || bad "teach changed more than the points line: $(cat "$tmp/teach.diff")"
+expect_exit 0 teach_check -- lec cycle check "$tmp/cell.yaml"
+cp "$tmp/cell.yaml" "$tmp/cell.before"
+expect_exit 2 teach_limits -- lec cycle teach "$tmp/cell.yaml" x.pick --at 401
+contains teach_limits "outside the axis's soft limits 0.00 to 400.00 mm; nothing written"
+cmp -s "$tmp/cell.yaml" "$tmp/cell.before" && ok || bad "a refused teach changed the file"
+
 finish
