@@ -59,6 +59,8 @@ CONTEXT = {
     "api.md": [(None, SERVE, "every curl line asks a running lec serve (api.md's subject)"),
                ("@press.csv", "curl -s \"http://127.0.0.1:8080/api/axes/axis1/steps?format=csv\" > press.csv",
                 "press.csv is a backup file the user has: this axis' own steps")],
+    "cycles.md": [("lec teach cell.yaml", "cp \"$SRC/examples/cycles/pick-place.yaml\" cell.yaml",
+                   "cell.yaml is the user's cycle file: the doc's example (examples/cycles/)")],
     "doctor.md": [("tcp://127.0.0.1:1502", SERVE, "the last line goes through a running lec serve")],
     "history.md": [(None, "export LEC_DAEMON=http://127.0.0.1:8080",
                     "the daemon's HTTP API is on a free port, not 8080: the doc's own $LEC_DAEMON names it"),
