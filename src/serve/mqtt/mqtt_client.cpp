@@ -3,9 +3,14 @@
 #include <fmt/format.h>
 #include <mosquitto.h>
 #include <mqtt_protocol.h>
+#include <fcntl.h>
+#include <poll.h>
 #include <pthread.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <condition_variable>
 #include <cstdlib>
@@ -76,15 +81,11 @@ struct MqttClient::Impl {
   bool redial_asked = false;
   std::chrono::steady_clock::time_point redial_deadline{};
   bool quit_asked = false;  // stop(): the loop's thread sends the DISCONNECT
-  // A DISCONNECT owed (stop or reconnect), after the UNSUBACK and what is in
-  // flight, or at leave_deadline (disconnect_now).
-  bool leaving = false;
-  bool leave_redial = false;
-  std::chrono::steady_clock::time_point leave_deadline{};
-  std::vector<std::string> filters;  // this connection's subscriptions
-  int unsubscribe_mid = -1;
-  bool unsubscribed = false;
-  static constexpr auto kLeaveWait = std::chrono::milliseconds(300);  // a stop()'s
+  // How long a DISCONNECT keeps the connection open for the broker to read
+  // it (disconnect_now), and how long a reconnect() waits for what is in
+  // flight before it.
+  static constexpr auto kLinger = std::chrono::seconds(2);
+  static constexpr auto kRedialDrain = std::chrono::seconds(10);
   std::size_t reserved = 0;  // publishes between the bound check and their id
   PendingWindow window;
   std::unordered_set<int> awaited;  // stop()'s last messages
@@ -104,7 +105,6 @@ struct MqttClient::Impl {
   static void on_connect(mosquitto*, void* obj, int rc, int, const mosquitto_property*);
   static void on_disconnect(mosquitto*, void* obj, int rc, const mosquitto_property*);
   static void on_publish(mosquitto*, void* obj, int mid, int, const mosquitto_property*);
-  static void on_unsubscribe(mosquitto*, void* obj, int mid, const mosquitto_property*);
   static void on_message(mosquitto*, void* obj, const mosquitto_message* m,
                          const mosquitto_property* props);
 };
@@ -120,7 +120,6 @@ void MqttClient::Impl::setup() {
   mosquitto_connect_v5_callback_set(mosq, on_connect);
   mosquitto_disconnect_v5_callback_set(mosq, on_disconnect);
   mosquitto_publish_v5_callback_set(mosq, on_publish);
-  mosquitto_unsubscribe_v5_callback_set(mosq, on_unsubscribe);
   mosquitto_message_v5_callback_set(mosq, on_message);
   auto check = [](int rc, const std::string& what) {
     if (rc != MOSQ_ERR_SUCCESS) {
@@ -166,67 +165,70 @@ void MqttClient::Impl::wait_backoff(Duration d) {
 // A clean DISCONNECT is one the broker reads before anything else goes wrong
 // on the socket; otherwise it takes the client for lost and publishes the
 // will: a Sparkplug NDEATH said twice for one bdSeq (attack.mjs,
-// sigterm-after-offline, under the sanitizer at real-time priority; and
+// sigterm-after-offline, under the sanitizer at real-time priority;
 // tests/serve/mqtt/mqtt_client_will_test.cpp). Two ways it went wrong:
 // - libmosquitto 2 marks the connection disconnected as soon as the
 //   DISCONNECT is queued, and a packet read before it is written (a PUBACK,
 //   the host's STATE) is a protocol error that closes the socket without it.
-//   So it is queued and written on the loop's thread, nothing read between.
-// - A socket closed with messages unread in it is reset, not closed: the
-//   broker, still writing to it, fails with a broken pipe before it reads the
-//   DISCONNECT. So first the client unsubscribes from everything and waits for
-//   the UNSUBACK (nothing more is sent to it after that) and for what it
-//   published to be acknowledged (at most `leave_deadline`).
+//   So it is queued and written here, on the loop's thread, nothing read between.
+// - libmosquitto closes its socket right after writing it. A socket closed
+//   with data unread in it is reset, and a broker still writing to it (QoS 1
+//   messages it had queued for us, an acknowledgement it owes) fails with a
+//   broken pipe before it reads the DISCONNECT. So a duplicate of the socket
+//   keeps the connection open, and what the broker still sends is read and
+//   dropped until it closes the connection (on reading the DISCONNECT), at
+//   most kLinger: our own lingering close, as libmosquitto has none.
 void MqttClient::Impl::disconnect_now() {
+  const int fd = mosquitto_socket(mosq);
+  const int kept = fd >= 0 ? ::fcntl(fd, F_DUPFD_CLOEXEC, 0) : -1;
   mosquitto_disconnect_v5(mosq, MQTT_RC_NORMAL_DISCONNECTION, nullptr);
   mosquitto_loop_write(mosq, 1);
+  if (kept < 0) return;
+  if (mosquitto_socket(mosq) >= 0) {  // not all written (a full socket): the loop goes on
+    ::close(kept);
+    return;
+  }
+  ::shutdown(kept, SHUT_WR);
+  const auto end = std::chrono::steady_clock::now() + kLinger;
+  std::array<char, 4096> drop{};
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        end - std::chrono::steady_clock::now());
+    if (left.count() <= 0) break;
+    pollfd p{kept, POLLIN, 0};
+    const int n = ::poll(&p, 1, static_cast<int>(left.count()));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    const ssize_t r = ::read(kept, drop.data(), drop.size());
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) break;  // the broker closed (or the connection is gone: nothing to save)
+  }
+  ::close(kept);
 }
 
-// On the loop's thread: what a stop() or reconnect() asked is done in steps,
-// between two turns of the loop: unsubscribe, wait, then the DISCONNECT.
+// On the loop's thread, between two turns of the loop: what a stop() or a
+// reconnect() asked.
 MqttClient::Impl::Step MqttClient::Impl::leave_step() {
-  std::vector<std::string> unsubscribe;
   Step step;
-  {
-    std::lock_guard lock(mutex);
-    const auto now = std::chrono::steady_clock::now();
-    if (quit_asked) {  // a stop() overrides a reconnect() under way
-      quit_asked = false;
-      const auto by = now + kLeaveWait;
-      if (!leaving || leave_redial || by < leave_deadline) leave_deadline = by;
-      if (!leaving) unsubscribe.swap(filters);
-      leaving = true;
-      leave_redial = false;
-      redial_asked = false;
-    } else if (redial_asked && !leaving) {
-      redial_asked = false;
-      leaving = true;
-      leave_redial = true;
-      leave_deadline = redial_deadline;
-      unsubscribe.swap(filters);
-    }
-    if (!leaving) return step;
-    if (unsubscribe.empty()) {
-      const bool done = (unsubscribed && window.size() == 0) || now >= leave_deadline;
-      step.draining = !done;
-      if (done) {
-        leaving = false;
-        if (leave_redial) redial = true;
-        step.disconnect = true;
-      }
-      return step;
-    }
-    unsubscribed = false;
-  }
-  std::vector<char*> subs;
-  for (auto& f : unsubscribe) subs.push_back(f.data());
-  int mid = 0;
-  const int rc = mosquitto_unsubscribe_multiple(mosq, &mid, static_cast<int>(subs.size()),
-                                                subs.data(), nullptr);
   std::lock_guard lock(mutex);
-  unsubscribe_mid = mid;
-  unsubscribed = rc != MOSQ_ERR_SUCCESS;  // nothing to wait for when it was not sent
-  step.draining = true;
+  if (quit_asked) {  // a stop() overrides a reconnect() under way
+    quit_asked = false;
+    redial_asked = false;
+    step.disconnect = true;
+    return step;
+  }
+  if (!redial_asked) return step;
+  // libmosquitto sends a QoS 1 message again on the next connection when its
+  // PUBACK has not come: a Sparkplug NDEATH would be said twice. So the
+  // DISCONNECT waits for what is in flight (at most kRedialDrain).
+  const bool done =
+      window.size() == 0 || std::chrono::steady_clock::now() >= redial_deadline;
+  step.draining = !done;
+  if (done) {
+    redial_asked = false;
+    redial = true;
+    step.disconnect = true;
+  }
   return step;
 }
 
@@ -291,8 +293,6 @@ void MqttClient::Impl::on_connect(mosquitto*, void* obj, int rc, int, const mosq
     self->connected = true;
     self->failing = false;
     self->redial_asked = false;  // a new connection: what reconnect() wanted is done
-    self->leaving = false;
-    self->filters.clear();  // a clean session: subscribed again by the handler
     ++self->stats.connects;
     self->window.reset();
   }
@@ -322,12 +322,6 @@ void MqttClient::Impl::on_publish(mosquitto*, void* obj, int mid, int, const mos
     self->awaited.erase(mid);
   }
   self->cv.notify_all();
-}
-
-void MqttClient::Impl::on_unsubscribe(mosquitto*, void* obj, int mid, const mosquitto_property*) {
-  auto* self = static_cast<Impl*>(obj);
-  std::lock_guard lock(self->mutex);
-  if (mid == self->unsubscribe_mid) self->unsubscribed = true;
 }
 
 void MqttClient::Impl::on_message(mosquitto*, void* obj, const mosquitto_message* m,
@@ -419,12 +413,6 @@ bool MqttClient::publish(const std::string& topic, std::string_view payload, int
 }
 
 void MqttClient::subscribe(const std::vector<std::string>& filters) {
-  {
-    std::lock_guard lock(impl_->mutex);
-    for (const auto& f : filters)
-      if (std::find(impl_->filters.begin(), impl_->filters.end(), f) == impl_->filters.end())
-        impl_->filters.push_back(f);
-  }
   // Retain-as-published: a retained command is seen as one. Never the
   // retained messages already stored (a stale command must not arrive),
   // except on the filters that ask for them (retained_filters).
@@ -468,7 +456,7 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
     s.cv.wait_until(lock, deadline, [&s] { return s.awaited.empty() || !s.connected; });
     s.closing = true;
     s.quit_asked = true;  // done by the loop's thread (leave_step)
-    const auto by = std::max(deadline, std::chrono::steady_clock::now() + Impl::kLeaveWait) +
+    const auto by = std::max(deadline, std::chrono::steady_clock::now()) +
                     std::chrono::milliseconds(500);
     s.cv.wait_until(lock, by, [&s] { return !s.connected; });
   }
@@ -483,9 +471,9 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
 
 void MqttClient::reconnect() {
   std::lock_guard lock(impl_->mutex);
-  if (!impl_->connected || impl_->stopped || impl_->redial_asked || impl_->leaving) return;
+  if (!impl_->connected || impl_->stopped || impl_->redial_asked) return;
   impl_->redial_asked = true;
-  impl_->redial_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  impl_->redial_deadline = std::chrono::steady_clock::now() + Impl::kRedialDrain;
 }
 
 bool MqttClient::connected() const {

@@ -119,7 +119,7 @@ class MqttClient final : public MqttSession {
   MqttClientStats stats() const;
   // Ends this connection (DISCONNECT) and connects again at once, with a
   // fresh will (Sparkplug: the primary host went offline). The DISCONNECT
-  // waits (≤ 2 s) for what is in flight, so no QoS 1 message is sent again on
+  // waits (≤ 10 s) for what is in flight, so no QoS 1 message is sent again on
   // the next connection (integration.sparkplug_host: lec6-one-ndeath-per-bdseq).
   void reconnect();
 
