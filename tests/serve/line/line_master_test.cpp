@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <future>
+#include <thread>
 
 #include "lec6/client/client.hpp"
 #include "lec6/client/rtu_master.hpp"
@@ -118,6 +119,27 @@ TEST(LineMaster, WithoutAStopTheResendIsCarriedOut) {
   LineMaster next(*l.line, Priority::Command, Priority::Command);
   client::Client c2(next, o);
   EXPECT_NO_THROW(c2.write_coil(Coil::DRIVE, true));
+}
+
+// Issue 32 (wire dating): the times a LineMaster reports are the exchange's
+// on the line, not the wait in the queue before it nor the hop back to the
+// caller's thread. The line's thread is held 200 ms (a transaction of
+// another client, as it were) when the read is submitted.
+TEST(LineMaster, ItsWireTimesAreTheExchangesNotTheQueuesWait) {
+  LiveLine l;
+  LineMaster m(*l.line, Priority::Command, Priority::Command);
+  const auto before = l.clock.now();
+  l.line->post([] { std::this_thread::sleep_for(200ms); });  // the scenario: a busy line
+  const auto reply = m.exchange({1, modbus::ReadRegistersRequest{lec::kStateData, 7}});
+  const auto after = l.clock.now();
+  EXPECT_TRUE(std::holds_alternative<modbus::ReadRegistersResponse>(reply.pdu));
+  const auto w = m.last_wire_times();
+  ASSERT_TRUE(w);
+  EXPECT_GE(w->sent - before, 190ms) << "dated at the submit, not on the wire";
+  EXPECT_LE(w->sent, w->replied);
+  EXPECT_LE(w->replied, after);
+  EXPECT_LT(w->replied - w->sent, 100ms);  // the in-process twin answers at once
+  EXPECT_EQ(m.last_round_trip(), w->replied - w->sent);
 }
 
 }  // namespace
