@@ -179,17 +179,18 @@ void read_motion(const Context& x, const YAML::Node& n, const std::string& f, St
                        target);
 }
 
-void read_wait(const Context& x, const YAML::Node& n, const std::string& f, Step& s) {
+// An axis's condition, a wait's or a repeat's `until`: exactly one of flag
+// (with value), above_mm or below_mm. Returns it in words ("z INP = 1").
+std::string read_condition(const Context& x, const YAML::Node& n, const std::string& f, Step& s,
+                           const char* what) {
   const Reader& r = x.r;
-  r.keys(n, f, {"axis", "flag", "value", "above_mm", "below_mm", "timeout", "on"});
   const Axis& a = read_axis_name(x, n, f);
   s.axis = a.name;
   const int given = (n["flag"] ? 1 : 0) + (n["above_mm"] ? 1 : 0) + (n["below_mm"] ? 1 : 0);
   if (given != 1)
-    r.fail(n, f, "a wait needs exactly one of flag, above_mm or below_mm (a pause is a dwell)");
-  if (!n["timeout"])
-    r.fail(n, f + ".timeout", "a wait needs a timeout: a wait that may never end is refused");
-  s.timeout = r.duration(n["timeout"], f + ".timeout");
+    r.fail(n, f,
+           fmt::format("a {} needs exactly one of flag, above_mm or below_mm{}", what,
+                       std::string_view(what) == "wait" ? " (a pause is a dwell)" : ""));
   if (n["flag"]) {
     const std::string name = r.text(n["flag"], f + ".flag");
     std::vector<std::string> known;
@@ -200,8 +201,7 @@ void read_wait(const Context& x, const YAML::Node& n, const std::string& f, Step
     if (!s.flag)
       r.fail(n["flag"], f + ".flag", Reader::unknown("status flag", name, known, "flags"));
     if (n["value"]) s.flag_value = r.boolean(n["value"], f + ".value");
-    s.text = fmt::format("wait for {} {} = {}", a.name, name, s.flag_value ? 1 : 0);
-    return;
+    return fmt::format("{} {} = {}", a.name, name, s.flag_value ? 1 : 0);
   }
   const bool above = static_cast<bool>(n["above_mm"]);
   const char* key = above ? "above_mm" : "below_mm";
@@ -209,14 +209,23 @@ void read_wait(const Context& x, const YAML::Node& n, const std::string& f, Step
   (above ? s.above_001mm : s.below_001mm) = v;
   if (a.soft_limits && (above ? v >= a.soft_limits->max_001mm : v <= a.soft_limits->min_001mm)) {
     r.fail(n[key], f + "." + key,
-           fmt::format("axis {} can never be {} {} mm within its soft limits {} to {} mm: the wait "
+           fmt::format("axis {} can never be {} {} mm within its soft limits {} to {} mm: the {} "
                        "would never end",
                        a.name, above ? "above" : "below", lec::format_mm(v),
                        lec::format_mm(a.soft_limits->min_001mm),
-                       lec::format_mm(a.soft_limits->max_001mm)));
+                       lec::format_mm(a.soft_limits->max_001mm), what));
   }
-  s.text =
-      fmt::format("wait for {} {} {} mm", a.name, above ? "above" : "below", lec::format_mm(v));
+  return fmt::format("{} {} {} mm", a.name, above ? "above" : "below", lec::format_mm(v));
+}
+
+void read_wait(const Context& x, const YAML::Node& n, const std::string& f, Step& s) {
+  const Reader& r = x.r;
+  r.keys(n, f, {"axis", "flag", "value", "above_mm", "below_mm", "timeout", "on"});
+  const std::string condition = read_condition(x, n, f, s, "wait");
+  if (!n["timeout"])
+    r.fail(n, f + ".timeout", "a wait needs a timeout: a wait that may never end is refused");
+  s.timeout = r.duration(n["timeout"], f + ".timeout");
+  s.text = "wait for " + condition;
 }
 
 Step read_step(const Context& x, const YAML::Node& n, const std::string& f);
@@ -291,12 +300,22 @@ Step read_step(const Context& x, const YAML::Node& n, const std::string& f) {
     read_parallel(x, body, bf, s);
   } else {
     s.kind = Step::Kind::Repeat;
-    r.keys(body, bf, {"times", "steps"});
-    if (!body["times"]) r.fail(body, bf + ".times", "repeat needs times: N");
+    r.keys(body, bf, {"times", "until", "steps"});
+    if (!body["times"])
+      r.fail(body, bf + ".times",
+             body["until"] ? "repeat until needs times: N, the most passes (a repeat that may "
+                             "never end is refused)"
+                           : "repeat needs times: N");
     s.times = static_cast<unsigned>(r.integer(body["times"], bf + ".times", 1, 1000000));
     if (!body["steps"]) r.fail(body, bf + ".steps", "repeat needs its steps");
     s.steps = read_steps(x.r, body["steps"], bf + ".steps", x.cycle, x.branches);
     s.text = fmt::format("repeat {} times", s.times);
+    if (const auto& u = body["until"]) {
+      r.keys(u, bf + ".until", {"axis", "flag", "value", "above_mm", "below_mm"});
+      s.until = true;
+      s.text = fmt::format("repeat until {}, at most {} times",
+                           read_condition(x, u, bf + ".until", s, "repeat's until"), s.times);
+    }
   }
   return s;
 }

@@ -76,7 +76,7 @@ Target target_of(const Step& step, Outcome outcome) {
 }
 
 Engine::Engine(const Cycle& cycle) : cycle_(cycle) {
-  stack_.push_back({&cycle.steps, 0, cycle.repeat, cycle.repeat, ""});
+  stack_.push_back({&cycle.steps, 0, cycle.repeat, cycle.repeat, "", nullptr, ""});
 }
 
 std::string Engine::path_of(const Frame& f) const {
@@ -90,6 +90,18 @@ std::variant<Batch, Finished> Engine::next(const AxisStates& axes) {
   while (!stack_.empty()) {
     Frame& f = stack_.back();
     if (f.index >= f.steps->size()) {
+      // A repeat until: its condition, read after each pass.
+      if (f.repeat && f.repeat->until) {
+        const auto a = axes.find(f.repeat->axis);
+        const bool met = a != axes.end() && a->second.answered &&
+                         f.repeat->condition_met(a->second.flags, a->second.state.position_001mm);
+        if (met) f.remaining = 1;  // done: popped below
+        else if (f.remaining == 1) {
+          finished_ = Finished{false, fmt::format("step {} ({}): not met after {} passes", f.path,
+                                                  f.repeat->text, f.times)};
+          return *finished_;
+        }
+      }
       if (--f.remaining > 0) {
         f.index = 0;
         if (stack_.size() == 1) ++iteration_;
@@ -101,8 +113,8 @@ std::variant<Batch, Finished> Engine::next(const AxisStates& axes) {
     }
     const Step& s = (*f.steps)[f.index];
     if (s.kind == Step::Kind::Repeat) {
-      stack_.push_back(
-          {&s.steps, 0, s.times, s.times, fmt::format("{}{}.", f.prefix, f.index + 1)});
+      stack_.push_back({&s.steps, 0, s.times, s.times, fmt::format("{}{}.", f.prefix, f.index + 1),
+                        &s, path_of(f)});
       continue;
     }
     Batch b{path_of(f), &s, {}};
@@ -143,7 +155,7 @@ std::string Engine::finished(const std::vector<ActivityResult>& results) {
     if (t.kind == Target::Branch && !branch) branch = t;
   }
   if (branch) {
-    stack_.push_back({&cycle_.branches.at(branch->branch), 0, 1, 1, branch->branch + "."});
+    stack_.push_back({&cycle_.branches.at(branch->branch), 0, 1, 1, branch->branch + ".", nullptr, ""});
     return "branch " + branch->branch;
   }
   ++stack_.back().index;

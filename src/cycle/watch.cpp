@@ -61,15 +61,7 @@ std::optional<ActivityResult> Watch::feed(const client::Poll& poll) {
   }
   if (step_->kind == Step::Kind::Dwell) return feed_time(poll.at);
   const Step& s = *step_;
-  bool met = false;
-  if (s.flag) {
-    met = poll.flags.test(*s.flag) == s.flag_value;
-  } else if (s.above_001mm) {
-    met = poll.state.position_001mm > *s.above_001mm;
-  } else if (s.below_001mm) {
-    met = poll.state.position_001mm < *s.below_001mm;
-  }
-  if (met) {
+  if (s.condition_met(poll.flags, poll.state.position_001mm)) {
     return ActivityResult{Outcome::Done,
                           fmt::format("after {:.3f} s at {} mm", to_seconds(poll.at - begun_),
                                       lec::format_mm(poll.state.position_001mm))};

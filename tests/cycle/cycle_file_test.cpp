@@ -144,6 +144,26 @@ TEST(CycleFile, WaitWithoutTimeoutOrThatCanNeverEnd) {
   EXPECT_THAT(e.rule(), HasSubstr("unknown status flag 'INPP': did you mean 'INP'?"));
 }
 
+TEST(CycleFile, RepeatUntilNeedsItsMostPassesAndAConditionThatCanHold) {
+  auto e = refused(std::string(kFileAxes) +
+                   "steps:\n  - repeat: {until: {axis: z, flag: INP}, steps: [{dwell: 1s}]}\n");
+  EXPECT_EQ(e.field(), "steps[0].repeat.times");
+  EXPECT_THAT(e.rule(), HasSubstr("a repeat that may never end is refused"));
+  e = refused(std::string(kFileAxes) +
+              "steps:\n  - repeat: {times: 3, until: {axis: x, above_mm: 400}, steps: [{dwell: "
+              "1s}]}\n");
+  EXPECT_EQ(e.field(), "steps[0].repeat.until.above_mm");
+  EXPECT_THAT(e.rule(), HasSubstr("the repeat's until would never end"));
+  e = refused(std::string(kFileAxes) +
+              "steps:\n  - repeat: {times: 3, until: {axis: z}, steps: [{dwell: 1s}]}\n");
+  EXPECT_THAT(e.rule(), HasSubstr("a repeat's until needs exactly one of flag, above_mm or below_mm"));
+  e = refused(std::string(kFileAxes) +
+              "steps:\n  - repeat: {times: 3, until: {axis: z, flag: INP, timeout: 2s}, steps: "
+              "[{dwell: 1s}]}\n");
+  EXPECT_EQ(e.field(), "steps[0].repeat.until.timeout");
+  EXPECT_THAT(e.rule(), HasSubstr("timeout"));
+}
+
 TEST(CycleFile, BranchesMustExistAndNotCallThemselves) {
   auto e = refused(std::string(kFileAxes) +
                    "steps:\n  - push: {axis: z, to: 10, force: 30, on_miss: rejct}\n"

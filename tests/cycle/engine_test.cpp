@@ -67,6 +67,49 @@ TEST(Engine, WalksRepeatsAndTheWholeCycleNTimes) {
   EXPECT_TRUE(end.completed);
 }
 
+// Repeat until (issue 34): the condition is read after each pass; met, the
+// cycle goes on; not met after `times` passes, the cycle fails saying so.
+TEST(Engine, RepeatUntilEndsWhenItsConditionHoldsOrFailsAfterItsPasses) {
+  const Cycle c = parse_cycle(R"(axes:
+  x: {id: 1}
+  z: {id: 2}
+steps:
+  - repeat:
+      times: 4
+      until: {axis: z, flag: INP}
+      steps: [{move: {axis: x, to: 10, relative: true}}, {dwell: 100ms}]
+  - dwell: 1s
+)",
+                              "cell.yaml");
+  const auto walk = [&](int met_after_pass, Finished& end) {
+    Engine e(c);
+    AxisStates axes{{"x", ready_axis(0)}, {"z", ready_axis(0)}};
+    std::vector<std::string> paths;
+    int passes = 0;
+    for (;;) {
+      auto next = e.next(axes);
+      if (auto* f = std::get_if<Finished>(&next)) {
+        end = *f;
+        return paths;
+      }
+      const Batch& b = std::get<Batch>(next);
+      paths.push_back(b.path);
+      if (b.step->kind == Step::Kind::Dwell && b.path.starts_with("1.2") && ++passes == met_after_pass)
+        axes["z"].flags.set(lec::StatusFlags::Inp, true);
+      e.finished({ActivityResult{b.step->kind == Step::Kind::Dwell ? Outcome::Done : Outcome::Reached, ""}});
+    }
+  };
+  Finished end;
+  EXPECT_THAT(walk(2, end), ::testing::ElementsAre("1.1 (1/4)", "1.2 (1/4)", "1.1 (2/4)",
+                                                   "1.2 (2/4)", "2"));
+  EXPECT_TRUE(end.completed) << end.reason;
+  const auto never = walk(99, end);
+  EXPECT_EQ(never.size(), 8u);  // four passes of two steps, and not step 2
+  EXPECT_FALSE(end.completed);
+  EXPECT_EQ(end.reason,
+            "step 1 (repeat until z INP = 1, at most 4 times): not met after 4 passes");
+}
+
 TEST(Engine, PushMissedRunsTheBranchThenGoesOn) {
   const Cycle c = parse_cycle(kEngineCell, "cell.yaml");
   Finished end;

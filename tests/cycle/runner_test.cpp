@@ -287,5 +287,32 @@ steps:
   EXPECT_EQ(r.steps[5].path, "2 (3/3)");
 }
 
+// Repeat until on the twin: x steps 60 mm at a time until it is past 200 mm
+// (four passes: 60, 120, 180, 240), read from the axis after each pass.
+TEST(Runner, RepeatUntilReadsTheAxisAfterEachPass) {
+  Cell cell(kRunAxes + R"(steps:
+  - move: {axis: x, to: 0}
+  - repeat:
+      times: 10
+      until: {axis: x, above_mm: 200}
+      steps: [{move: {axis: x, to: 60, relative: true}}]
+)");
+  const CycleReport r = cell.run();
+  ASSERT_TRUE(r.completed) << r.ended;
+  EXPECT_EQ(r.steps.size(), 5u);
+  EXPECT_EQ(r.steps.back().path, "2.1 (4/10)");
+  EXPECT_EQ(cell.position_001mm("x"), 24000);
+  // Never met within its passes: the cycle fails, saying which repeat.
+  Cell again(kRunAxes + R"(steps:
+  - repeat:
+      times: 2
+      until: {axis: x, above_mm: 390}
+      steps: [{move: {axis: x, to: 60, relative: true}}]
+)");
+  const CycleReport f = again.run();
+  EXPECT_FALSE(f.completed);
+  EXPECT_EQ(f.ended, "step 1 (repeat until x above 390.00 mm, at most 2 times): not met after 2 passes");
+}
+
 }  // namespace
 }  // namespace lec6::cycle

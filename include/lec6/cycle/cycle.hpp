@@ -87,11 +87,22 @@ struct Step {
   std::optional<int32_t> below_001mm;
   Duration timeout{};       // Wait: its timeout; Move/Push/RunStep: how long the motion may take
   Duration dwell{};         // Dwell
-  unsigned times = 1;       // Repeat
+  unsigned times = 1;       // Repeat: its passes (with `until`: at most)
+  // Repeat: ends after a pass when its axis's condition holds (axis, flag or
+  // above/below, as a wait's), else after `times` passes, failing the cycle.
+  bool until = false;
   std::vector<Step> steps;  // Parallel members, Repeat body
   std::map<Outcome, Target> on;  // conditions on this step's outcome
   std::string text;              // "move x to pick (120.00 mm)": for reports
   Mark mark;
+
+  // A wait's or a repeat's condition on its axis's flags and position.
+  bool condition_met(const lec::StatusFlags& flags, int32_t position_001mm) const noexcept {
+    if (flag) return flags.test(*flag) == flag_value;
+    if (above_001mm) return position_001mm > *above_001mm;
+    if (below_001mm) return position_001mm < *below_001mm;
+    return false;
+  }
 
   bool moves() const noexcept {
     return kind == Kind::Move || kind == Kind::Push || kind == Kind::RunStep;
