@@ -141,6 +141,10 @@ MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptio
 }
 
 StartedMove Actuator::start(const DirectMove& m) {
+  return go(prepare(m));
+}
+
+PreparedMove Actuator::prepare(const DirectMove& m) {
   // The values first (the user's own error before the machine's state), then
   // the controller: nothing is written unless both are fine.
   const auto current = client_.read_direct();
@@ -162,8 +166,12 @@ StartedMove Actuator::start(const DirectMove& m) {
   if (const auto [first, count] = changed_range(current, want); count > 0)
     client_.write_direct_registers(want, first, count);
   direct_written_ = want;
+  return PreparedMove{goal, before.flags, before.state, relative};
+}
 
-  if (relative) {
+StartedMove Actuator::go(const PreparedMove& p) {
+  const MoveGoal& goal = p.goal;
+  if (p.relative) {
     // An INC start is never resent blindly: a repeat would move twice. After a
     // lost reply, the target position tells whether the controller started.
     try {
@@ -178,7 +186,7 @@ StartedMove Actuator::start(const DirectMove& m) {
     client_.write_direct_start(Retry::Safe);
   }
   return StartedMove{detail::wire_dated(
-      MoveStart{goal, before.flags, before.state, false, client_.clock().now()}, client_)};
+      MoveStart{goal, p.flags_before, p.state_before, false, client_.clock().now()}, client_)};
 }
 
 MoveResult Actuator::move(const DirectMove& m, TimePoint deadline, const WaitOptions& wait) {

@@ -14,6 +14,7 @@ namespace {
 
 struct Live {
   const Step* step = nullptr;
+  std::optional<client::PreparedMove> prepared;  // a group's move, its start not yet sent
   std::optional<Watch> watch;
   std::optional<ActivityResult> result;
   AxisSpan span;
@@ -85,15 +86,24 @@ struct Runner::Impl {
     return stood;
   }
 
+  // The first half of a move's start (Actuator::prepare): a group prepares
+  // every member, then sends the starts back to back (start()).
+  void prepare(Live& l) {
+    const Step& s = *l.step;
+    if (s.kind != Step::Kind::Move && s.kind != Step::Kind::Push) return;
+    l.span.start = since_start();
+    guarded(l, [&] { l.prepared = axes.at(s.axis).actuator->prepare(s.move); });
+  }
+
   void start(Live& l) {
     const Step& s = *l.step;
-    l.span.start = since_start();
+    if (!l.prepared) l.span.start = since_start();
     if (s.kind == Step::Kind::Wait || s.kind == Step::Kind::Dwell) {
       l.watch = Watch::timed(s, clock().now());
       return;
     }
     auto& act = *axes.at(s.axis).actuator;
-    try {
+    guarded(l, [&] {
       if (s.kind == Step::Kind::RunStep) {  // never in a group: run to its end here
         client::WaitOptions w;
         w.cancel = [this] { return stop_requested(); };
@@ -102,9 +112,17 @@ struct Runner::Impl {
         l.span.position_001mm = r.state.position_001mm;
         return;
       }
-      const client::StartedMove started = act.start(s.move);
+      const client::StartedMove started = l.prepared ? act.go(*l.prepared) : act.start(s.move);
       l.span.start = started.start.at - t0;
       l.watch = Watch::motion(s, started.start, started.start.at + s.timeout);
+    });
+  }
+
+  // Runs `f`; what a start can throw becomes the activity's outcome.
+  template <typename F>
+  void guarded(Live& l, F&& f) {
+    try {
+      f();
     } catch (const client::InvalidRequest& e) {
       l.result = ActivityResult{Outcome::Refused, e.what()};
     } catch (const client::ControllerException& e) {
@@ -200,7 +218,21 @@ struct Runner::Impl {
       stood = cut(live, "stopped: the cycle was aborted");
       return true;
     };
+    // Every member's checks and direct data first, then the starts back to
+    // back: the group's axes start one transaction apart.
+    bool cut_short = false;
+    if (live.size() > 1) {
+      for (auto& l : live) {
+        prepare(l);
+        if (l.result && settle(l)) {
+          cut_short = true;
+          break;
+        }
+      }
+    }
     for (auto& l : live) {
+      if (cut_short) break;
+      if (l.result) continue;  // refused in prepare(), settled there
       start(l);
       if (l.result && settle(l)) break;
     }

@@ -89,6 +89,17 @@ struct StartedMove {
   MoveStart start;
 };
 
+// A move checked and its direct data written, its start (D9100) not yet
+// sent: Actuator::prepare(), then go(). A cycle's parallel group prepares
+// every axis first and then sends the starts back to back, so the axes start
+// one transaction apart, not one whole start() apart (issue 34's start skew).
+struct PreparedMove {
+  MoveGoal goal;
+  lec::StatusFlags flags_before;
+  lec::StateData state_before;
+  bool relative = false;
+};
+
 // What fills the fields a move (or a blank step) does not give: the one set
 // of defaults of every front end, lec::default_step_data().
 lec::StepData default_direct_data();
@@ -137,6 +148,12 @@ class Actuator {
   // Checks serial mode, servo and alarms (nothing is written when one
   // fails), writes only the direct-data registers that change, then D9100.
   StartedMove start(const DirectMove& move);
+  // start() in two halves: prepare() reads, checks and writes the direct data
+  // (nothing moves); go() writes the start. The checks are as old as the
+  // prepare() when the start goes: call go() at once (the transactions of the
+  // other axes' prepare() at most between).
+  PreparedMove prepare(const DirectMove& move);
+  StartedMove go(const PreparedMove& prepared);
   // A follower's setpoint (`lec follow`): rewrites only the position (and
   // speed, when given and changed) of the direct data this Actuator last
   // wrote, and starts again with D9100. A running move is retargeted; no
