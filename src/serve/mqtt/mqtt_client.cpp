@@ -81,6 +81,9 @@ struct MqttClient::Impl {
   bool redial_asked = false;
   std::chrono::steady_clock::time_point redial_deadline{};
   bool quit_asked = false;  // stop(): the loop's thread sends the DISCONNECT
+  std::chrono::steady_clock::time_point quit_deadline{};  // ... once connected, until then
+  std::vector<std::pair<std::string, std::string>> quit_last;  // stop()'s, when not connected
+  bool quit_done = false;  // the loop's thread has left (or is leaving) the broker
   // How long a DISCONNECT keeps the connection open for the broker to read
   // it (disconnect_now), and how long a reconnect() waits for what is in
   // flight before it.
@@ -96,7 +99,8 @@ struct MqttClient::Impl {
   void disconnect_now();
   struct Step {
     bool disconnect = false;  // send the DISCONNECT now
-    bool draining = false;    // an UNSUBACK or PUBACK awaited: turn the loop fast
+    bool draining = false;    // a PUBACK or a CONNACK awaited: turn the loop fast
+    std::vector<std::pair<std::string, std::string>> last;  // publish before the DISCONNECT
   };
   Step leave_step();
   void report_failure(const std::string& why);
@@ -182,26 +186,45 @@ void MqttClient::Impl::disconnect_now() {
   const int fd = mosquitto_socket(mosq);
   const int kept = fd >= 0 ? ::fcntl(fd, F_DUPFD_CLOEXEC, 0) : -1;
   mosquitto_disconnect_v5(mosq, MQTT_RC_NORMAL_DISCONNECTION, nullptr);
+  const auto end = std::chrono::steady_clock::now() + kLinger;
+  std::array<char, 4096> drop{};
+  // Waits for `events` on the kept socket until `end`; false: time is up or it failed.
+  const auto wait = [&](short events, short& got) {
+    for (;;) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+          end - std::chrono::steady_clock::now());
+      if (left.count() <= 0) return false;
+      pollfd p{kept, events, 0};
+      const int n = ::poll(&p, 1, static_cast<int>(left.count()));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) return false;
+      got = p.revents;
+      return true;
+    }
+  };
+  const auto drop_some = [&] {  // false: the broker closed, or the socket failed
+    const ssize_t r = ::read(kept, drop.data(), drop.size());
+    return r > 0 || (r < 0 && (errno == EINTR || errno == EAGAIN));
+  };
+  // Written whole, nothing read by libmosquitto between: what is queued
+  // before the DISCONNECT may fill the socket, so it is written as the
+  // socket takes it, and what the broker sends meanwhile is dropped (a
+  // broker blocked on writing to us would never read on).
   mosquitto_loop_write(mosq, 1);
+  while (kept >= 0 && mosquitto_socket(mosq) >= 0) {
+    short got = 0;
+    if (!wait(POLLIN | POLLOUT, got)) break;
+    if ((got & POLLIN) && !drop_some()) break;
+    if (got & (POLLOUT | POLLERR | POLLHUP)) mosquitto_loop_write(mosq, 1);
+  }
   if (kept < 0) return;
-  if (mosquitto_socket(mosq) >= 0) {  // not all written (a full socket): the loop goes on
+  if (mosquitto_socket(mosq) >= 0) {  // never written (the broker took nothing for kLinger)
     ::close(kept);
     return;
   }
+  // Written, and libmosquitto's socket closed: the kept one lingers until the broker closes.
   ::shutdown(kept, SHUT_WR);
-  const auto end = std::chrono::steady_clock::now() + kLinger;
-  std::array<char, 4096> drop{};
-  for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-        end - std::chrono::steady_clock::now());
-    if (left.count() <= 0) break;
-    pollfd p{kept, POLLIN, 0};
-    const int n = ::poll(&p, 1, static_cast<int>(left.count()));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    const ssize_t r = ::read(kept, drop.data(), drop.size());
-    if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) break;  // the broker closed (or the connection is gone: nothing to save)
+  for (short got = 0; wait(POLLIN, got) && drop_some();) {
   }
   ::close(kept);
 }
@@ -211,9 +234,26 @@ void MqttClient::Impl::disconnect_now() {
 MqttClient::Impl::Step MqttClient::Impl::leave_step() {
   Step step;
   std::lock_guard lock(mutex);
+  const auto now = std::chrono::steady_clock::now();
   if (quit_asked) {  // a stop() overrides a reconnect() under way
-    quit_asked = false;
     redial_asked = false;
+    if (connected) {
+      quit_asked = false;
+      step.last = std::move(quit_last);  // stop() could not send them: not connected then
+      step.disconnect = true;
+      return step;
+    }
+    // Not connected, a CONNECT perhaps on its way (a reconnect()
+    // redialling): a connection that comes up by quit_deadline gets the last
+    // words and the DISCONNECT. Past it the DISCONNECT goes anyway: after a
+    // CONNECT the broker has not answered yet (stalled), it ends that session
+    // cleanly; with nothing written yet, the socket is just closed. Closed
+    // without it after a CONNECT, the broker would publish the will.
+    if (now < quit_deadline) {
+      step.draining = true;
+      return step;
+    }
+    quit_asked = false;
     step.disconnect = true;
     return step;
   }
@@ -221,8 +261,7 @@ MqttClient::Impl::Step MqttClient::Impl::leave_step() {
   // libmosquitto sends a QoS 1 message again on the next connection when its
   // PUBACK has not come: a Sparkplug NDEATH would be said twice. So the
   // DISCONNECT waits for what is in flight (at most kRedialDrain).
-  const bool done =
-      window.size() == 0 || std::chrono::steady_clock::now() >= redial_deadline;
+  const bool done = window.size() == 0 || now >= redial_deadline;
   step.draining = !done;
   if (done) {
     redial_asked = false;
@@ -234,6 +273,16 @@ MqttClient::Impl::Step MqttClient::Impl::leave_step() {
 
 // Connects, runs the network loop, and reconnects after any failure.
 void MqttClient::Impl::run() {
+  struct Done {  // stop() waits for this, however the loop ends
+    Impl& s;
+    ~Done() {
+      {
+        std::lock_guard lock(s.mutex);
+        s.quit_done = true;
+      }
+      s.cv.notify_all();
+    }
+  } done{*this};
   Duration backoff = std::chrono::seconds(1);
   const Duration max_backoff = std::chrono::seconds(o.reconnect_max_s);
   bool first = true;
@@ -260,6 +309,9 @@ void MqttClient::Impl::run() {
         if (stop_now) return;
       }
       const Step step = leave_step();
+      for (const auto& [topic, payload] : step.last)
+        mosquitto_publish_v5(mosq, nullptr, topic.c_str(), static_cast<int>(payload.size()),
+                             payload.data(), 1, o.last_retain, nullptr);
       if (step.disconnect) disconnect_now();
       // 50 ms: a stop()'s or reconnect()'s request waits at most this for the thread.
       rc = mosquitto_loop(mosq, step.draining ? 10 : 50, 1);
@@ -442,6 +494,7 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
     s.stopped = true;
     was_connected = s.connected;
   }
+  const auto deadline = std::chrono::steady_clock::now() + grace;
   if (was_connected) {
     for (const auto& [topic, payload] : last) {
       int mid = 0;
@@ -451,18 +504,26 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
         if (s.window.sent(mid)) s.awaited.insert(mid);
       }
     }
-    const auto deadline = std::chrono::steady_clock::now() + grace;
-    std::unique_lock lock(s.mutex);
-    s.cv.wait_until(lock, deadline, [&s] { return s.awaited.empty() || !s.connected; });
-    s.closing = true;
-    s.quit_asked = true;  // done by the loop's thread (leave_step)
-    const auto by = std::max(deadline, std::chrono::steady_clock::now()) +
-                    std::chrono::milliseconds(500);
-    s.cv.wait_until(lock, by, [&s] { return !s.connected; });
   }
   {
-    std::lock_guard lock(s.mutex);
+    std::unique_lock lock(s.mutex);
+    if (was_connected)
+      s.cv.wait_until(lock, deadline, [&s] { return s.awaited.empty() || !s.connected; });
+    else
+      s.quit_last = last;  // sent if a connection comes up before the DISCONNECT
+    // The loop's thread sends the DISCONNECT (leave_step, disconnect_now):
+    // at once when connected, else once a connection under way is up (a
+    // reconnect() redialling), at most 1 s from now.
     s.closing = true;
+    s.quit_asked = true;
+    const auto now = std::chrono::steady_clock::now();
+    s.quit_deadline = now + std::chrono::seconds(1);
+    if (s.thread.joinable()) {
+      s.cv.notify_all();
+      s.cv.wait_until(lock, std::max(deadline, s.quit_deadline) + Impl::kLinger +
+                                std::chrono::milliseconds(500),
+                      [&s] { return s.quit_done; });
+    }
     s.stop_now = true;
   }
   s.cv.notify_all();

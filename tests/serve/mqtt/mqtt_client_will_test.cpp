@@ -352,5 +352,66 @@ TEST(MqttClientWill, AStopWithAQos1BacklogNeverFiresTheWill) {
                                      << unclean_lines(broker);
 }
 
+// A second reviewer's attacks on the lingering DISCONNECT.
+// stop() while reconnect() redials a stalled broker: the new connection's
+// CONNECT is written, its CONNACK not come; closed without a DISCONNECT,
+// the broker (once it resumes) publishes the will.
+TEST(MqttClientWill, AStopDuringARedialToAStalledBrokerNeverFiresTheWill) {
+  mosquitto_lib_init();
+  Broker broker;
+  ASSERT_GT(broker.pid, 0);
+  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
+  Peer checker("redial-stop-checker");
+  ASSERT_TRUE(start_checker(checker, broker.port));
+  std::atomic<int> ups{0};
+  MqttClientHandlers h;
+  h.connected = [&ups] { ++ups; };
+  h.message = [](const MqttMessage&) {};
+  auto client = std::make_unique<MqttClient>(options(broker, "redial-stop-client"), h);
+  client->start();
+  ASSERT_TRUE(wait_for([&] { return ups.load() == 1; }, 5s));
+  ::kill(broker.pid, SIGSTOP);
+  client->reconnect();
+  // The old connection lingers 2 s for the stalled broker, then the CONNECT
+  // of the new one goes out: the stop comes after it.
+  std::this_thread::sleep_for(2500ms);
+  client->stop({{"t/last", "bye"}}, 1s);
+  ::kill(broker.pid, SIGCONT);
+  client.reset();  // lec serve exits right after stop()
+  wait_for([&] { return checker.wills.load() > 0; }, 1500ms);
+  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+}
+
+// A QoS 1 backlog larger than the socket buffers, the broker stalled just past
+// the grace: the DISCONNECT is queued behind megabytes; written as the socket
+// takes them (never a read by libmosquitto between), it still goes out clean.
+TEST(MqttClientWill, AStopBehindABacklogLargerThanTheSocketNeverFiresTheWill) {
+  mosquitto_lib_init();
+  Broker broker;
+  ASSERT_GT(broker.pid, 0);
+  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
+  Peer checker("backlog-stall-checker");
+  ASSERT_TRUE(start_checker(checker, broker.port));
+  std::atomic<int> ups{0};
+  MqttClientHandlers h;
+  h.connected = [&ups] { ++ups; };
+  h.message = [](const MqttMessage&) {};
+  auto client = std::make_unique<MqttClient>(options(broker, "backlog-stall-client"), h);
+  client->start();
+  ASSERT_TRUE(wait_for([&] { return ups.load() == 1; }, 5s));
+  ::kill(broker.pid, SIGSTOP);
+  const std::string big(256 * 1024, 'y');
+  for (int i = 0; i < 30; ++i) client->publish("b/big", big, 1, false);
+  std::thread resume([&] {
+    std::this_thread::sleep_for(1100ms);  // past the 1 s grace
+    ::kill(broker.pid, SIGCONT);
+  });
+  client->stop({{"t/last", "bye"}}, 1s);
+  resume.join();
+  client.reset();
+  wait_for([&] { return checker.wills.load() > 0; }, 1500ms);
+  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+}
+
 }  // namespace
 }  // namespace lec6::serve::will_test
