@@ -68,7 +68,7 @@ class Line {
   // meanwhile (for at most `stop_drain`), then finishes the transaction in
   // flight, fails what is left and joins the thread. An accepted stop is never
   // dropped by a shutdown while the line works (issue 31 rule 4;
-  // tests/serve/line/line_shutdown_test.cpp).
+  // OperationsStop.TheLineSendsTheStopsQueuedWhenItCloses).
   void stop();
   // The first half of stop(): from now on only stops are taken.
   void begin_stop();
