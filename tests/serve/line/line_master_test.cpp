@@ -129,7 +129,13 @@ TEST(LineMaster, ItsWireTimesAreTheExchangesNotTheQueuesWait) {
   LiveLine l;
   LineMaster m(*l.line, Priority::Command, Priority::Command);
   const auto before = l.clock.now();
-  l.line->post([] { std::this_thread::sleep_for(200ms); });  // the scenario: a busy line
+  std::promise<void> holding;
+  auto held = holding.get_future();
+  l.line->post([&holding] {  // the scenario: a line busy when the read comes
+    holding.set_value();
+    std::this_thread::sleep_for(200ms);
+  });
+  held.wait();  // the line's thread is in it: the read waits in the queue
   const auto reply = m.exchange({1, modbus::ReadRegistersRequest{lec::kStateData, 7}});
   const auto after = l.clock.now();
   EXPECT_TRUE(std::holds_alternative<modbus::ReadRegistersResponse>(reply.pdu));
