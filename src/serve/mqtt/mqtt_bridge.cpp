@@ -33,6 +33,9 @@ MqttClientOptions client_options(const MqttConfig& c, const MqttTopics& topics) 
   o.reconnect_max_s = c.reconnect_max_s;
   o.will_topic = topics.status();
   o.will_payload = "offline";
+  // The retained "offline" at a stop goes ahead of the DISCONNECT whatever
+  // telemetry is still in flight (mqtt_client.hpp: last_qos).
+  o.last_qos = 0;
   return o;
 }
 

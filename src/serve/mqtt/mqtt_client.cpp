@@ -16,9 +16,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
+#include <shared_mutex>
 #include <stdexcept>
 #include <thread>
 #include <unordered_set>
+#include <utility>
 
 namespace lec6::serve {
 namespace {
@@ -67,6 +69,10 @@ struct MqttClient::Impl {
   MqttClientOptions o;
   MqttClientHandlers h;
   mosquitto* mosq = nullptr;
+  // Held shared by every other thread's call into libmosquitto (publish,
+  // subscribe, stop's last words), exclusively by the loop's thread while it
+  // gives the handle a fresh session (fresh_handle).
+  std::shared_mutex handle_mutex;
   std::thread thread;
 
   mutable std::mutex mutex;
@@ -85,16 +91,16 @@ struct MqttClient::Impl {
   std::vector<std::pair<std::string, std::string>> quit_last;  // stop()'s, when not connected
   bool quit_done = false;  // the loop's thread has left (or is leaving) the broker
   // How long a DISCONNECT keeps the connection open for the broker to read
-  // it (disconnect_now), and how long a reconnect() waits for what is in
-  // flight before it.
+  // it (disconnect_now).
   static constexpr auto kLinger = std::chrono::seconds(2);
-  static constexpr auto kRedialDrain = std::chrono::seconds(10);
   std::size_t reserved = 0;  // publishes between the bound check and their id
   PendingWindow window;
   std::unordered_set<int> awaited;  // stop()'s last messages
   MqttClientStats stats;
 
   void setup();
+  void configure();
+  void fresh_handle();
   void run();
   void disconnect_now();
   struct Step {
@@ -117,6 +123,11 @@ void MqttClient::Impl::setup() {
   init_library();
   mosq = mosquitto_new(o.client_id.c_str(), true, this);
   if (!mosq) throw std::runtime_error("mqtt: cannot create the client (out of memory)");
+  configure();
+}
+
+// Every setting of the handle (setup(), and fresh_handle() after a reinitialise).
+void MqttClient::Impl::configure() {
   mosquitto_int_option(mosq, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5);
   mosquitto_int_option(mosq, MOSQ_OPT_TCP_NODELAY, 1);  // command results go out at once
   // Our own thread runs the loop; publishers on other threads only queue.
@@ -260,8 +271,9 @@ MqttClient::Impl::Step MqttClient::Impl::leave_step() {
   if (!redial_asked) return step;
   // libmosquitto sends a QoS 1 message again on the next connection when its
   // PUBACK has not come: a Sparkplug NDEATH would be said twice. So the
-  // DISCONNECT waits for what is in flight (at most kRedialDrain).
-  const bool done = window.size() == 0 || now >= redial_deadline;
+  // DISCONNECT waits for what is in flight (at most o.redial_drain; past it
+  // the handle's fresh session drops it: fresh_handle).
+  const bool done = (window.size() == 0 && reserved == 0) || now >= redial_deadline;
   step.draining = !done;
   if (done) {
     redial_asked = false;
@@ -269,6 +281,20 @@ MqttClient::Impl::Step MqttClient::Impl::leave_step() {
     step.disconnect = true;
   }
   return step;
+}
+
+// Before a reconnect()'s new connection: libmosquitto keeps the old
+// session's unacknowledged QoS 1 messages and sends them again on the next
+// connection, clean start or not: a Sparkplug NDEATH would be said twice (a
+// broker stalled past the redial's drain; a publish that slipped in before the
+// DISCONNECT). Nothing of the old session may be said in the new one: the
+// handle is reinitialised, with every other thread's call held off meanwhile.
+void MqttClient::Impl::fresh_handle() {
+  std::unique_lock hold(handle_mutex);
+  mosquitto_reinitialise(mosq, o.client_id.c_str(), true, this);
+  configure();
+  std::lock_guard lock(mutex);
+  window.reset();
 }
 
 // Connects, runs the network loop, and reconnects after any failure.
@@ -305,24 +331,35 @@ void MqttClient::Impl::run() {
     first = false;
     while (rc == MOSQ_ERR_SUCCESS) {
       {
+        // A stop() that gave up waiting for this thread (a slow handler)
+        // still gets its DISCONNECT here, before the thread leaves.
         std::lock_guard lock(mutex);
-        if (stop_now) return;
+        if (stop_now && !quit_asked) return;
       }
       const Step step = leave_step();
       for (const auto& [topic, payload] : step.last)
         mosquitto_publish_v5(mosq, nullptr, topic.c_str(), static_cast<int>(payload.size()),
-                             payload.data(), 1, o.last_retain, nullptr);
+                             payload.data(), o.last_qos, o.last_retain, nullptr);
       if (step.disconnect) disconnect_now();
       // 50 ms: a stop()'s or reconnect()'s request waits at most this for the thread.
       rc = mosquitto_loop(mosq, step.draining ? 10 : 50, 1);
       saved_errno = errno;
     }
+    bool fresh = false;
     {
       std::lock_guard lock(mutex);
       if (closing || stop_now) return;
       if (stats.connects != connects_before) backoff = std::chrono::seconds(1);
-      if (redial) {
-        redial = false;
+      fresh = std::exchange(redial, false);
+    }
+    if (fresh) {
+      try {
+        fresh_handle();
+        first = true;  // a reinitialised handle connects anew
+        continue;
+      } catch (const std::exception& e) {  // the settings took before: not expected
+        report_failure(e.what());
+        wait_backoff(backoff);
         continue;
       }
     }
@@ -450,6 +487,7 @@ bool MqttClient::publish(const std::string& topic, std::string_view payload, int
                                   static_cast<uint16_t>(reply->correlation.size()));
   }
   int mid = 0;
+  std::shared_lock hold(s.handle_mutex);
   const int rc = mosquitto_publish_v5(s.mosq, &mid, topic.c_str(), static_cast<int>(payload.size()),
                                       payload.data(), qos, retain, props);
   mosquitto_property_free_all(&props);
@@ -468,6 +506,7 @@ void MqttClient::subscribe(const std::vector<std::string>& filters) {
   // Retain-as-published: a retained command is seen as one. Never the
   // retained messages already stored (a stale command must not arrive),
   // except on the filters that ask for them (retained_filters).
+  std::shared_lock hold(impl_->handle_mutex);
   for (const bool retained : {false, true}) {
     std::vector<char*> subs;
     for (const auto& f : filters) {
@@ -496,10 +535,12 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
   }
   const auto deadline = std::chrono::steady_clock::now() + grace;
   if (was_connected) {
+    std::shared_lock hold(s.handle_mutex);
     for (const auto& [topic, payload] : last) {
       int mid = 0;
       if (mosquitto_publish_v5(s.mosq, &mid, topic.c_str(), static_cast<int>(payload.size()),
-                               payload.data(), 1, s.o.last_retain, nullptr) == MOSQ_ERR_SUCCESS) {
+                               payload.data(), s.o.last_qos, s.o.last_retain,
+                               nullptr) == MOSQ_ERR_SUCCESS) {
         std::lock_guard lock(s.mutex);
         if (s.window.sent(mid)) s.awaited.insert(mid);
       }
@@ -534,7 +575,7 @@ void MqttClient::reconnect() {
   std::lock_guard lock(impl_->mutex);
   if (!impl_->connected || impl_->stopped || impl_->redial_asked) return;
   impl_->redial_asked = true;
-  impl_->redial_deadline = std::chrono::steady_clock::now() + Impl::kRedialDrain;
+  impl_->redial_deadline = std::chrono::steady_clock::now() + impl_->o.redial_drain;
 }
 
 bool MqttClient::connected() const {

@@ -59,6 +59,14 @@ struct MqttClientOptions {
   bool will_retain = true;
   std::function<std::string()> will_update;
   bool last_retain = true;  // stop()'s last messages
+  // Their QoS. 1: acknowledged (stop() waits its grace for the PUBACKs). 0:
+  // they go out ahead of the DISCONNECT whatever is in flight; a QoS 1 one
+  // waits behind the broker's receive maximum (20 in flight) and a DISCONNECT
+  // overtakes it: the bridge's retained "offline" status was lost so, the
+  // will (also "offline") not published either after a clean DISCONNECT.
+  int last_qos = 1;
+  // How long a reconnect() waits for what is in flight before its DISCONNECT.
+  Duration redial_drain = std::chrono::seconds(10);
   std::vector<std::string> retained_filters;
 };
 

@@ -78,12 +78,12 @@ struct Broker {
   pid_t pid = -1;
   std::filesystem::path dir;
 
-  Broker() {
+  explicit Broker(const std::string& extra = {}) {
     char tmpl[] = "/tmp/lec6-will-XXXXXX";
     dir = ::mkdtemp(tmpl);
     const auto conf = dir / "mosquitto.conf";
     std::ofstream(conf) << (::geteuid() == 0 ? "user root\n" : "") << "listener " << port
-                        << " 127.0.0.1\nallow_anonymous true\npersistence false\n";
+                        << " 127.0.0.1\nallow_anonymous true\npersistence false\n" << extra;
     const std::string log = (dir / "mosquitto.log").string();
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
@@ -410,6 +410,108 @@ TEST(MqttClientWill, AStopBehindABacklogLargerThanTheSocketNeverFiresTheWill) {
   resume.join();
   client.reset();
   wait_for([&] { return checker.wills.load() > 0; }, 1500ms);
+  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+}
+
+// A third reviewer's attacks.
+// reconnect() with the broker stalled past the redial's drain: libmosquitto
+// kept the unacknowledged last words and sent them again on the new
+// connection (a second NDEATH); the new session now starts on a fresh handle.
+TEST(MqttClientWill, AReconnectPastItsDrainNeverResendsTheOldSessionsMessages) {
+  mosquitto_lib_init();
+  Broker broker;
+  ASSERT_GT(broker.pid, 0);
+  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
+  Peer checker("drain-checker");
+  ASSERT_TRUE(start_checker(checker, broker.port));
+  std::atomic<int> ups{0};
+  MqttClientHandlers h;
+  h.connected = [&ups] { ++ups; };
+  h.message = [](const MqttMessage&) {};
+  auto o = options(broker, "drain-client");
+  o.redial_drain = 300ms;
+  MqttClient client(o, h);
+  client.start();
+  ASSERT_TRUE(wait_for([&] { return ups.load() == 1 && client.stats().pending == 0; }, 5s));
+  ::kill(broker.pid, SIGSTOP);
+  client.publish("t/last", "bye", 1, false);
+  client.reconnect();
+  std::this_thread::sleep_for(1500ms);  // the stall: past the drain
+  ::kill(broker.pid, SIGCONT);
+  EXPECT_TRUE(wait_for([&] { return ups.load() == 2; }, 15s)) << "no new connection";
+  EXPECT_TRUE(wait_for([&] { return checker.lasts.load() > 0; }, 5s));
+  wait_for([&] { return checker.lasts.load() > 1; }, 1000ms);
+  client.stop({}, 1s);
+  EXPECT_EQ(checker.lasts.load(), 1) << "the old session's QoS 1 message, on the new connection";
+  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+}
+
+// stop() gives up waiting for a loop thread held in a slow handler; when the
+// thread comes back it still sends the last words and the DISCONNECT (it left
+// without them: the will).
+TEST(MqttClientWill, AStopThatGaveUpOnASlowHandlerStillDisconnectsCleanly) {
+  mosquitto_lib_init();
+  Broker broker;
+  ASSERT_GT(broker.pid, 0);
+  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
+  Peer checker("slow-checker");
+  ASSERT_TRUE(start_checker(checker, broker.port));
+  std::atomic<bool> up{false}, in_handler{false};
+  MqttClient* self = nullptr;
+  MqttClientHandlers h;
+  h.connected = [&] {
+    up = true;
+    if (self) self->subscribe({"in/#"});
+  };
+  h.message = [&](const MqttMessage&) {
+    in_handler = true;
+    std::this_thread::sleep_for(5500ms);  // past stop()'s own bound (~4.5 s)
+  };
+  auto client = std::make_unique<MqttClient>(options(broker, "slow-client"), h);
+  self = client.get();
+  client->start();
+  ASSERT_TRUE(wait_for([&] { return up.load() && client->stats().pending == 0; }, 5s));
+  client->publish("t/warm", "x", 1, false);  // the SUBSCRIBE before it was read
+  ASSERT_TRUE(wait_for([&] { return client->stats().pending == 0; }, 5s));
+  mosquitto_publish(checker.m, nullptr, "in/x", 1, "x", 1, false);
+  ASSERT_TRUE(wait_for([&] { return in_handler.load(); }, 5s));
+  client->stop({{"t/last", "bye"}}, 1s);
+  client.reset();
+  wait_for([&] { return checker.lasts.load() > 0 || checker.wills.load() > 0; }, 2000ms);
+  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+  EXPECT_EQ(checker.lasts.load(), 1);
+}
+
+// QoS 1 messages past the broker's receive maximum wait in libmosquitto; a
+// QoS 1 last word waits behind them and the DISCONNECT overtook it: gone, and
+// no will either. At last_qos 0 (the JSON bridge's "offline") it goes ahead.
+TEST(MqttClientWill, LastWordsAtQos0GoAheadOfMessagesBeyondTheReceiveMaximum) {
+  mosquitto_lib_init();
+  Broker broker("max_inflight_messages 2\n");
+  ASSERT_GT(broker.pid, 0);
+  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
+  Peer checker("quota-checker");
+  ASSERT_TRUE(start_checker(checker, broker.port));
+  std::atomic<bool> up{false};
+  MqttClientHandlers h;
+  h.connected = [&up] { up = true; };
+  h.message = [](const MqttMessage&) {};
+  auto o = options(broker, "quota-client");
+  o.last_qos = 0;
+  auto client = std::make_unique<MqttClient>(o, h);
+  client->start();
+  ASSERT_TRUE(wait_for([&] { return up.load(); }, 5s));
+  ::kill(broker.pid, SIGSTOP);
+  for (int i = 0; i < 10; ++i) client->publish("b/x", "y", 1, false);
+  std::thread resume([&] {
+    std::this_thread::sleep_for(1500ms);  // past the 1 s grace
+    ::kill(broker.pid, SIGCONT);
+  });
+  client->stop({{"t/last", "bye"}}, 1s);
+  resume.join();
+  client.reset();
+  wait_for([&] { return checker.lasts.load() > 0 || checker.wills.load() > 0; }, 2000ms);
+  EXPECT_EQ(checker.lasts.load(), 1);
   EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
 }
 
