@@ -164,7 +164,8 @@ class Twin {
 void rate(std::string_view keyword, std::optional<double> r, double& into) {
   if (!r) return;
   if (!(*r >= 0.0 && *r <= 1.0))
-    throw client::InvalidRequest(fmt::format("{}={}: a probability per reply, 0 to 1", keyword, *r));
+    throw client::InvalidRequest(
+        fmt::format("{}={}: a probability per reply, 0 to 1", keyword, *r));
   into = *r;
 }
 
@@ -180,17 +181,14 @@ twin::FieldProfile twin_profile(const py::object& profile) {
   }
 }
 
-std::unique_ptr<Twin> make_twin(std::vector<int> ids, const std::string& timing,
-                                std::optional<double> workpiece_mm,
-                                std::optional<std::pair<double, double>> stroke_mm,
-                                std::optional<double> initial_position_mm,
-                                std::optional<double> max_speed_mm_s,
-                                std::optional<std::string> name, std::optional<double> drop_rate,
-                                std::optional<double> corrupt_rate,
-                                std::optional<double> garbage_rate,
-                                std::optional<double> delay_rate,
-                                std::optional<double> extra_delay_ms, std::optional<uint64_t> seed,
-                                uint32_t baud, const py::object& pty, const py::object& profile) {
+std::unique_ptr<Twin> make_twin(
+    std::vector<int> ids, const std::string& timing, std::optional<double> workpiece_mm,
+    std::optional<std::pair<double, double>> stroke_mm, std::optional<double> initial_position_mm,
+    std::optional<double> max_speed_mm_s, std::optional<std::string> name,
+    std::optional<double> drop_rate, std::optional<double> corrupt_rate,
+    std::optional<double> garbage_rate, std::optional<double> delay_rate,
+    std::optional<double> extra_delay_ms, std::optional<uint64_t> seed, uint32_t baud,
+    const py::object& pty, const py::object& profile) {
   TwinSettings s;
   if (ids.empty()) throw client::InvalidRequest("ids: give at least one controller ID (1-255)");
   s.ids = std::move(ids);

@@ -25,8 +25,8 @@ struct CycleArgs {
   std::string profile;
   bool prepare = false;
   Duration max_cycle_time{};
-  std::string target;             // teach: AXIS.POINT or POINT
-  std::string at;                 // teach: the value (mm), instead of the axis's position
+  std::string target;  // teach: AXIS.POINT or POINT
+  std::string at;      // teach: the value (mm), instead of the axis's position
 };
 
 std::string cycle_port(const GlobalOptions& g) {
@@ -122,8 +122,8 @@ void replace_file(const std::string& path, const std::string& text) {
     if (!out.flush()) {
       std::error_code ec;
       fs::remove(tmp, ec);
-      throw CommandFailed(kFailure, fmt::format("cannot write {}: nothing changed in {}",
-                                                tmp.string(), path));
+      throw CommandFailed(
+          kFailure, fmt::format("cannot write {}: nothing changed in {}", tmp.string(), path));
     }
   }
   std::error_code ec;
@@ -150,9 +150,10 @@ void teach(const GlobalOptions& g, const CycleArgs& a) {
     const cycle::Cycle c = cycle::parse_cycle(text, a.file);
     const std::string port = cycle_port(g);
     if (port == "sim")
-      throw UsageError("teach reads where the axis stands: give its line (--port /dev/ttyUSB0, "
-                       "tcp://...) or the value (--at MM); the twin of --port sim has just "
-                       "been switched on");
+      throw UsageError(
+          "teach reads where the axis stands: give its line (--port /dev/ttyUSB0, "
+          "tcp://...) or the value (--at MM); the twin of --port sim has just "
+          "been switched on");
     CycleLines lines(c, g, port);
     position = lines.clients().at(axis)->read_state().position_001mm;
     where = fmt::format("{} on {}", axis, lines.describe());
@@ -160,9 +161,9 @@ void teach(const GlobalOptions& g, const CycleArgs& a) {
   const cycle::TaughtPoint t = cycle::teach_point(text, a.file, a.target, position);
   replace_file(a.file, t.text);
   if (g.json) {
-    nlohmann::json j{{"file", a.file},           {"axis", t.axis},
-                     {"point", t.point},         {"position_mm", t.position_001mm / 100.0},
-                     {"line", t.line},           {"added", !t.was_001mm.has_value()},
+    nlohmann::json j{{"file", a.file},   {"axis", t.axis},
+                     {"point", t.point}, {"position_mm", t.position_001mm / 100.0},
+                     {"line", t.line},   {"added", !t.was_001mm.has_value()},
                      {"from", where}};
     if (t.was_001mm) j["was_mm"] = *t.was_001mm / 100.0;
     fmt::print("{}\n", j.dump());
@@ -176,8 +177,7 @@ void teach(const GlobalOptions& g, const CycleArgs& a) {
 void add_teach(CLI::App* cmd, const GlobalOptions& globals, const std::shared_ptr<CycleArgs>& a) {
   cmd->add_option("file", a->file, "The cycle file (YAML); kept as written but for the point")
       ->required();
-  cmd->add_option("point", a->target,
-                  "AXIS.POINT (added when new), or a POINT only one axis has")
+  cmd->add_option("point", a->target, "AXIS.POINT (added when new), or a POINT only one axis has")
       ->required();
   cmd->add_option("--at", a->at,
                   "Write this position (mm) instead of reading where the axis stands");
@@ -188,7 +188,8 @@ void add_teach(CLI::App* cmd, const GlobalOptions& globals, const std::shared_pt
 
 void add_cycle_commands(CLI::App& app, const GlobalOptions& globals) {
   auto* cycle = app.add_subcommand(
-      "cycle", "Machine cycles of several axes from a YAML file (docs/cycles.md): check, run, teach");
+      "cycle",
+      "Machine cycles of several axes from a YAML file (docs/cycles.md): check, run, teach");
   cycle->require_subcommand(1);
   auto a = std::make_shared<CycleArgs>();
 

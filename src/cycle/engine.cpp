@@ -95,7 +95,8 @@ std::variant<Batch, Finished> Engine::next(const AxisStates& axes) {
         const auto a = axes.find(f.repeat->axis);
         const bool met = a != axes.end() && a->second.answered &&
                          f.repeat->condition_met(a->second.flags, a->second.state.position_001mm);
-        if (met) f.remaining = 1;  // done: popped below
+        if (met)
+          f.remaining = 1;  // done: popped below
         else if (f.remaining == 1) {
           finished_ = Finished{false, fmt::format("step {} ({}): not met after {} passes", f.path,
                                                   f.repeat->text, f.times)};
@@ -155,7 +156,8 @@ std::string Engine::finished(const std::vector<ActivityResult>& results) {
     if (t.kind == Target::Branch && !branch) branch = t;
   }
   if (branch) {
-    stack_.push_back({&cycle_.branches.at(branch->branch), 0, 1, 1, branch->branch + ".", nullptr, ""});
+    stack_.push_back(
+        {&cycle_.branches.at(branch->branch), 0, 1, 1, branch->branch + ".", nullptr, ""});
     return "branch " + branch->branch;
   }
   ++stack_.back().index;

@@ -48,7 +48,8 @@ TeachTarget resolve(const Cycle& c, const std::string& source, const std::string
     for (const auto& a : c.axes)
       if (a.name == axis) t.axis = &a;
     if (!t.axis)
-      throw CycleError(source, {}, "axes", Reader::unknown("axis", axis, teach_axis_names(c), "axes"));
+      throw CycleError(source, {}, "axes",
+                       Reader::unknown("axis", axis, teach_axis_names(c), "axes"));
     if (!plain_name(t.point))
       throw CycleError(source, t.axis->mark, fmt::format("axes.{}.points", axis),
                        fmt::format("'{}' is not a point name: letters, digits, _ and -, "
@@ -149,7 +150,8 @@ std::string add_entry(std::string_view text, const YAML::Node& m, const std::str
 }
 
 int line_of(std::string_view text, std::size_t pos) {
-  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n'));
+  return 1 +
+         static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n'));
 }
 
 }  // namespace
@@ -160,20 +162,20 @@ std::string teach_axis(std::string_view text, const std::string& source,
   return resolve(c, source, target).axis->name;
 }
 
-TaughtPoint teach_point(std::string_view text, const std::string& source,
-                        const std::string& target, int32_t position_001mm) {
+TaughtPoint teach_point(std::string_view text, const std::string& source, const std::string& target,
+                        int32_t position_001mm) {
   const Cycle c = parse_cycle(text, source);  // the file as it is must be valid
   const TeachTarget t = resolve(c, source, target);
   const Axis& axis = *t.axis;
   const std::string field = fmt::format("axes.{}.points.{}", axis.name, t.point);
   if (axis.soft_limits) {
     if (client::soft_limit_violation(*axis.soft_limits, position_001mm)) {
-      throw CycleError(source, axis.mark, field,
-                       fmt::format("{} mm is outside the axis's soft limits {} to {} mm; "
-                                   "nothing written",
-                                   lec::format_mm(position_001mm),
-                                   lec::format_mm(axis.soft_limits->min_001mm),
-                                   lec::format_mm(axis.soft_limits->max_001mm)));
+      throw CycleError(
+          source, axis.mark, field,
+          fmt::format("{} mm is outside the axis's soft limits {} to {} mm; "
+                      "nothing written",
+                      lec::format_mm(position_001mm), lec::format_mm(axis.soft_limits->min_001mm),
+                      lec::format_mm(axis.soft_limits->max_001mm)));
     }
   }
   const YAML::Node root = YAML::Load(std::string(text));
@@ -191,8 +193,9 @@ TaughtPoint teach_point(std::string_view text, const std::string& source,
     const std::size_t from = pos_of(a);
     const std::size_t to = scalar_end(text, from);
     out.text = std::string(text);
-    out.text.replace(from, to - from,
-                     fmt::format("{{id: {}, points: {{{}}}}}", text.substr(from, to - from), entry));
+    out.text.replace(
+        from, to - from,
+        fmt::format("{{id: {}, points: {{{}}}}}", text.substr(from, to - from), entry));
   } else if (const YAML::Node points = a["points"]) {
     if (const YAML::Node v = points[t.point]) {
       const std::size_t from = pos_of(v);

@@ -22,8 +22,8 @@ bool sound_frame(const modbus::Bytes& b) {
 }
 
 // X40–X4F as the manual names them.
-constexpr std::array<const char*, 16> kInputNames{"OUT0", "OUT1", "OUT2",  "OUT3", "OUT4", "OUT5",
-                                                  "X46",  "X47",  "BUSY",  "SVRE", "SETON", "INP",
+constexpr std::array<const char*, 16> kInputNames{"OUT0", "OUT1",  "OUT2",  "OUT3", "OUT4",  "OUT5",
+                                                  "X46",  "X47",   "BUSY",  "SVRE", "SETON", "INP",
                                                   "AREA", "WAREA", "ESTOP", "ALARM"};
 
 enum class ValueKind { Discrete, Position, Speed, Thrust };
@@ -41,7 +41,8 @@ int32_t join(uint16_t hi, uint16_t lo) {
 
 // The values a reply carries, named; empty when it does not decode as the
 // reply to that request (then the bytes are compared).
-std::optional<std::vector<Value>> values_of(const modbus::Bytes& query, const modbus::Bytes& reply) {
+std::optional<std::vector<Value>> values_of(const modbus::Bytes& query,
+                                            const modbus::Bytes& reply) {
   auto q = modbus::decode_request(query);
   auto r = modbus::decode_response(reply);
   if (!q || !r) return std::nullopt;
@@ -164,10 +165,10 @@ void check_replayable(const modbus::Capture& capture, std::string_view file_name
     }
   }
   if (queries == 0)
-    throw InvalidArgument(fmt::format(
-        "{}: the capture holds no query to replay (no record with \"dir\": \"query\"); "
-        "nothing was sent",
-        file_name));
+    throw InvalidArgument(
+        fmt::format("{}: the capture holds no query to replay (no record with \"dir\": \"query\"); "
+                    "nothing was sent",
+                    file_name));
 }
 
 std::vector<Exchange> pair_exchanges(std::span<const LineRecord> records) {
@@ -243,8 +244,7 @@ bool twin_shows_nearby(std::span<const Exchange> captured,
   };
   for (std::size_t j = i; j-- > 0 && t - captured[j].query_start_us <= edge_us;)
     if (shows(j)) return true;
-  for (std::size_t j = i + 1;
-       j < captured.size() && captured[j].query_start_us - t <= edge_us; ++j)
+  for (std::size_t j = i + 1; j < captured.size() && captured[j].query_start_us - t <= edge_us; ++j)
     if (shows(j)) return true;
   return false;
 }
@@ -339,10 +339,9 @@ FidelityReport compare(std::span<const Exchange> captured, std::span<const Excha
 }
 
 std::string FidelityReport::text(std::size_t max_lines) const {
-  std::string s = fmt::format(
-      "replay of {} exchanges against {} (timing {}): {}\n", exchanges, target,
-      timing == ReplayTiming::AsCaptured ? "as-captured" : "fast",
-      matches() ? "matches" : "differs");
+  std::string s = fmt::format("replay of {} exchanges against {} (timing {}): {}\n", exchanges,
+                              target, timing == ReplayTiming::AsCaptured ? "as-captured" : "fast",
+                              matches() ? "matches" : "differs");
   s += fmt::format(
       "  identical {}, motion within tolerance {} (position ±{:.2f} mm, speed ±{:g} mm/s, thrust "
       "±{:g} %{}), differing {}\n",
@@ -389,27 +388,26 @@ std::string FidelityReport::json() const {
     return nlohmann::json{
         {"count", s.count}, {"p50_ms", s.p50_ms}, {"p95_ms", s.p95_ms}, {"max_ms", s.max_ms}};
   };
-  nlohmann::json j{
-      {"target", target},
-      {"timing", timing == ReplayTiming::AsCaptured ? "as-captured" : "fast"},
-      {"matches", matches()},
-      {"exchanges", exchanges},
-      {"identical", identical},
-      {"within_tolerance", within_tolerance},
-      {"differing", differing},
-      {"tolerance",
-       {{"position_mm", tolerance.position_mm},
-        {"speed_mm_s", tolerance.speed_mm_s},
-        {"thrust_pct", tolerance.thrust_pct},
-        {"response_ratio", tolerance.response_ratio},
-        {"edge_ms", tolerance.edge_ms}}},
-      {"max_position_delta_mm", max_position_delta_mm},
-      {"response_time",
-       {{"captured", stats(captured_response)},
-        {"twin", stats(replayed_response)},
-        {"paired_change", response_paired_change},
-        {"matches", response_time_matches}}},
-      {"differences", diffs}};
+  nlohmann::json j{{"target", target},
+                   {"timing", timing == ReplayTiming::AsCaptured ? "as-captured" : "fast"},
+                   {"matches", matches()},
+                   {"exchanges", exchanges},
+                   {"identical", identical},
+                   {"within_tolerance", within_tolerance},
+                   {"differing", differing},
+                   {"tolerance",
+                    {{"position_mm", tolerance.position_mm},
+                     {"speed_mm_s", tolerance.speed_mm_s},
+                     {"thrust_pct", tolerance.thrust_pct},
+                     {"response_ratio", tolerance.response_ratio},
+                     {"edge_ms", tolerance.edge_ms}}},
+                   {"max_position_delta_mm", max_position_delta_mm},
+                   {"response_time",
+                    {{"captured", stats(captured_response)},
+                     {"twin", stats(replayed_response)},
+                     {"paired_change", response_paired_change},
+                     {"matches", response_time_matches}}},
+                   {"differences", diffs}};
   return j.dump(2);
 }
 

@@ -156,7 +156,8 @@ TEST(CycleFile, RepeatUntilNeedsItsMostPassesAndAConditionThatCanHold) {
   EXPECT_THAT(e.rule(), HasSubstr("the repeat's until would never end"));
   e = refused(std::string(kFileAxes) +
               "steps:\n  - repeat: {times: 3, until: {axis: z}, steps: [{dwell: 1s}]}\n");
-  EXPECT_THAT(e.rule(), HasSubstr("a repeat's until needs exactly one of flag, above_mm or below_mm"));
+  EXPECT_THAT(e.rule(),
+              HasSubstr("a repeat's until needs exactly one of flag, above_mm or below_mm"));
   e = refused(std::string(kFileAxes) +
               "steps:\n  - repeat: {times: 3, until: {axis: z, flag: INP, timeout: 2s}, steps: "
               "[{dwell: 1s}]}\n");

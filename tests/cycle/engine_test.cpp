@@ -94,20 +94,21 @@ steps:
       }
       const Batch& b = std::get<Batch>(next);
       paths.push_back(b.path);
-      if (b.step->kind == Step::Kind::Dwell && b.path.starts_with("1.2") && ++passes == met_after_pass)
+      if (b.step->kind == Step::Kind::Dwell && b.path.starts_with("1.2") &&
+          ++passes == met_after_pass)
         axes["z"].flags.set(lec::StatusFlags::Inp, true);
-      e.finished({ActivityResult{b.step->kind == Step::Kind::Dwell ? Outcome::Done : Outcome::Reached, ""}});
+      e.finished({ActivityResult{
+          b.step->kind == Step::Kind::Dwell ? Outcome::Done : Outcome::Reached, ""}});
     }
   };
   Finished end;
-  EXPECT_THAT(walk(2, end), ::testing::ElementsAre("1.1 (1/4)", "1.2 (1/4)", "1.1 (2/4)",
-                                                   "1.2 (2/4)", "2"));
+  EXPECT_THAT(walk(2, end),
+              ::testing::ElementsAre("1.1 (1/4)", "1.2 (1/4)", "1.1 (2/4)", "1.2 (2/4)", "2"));
   EXPECT_TRUE(end.completed) << end.reason;
   const auto never = walk(99, end);
   EXPECT_EQ(never.size(), 8u);  // four passes of two steps, and not step 2
   EXPECT_FALSE(end.completed);
-  EXPECT_EQ(end.reason,
-            "step 1 (repeat until z INP = 1, at most 4 times): not met after 4 passes");
+  EXPECT_EQ(end.reason, "step 1 (repeat until z INP = 1, at most 4 times): not met after 4 passes");
 }
 
 TEST(Engine, PushMissedRunsTheBranchThenGoesOn) {

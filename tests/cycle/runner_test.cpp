@@ -65,7 +65,8 @@ TEST(Runner, AParallelGroupMovesItsAxesTogether) {
   // ~9 ms on the wire, Ts and the reply), not one whole start() (~110 ms).
   const Duration one_start = 25ms;
   EXPECT_GT(z.start, x.start);
-  EXPECT_LE(z.start - x.start, one_start) << "skew " << to_seconds(z.start - x.start) * 1000 << " ms";
+  EXPECT_LE(z.start - x.start, one_start)
+      << "skew " << to_seconds(z.start - x.start) * 1000 << " ms";
   const Duration x_motion = x.end - x.start;
   EXPECT_GT(x_motion, 1400ms);  // 300 mm at 200 mm/s
   const Duration z_motion = z.end - z.start;
@@ -315,7 +316,8 @@ TEST(Runner, RepeatUntilReadsTheAxisAfterEachPass) {
 )");
   const CycleReport f = again.run();
   EXPECT_FALSE(f.completed);
-  EXPECT_EQ(f.ended, "step 1 (repeat until x above 390.00 mm, at most 2 times): not met after 2 passes");
+  EXPECT_EQ(f.ended,
+            "step 1 (repeat until x above 390.00 mm, at most 2 times): not met after 2 passes");
 }
 
 }  // namespace

@@ -74,7 +74,8 @@ TEST(Teach, AnAxisWithoutPointsGetsThem) {
   // A block map: a line of its own, indented as its keys.
   const std::string block = "cycle: c\naxes:\n  x:\n    id: 1 # the slide\nsteps: [{dwell: 1s}]\n";
   EXPECT_EQ(teach_point(block, "c.yaml", "x.home", 100).text,
-            "cycle: c\naxes:\n  x:\n    points: {home: 1}\n    id: 1 # the slide\nsteps: [{dwell: 1s}]\n");
+            "cycle: c\naxes:\n  x:\n    points: {home: 1}\n    id: 1 # the slide\nsteps: [{dwell: "
+            "1s}]\n");
 }
 
 TEST(Teach, BadRequestsNameTheRuleAndWriteNothing) {
@@ -92,8 +93,9 @@ TEST(Teach, BadRequestsNameTheRuleAndWriteNothing) {
   EXPECT_THAT(fails("x.9lives", 100), HasSubstr("is not a point name"));
   EXPECT_THAT(fails("x.a b", 100), HasSubstr("is not a point name"));
   // The same point in two axes must be named with its axis.
-  const std::string both = "cycle: c\naxes:\n  x: {id: 1, points: {up: 1}}\n  z: {id: 2, points: "
-                           "{up: 2}}\nsteps: [{dwell: 1s}]\n";
+  const std::string both =
+      "cycle: c\naxes:\n  x: {id: 1, points: {up: 1}}\n  z: {id: 2, points: "
+      "{up: 2}}\nsteps: [{dwell: 1s}]\n";
   try {
     teach_point(both, "c.yaml", "up", 100);
     FAIL() << "no error";

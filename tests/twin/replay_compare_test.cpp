@@ -51,10 +51,9 @@ TEST(ReplayCompare, NamesEachValueInTheManualsTerms) {
       ex("01 03 9000 0004", "01 03 08 0000 3A96 0064 000A", 0, 9000),
       ex("01 02 0040 0010", "01 02 02 00 0E", 20000, 9000),
       ex("01 05 0019 FF00", "01 05 0019 FF00", 40000, 9000)};
-  const std::vector<Exchange> twin{
-      ex("01 03 9000 0004", "01 03 08 0000 3A98 0064 000A", 0, 8000),
-      ex("01 02 0040 0010", "01 02 02 00 0F", 20000, 8000),
-      ex("01 05 0019 FF00", "01 05 0019 FF00", 40000, 8000)};
+  const std::vector<Exchange> twin{ex("01 03 9000 0004", "01 03 08 0000 3A98 0064 000A", 0, 8000),
+                                   ex("01 02 0040 0010", "01 02 02 00 0F", 20000, 8000),
+                                   ex("01 05 0019 FF00", "01 05 0019 FF00", 40000, 8000)};
   const auto r = compare(captured, twin);
   EXPECT_EQ(r.identical, 1u);
   EXPECT_EQ(r.within_tolerance, 1u);  // 0.02 mm ≤ 0.05 mm

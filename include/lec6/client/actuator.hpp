@@ -30,8 +30,8 @@
 
 #include "lec6/client/client.hpp"
 #include "lec6/client/completion.hpp"
-#include "lec6/client/stop.hpp"
 #include "lec6/client/move_result.hpp"
+#include "lec6/client/stop.hpp"
 
 namespace lec6::client {
 

@@ -85,13 +85,13 @@ struct Step {
   bool flag_value = true;
   std::optional<int32_t> above_001mm;
   std::optional<int32_t> below_001mm;
-  Duration timeout{};       // Wait: its timeout; Move/Push/RunStep: how long the motion may take
-  Duration dwell{};         // Dwell
-  unsigned times = 1;       // Repeat: its passes (with `until`: at most)
+  Duration timeout{};  // Wait: its timeout; Move/Push/RunStep: how long the motion may take
+  Duration dwell{};    // Dwell
+  unsigned times = 1;  // Repeat: its passes (with `until`: at most)
   // Repeat: ends after a pass when its axis's condition holds (axis, flag or
   // above/below, as a wait's), else after `times` passes, failing the cycle.
   bool until = false;
-  std::vector<Step> steps;  // Parallel members, Repeat body
+  std::vector<Step> steps;       // Parallel members, Repeat body
   std::map<Outcome, Target> on;  // conditions on this step's outcome
   std::string text;              // "move x to pick (120.00 mm)": for reports
   Mark mark;

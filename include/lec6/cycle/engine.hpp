@@ -106,7 +106,7 @@ class Engine {
     std::size_t index = 0;
     unsigned remaining = 1;  // passes still to run, this one included
     unsigned times = 1;
-    std::string prefix;  // "" (the cycle), "4." (a repeat), "reject." (a branch)
+    std::string prefix;            // "" (the cycle), "4." (a repeat), "reject." (a branch)
     const Step* repeat = nullptr;  // the repeat step it runs (its `until`)
     std::string path;              // the repeat's own path, for messages
   };

@@ -29,20 +29,19 @@
 namespace lec6::cycle {
 
 struct TaughtPoint {
-  std::string text;                    // the whole file's new text
+  std::string text;  // the whole file's new text
   std::string axis, point;
   int32_t position_001mm = 0;
-  std::optional<int32_t> was_001mm;    // the point's old value; none: added
-  int line = 0;                        // where the value now is (1-based)
+  std::optional<int32_t> was_001mm;  // the point's old value; none: added
+  int line = 0;                      // where the value now is (1-based)
 };
 
 // `target` is "axis.point", or a point name that only one axis has.
-TaughtPoint teach_point(std::string_view text, const std::string& source,
-                        const std::string& target, int32_t position_001mm);
+TaughtPoint teach_point(std::string_view text, const std::string& source, const std::string& target,
+                        int32_t position_001mm);
 
 // The axis a target names (for reading its position before teaching):
 // "axis.point" → axis; a bare point → the one axis that has it.
-std::string teach_axis(std::string_view text, const std::string& source,
-                       const std::string& target);
+std::string teach_axis(std::string_view text, const std::string& source, const std::string& target);
 
 }  // namespace lec6::cycle

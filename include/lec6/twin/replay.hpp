@@ -71,9 +71,9 @@ std::vector<Exchange> pair_exchanges(std::span<const LineRecord> records);
 enum class ReplayTiming { AsCaptured, Fast };
 
 struct ReplayTolerance {
-  double position_mm = 0.05;   // D9000 and D9004 while moving
-  double speed_mm_s = 5.0;     // D9002
-  double thrust_pct = 5.0;     // D9003
+  double position_mm = 0.05;     // D9000 and D9004 while moving
+  double speed_mm_s = 5.0;       // D9002
+  double thrust_pct = 5.0;       // D9003
   double response_ratio = 0.10;  // response time, exchange by exchange (median of the ratios)
   // A discrete value (BUSY, INP, an output bit) that differs only because it
   // changed at a slightly other instant: it matches when the twin shows the
@@ -91,10 +91,11 @@ struct ValueDifference {
   std::string what;          // "D9000 position", "X48 BUSY", "reply bytes", "reply"
   std::string captured;      // shown with its unit: "149.98 mm", "1", "01 03 04 …"
   std::string replayed;
-  bool motion = false;       // compared as motion (with a tolerance)
-  bool edge = false;         // a discrete value the twin shows within edge_ms of this exchange
+  bool motion = false;  // compared as motion (with a tolerance)
+  bool edge = false;    // a discrete value the twin shows within edge_ms of this exchange
   bool within_tolerance = false;
-  std::string text() const;  // "line 17, 1.234 s: D9000 position: captured 149.98 mm, twin 150.00 mm"
+  std::string text()
+      const;  // "line 17, 1.234 s: D9000 position: captured 149.98 mm, twin 150.00 mm"
 };
 
 struct ResponseStats {
@@ -110,7 +111,8 @@ struct FidelityReport {
   std::size_t identical = 0;         // reply bytes identical (or both silent)
   std::size_t within_tolerance = 0;  // differ only in motion values or flag edges, within tolerance
   std::size_t differing = 0;         // a discrete value, an exception, silence, or motion beyond
-  std::vector<ValueDifference> differences;  // every value that differs (motion within tolerance too)
+  std::vector<ValueDifference>
+      differences;  // every value that differs (motion within tolerance too)
   double max_position_delta_mm = 0;
   ResponseStats captured_response, replayed_response;
   // The median, over exchanges answered in both, of twin ÷ captured response

@@ -1,9 +1,9 @@
 #include "mqtt/mqtt_client.hpp"
 
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <mosquitto.h>
 #include <mqtt_protocol.h>
-#include <fcntl.h>
 #include <poll.h>
 #include <pthread.h>
 #include <sys/socket.h>
@@ -87,7 +87,7 @@ struct MqttClient::Impl {
   bool redial_asked = false;
   std::chrono::steady_clock::time_point redial_deadline{};
   bool quit_asked = false;  // stop(): the loop's thread sends the DISCONNECT
-  std::chrono::steady_clock::time_point quit_deadline{};  // ... once connected, until then
+  std::chrono::steady_clock::time_point quit_deadline{};       // ... once connected, until then
   std::vector<std::pair<std::string, std::string>> quit_last;  // stop()'s, when not connected
   bool quit_done = false;  // the loop's thread has left (or is leaving) the broker
   // How long a DISCONNECT keeps the connection open for the broker to read
@@ -561,9 +561,10 @@ void MqttClient::stop(const std::vector<std::pair<std::string, std::string>>& la
     s.quit_deadline = now + std::chrono::seconds(1);
     if (s.thread.joinable()) {
       s.cv.notify_all();
-      s.cv.wait_until(lock, std::max(deadline, s.quit_deadline) + Impl::kLinger +
-                                std::chrono::milliseconds(500),
-                      [&s] { return s.quit_done; });
+      s.cv.wait_until(
+          lock,
+          std::max(deadline, s.quit_deadline) + Impl::kLinger + std::chrono::milliseconds(500),
+          [&s] { return s.quit_done; });
     }
     s.stop_now = true;
   }

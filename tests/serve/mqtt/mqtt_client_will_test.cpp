@@ -83,7 +83,8 @@ struct Broker {
     dir = ::mkdtemp(tmpl);
     const auto conf = dir / "mosquitto.conf";
     std::ofstream(conf) << (::geteuid() == 0 ? "user root\n" : "") << "listener " << port
-                        << " 127.0.0.1\nallow_anonymous true\npersistence false\n" << extra;
+                        << " 127.0.0.1\nallow_anonymous true\npersistence false\n"
+                        << extra;
     const std::string log = (dir / "mosquitto.log").string();
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
@@ -228,9 +229,9 @@ TEST(MqttClientWill, AStopWhileMessagesStreamInNeverFiresTheWill) {
   // the checker's delivery a bounded wait for the last one.
   wait_for([&] { return checker.wills.load() > 0; }, 500ms);
   EXPECT_EQ(connected_rounds, kRounds);
-  EXPECT_EQ(checker.wills.load(), 0) << "a clean stop fired the will " << checker.wills.load()
-                                     << " times in " << kRounds << " rounds; the broker said:"
-                                     << unclean_lines(broker);
+  EXPECT_EQ(checker.wills.load(), 0)
+      << "a clean stop fired the will " << checker.wills.load() << " times in " << kRounds
+      << " rounds; the broker said:" << unclean_lines(broker);
 }
 
 }  // namespace
@@ -348,8 +349,8 @@ TEST(MqttClientWill, AStopWithAQos1BacklogNeverFiresTheWill) {
   flood.join();
   wait_for([&] { return checker.wills.load() > 0; }, 1s);
   EXPECT_EQ(stops, kRounds);
-  EXPECT_EQ(checker.wills.load(), 0) << "wills in " << kRounds << " stops; the broker said:"
-                                     << unclean_lines(broker);
+  EXPECT_EQ(checker.wills.load(), 0)
+      << "wills in " << kRounds << " stops; the broker said:" << unclean_lines(broker);
 }
 
 // A second reviewer's attacks on the lingering DISCONNECT.

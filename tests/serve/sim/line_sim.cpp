@@ -61,7 +61,7 @@ struct Tracked {
   bool starts = false;    // a write that may start motion (client::starts_motion)
   bool in_lane = false;   // in the emergency lane: a stop, or a write a release moved there
   bool by_operator = false;
-  bool resending = false;  // its last exchange was lost; a resend may follow
+  bool resending = false;                  // its last exchange was lost; a resend may follow
   std::optional<modbus::Request> request;  // a write's (invariant 7)
   Priority priority = Priority::Command;
 };
@@ -341,8 +341,23 @@ class World {
     const auto* coil = std::get_if<modbus::WriteCoilRequest>(&request);
     const bool hold_on = coil && coil->coil == lec::address(Coil::HOLD) && coil->on();
     const std::size_t key = next_key_++;
-    Tracked t{clock_, id, stop, hold_on, modbus::is_write(request), 0, 0, std::nullopt, from,
-              {}, false, false, false, false, false, std::nullopt, Priority::Command};
+    Tracked t{clock_,
+              id,
+              stop,
+              hold_on,
+              modbus::is_write(request),
+              0,
+              0,
+              std::nullopt,
+              from,
+              {},
+              false,
+              false,
+              false,
+              false,
+              false,
+              std::nullopt,
+              Priority::Command};
     t.hard = client::stops_hard(request);
     t.starts = client::starts_motion(request);
     t.in_lane = stop;
@@ -398,7 +413,8 @@ class World {
     // of the answers (the wire's).
     if (t.write && r.failure == Failure::None && r.reply && t.request &&
         !std::holds_alternative<modbus::ExceptionResponse>(r.reply->pdu)) {
-      for (const auto& [coil, on] : coils_set_by(*t.request)) devices_[t.id].coils[coil] = {on, key};
+      for (const auto& [coil, on] : coils_set_by(*t.request))
+        devices_[t.id].coils[coil] = {on, key};
     }
     if (t.stop) {
       if (r.failure == Failure::Cancelled)
@@ -479,9 +495,10 @@ class World {
           if (key >= k->second) break;
           if (x.answers > 0 || x.in_lane || x.priority != Priority::Command || x.resending)
             continue;
-          violation(fmt::format("command #{} to ID {} went to the wire before command #{} to ID "
-                                "{}, queued before it",
-                                k->second, t.id, key, x.id));
+          violation(
+              fmt::format("command #{} to ID {} went to the wire before command #{} to ID "
+                          "{}, queued before it",
+                          k->second, t.id, key, x.id));
           break;
         }
       }
@@ -501,7 +518,8 @@ class World {
       lost_id_ = d.frame.id;
       if (dev.twin && dev.kind == Kind::Noisy)
         dev.twin->handle(d.frame.pdu, start);  // heard, reply lost
-      if (const auto k = key_of_.find(d.id); k != key_of_.end()) tracked_[k->second].resending = true;
+      if (const auto k = key_of_.find(d.id); k != key_of_.end())
+        tracked_[k->second].resending = true;
       s_->failed(kNoReply, start, clock_);
       return;
     }
@@ -547,8 +565,8 @@ class World {
   void check_coils() {
     for (auto& [id, d] : devices_) {
       if (!d.twin || d.kind == Kind::Noisy || d.coils.empty()) continue;
-      const auto r = d.twin->handle(modbus::ReadBitsRequest{modbus::FunctionCode::ReadCoils, 0x10, 0x30},
-                                    clock_);
+      const auto r = d.twin->handle(
+          modbus::ReadBitsRequest{modbus::FunctionCode::ReadCoils, 0x10, 0x30}, clock_);
       const auto* bits = std::get_if<modbus::ReadBitsResponse>(&r);
       if (!bits) {
         violation(fmt::format("ID {}: the twin did not answer a read of its coils", id));
@@ -558,9 +576,10 @@ class World {
         if (coil < 0x10 || coil >= 0x40) continue;
         const bool is = bits->bit(coil - 0x10u);
         if (is != want.first)
-          violation(fmt::format("ID {}: coil {:02X}H is {} on the twin, but the last write answered "
-                                "done (#{}) set it to {}",
-                                id, coil, is ? 1 : 0, want.second, want.first ? 1 : 0));
+          violation(
+              fmt::format("ID {}: coil {:02X}H is {} on the twin, but the last write answered "
+                          "done (#{}) set it to {}",
+                          id, coil, is ? 1 : 0, want.second, want.first ? 1 : 0));
       }
     }
   }
@@ -569,7 +588,6 @@ class World {
     check_coils();
     for (const auto& [key, t] : tracked_) {
       if (t.answers == 0) violation(fmt::format("job #{} to ID {} never answered", key, t.id));
-
     }
   }
 
