@@ -36,8 +36,10 @@ branches:
 )";
 
 // Runs the engine with every activity ending as `outcome_of(path)` says.
+// `after`, when given, changes the axes' states once a batch has run.
 std::vector<std::string> engine_walk(const Cycle& c, AxisStates axes,
-                                     std::function<Outcome(const Batch&)> outcome, Finished& end) {
+                                     std::function<Outcome(const Batch&)> outcome, Finished& end,
+                                     std::function<void(const Batch&, AxisStates&)> after = {}) {
   Engine e(c);
   std::vector<std::string> paths;
   for (;;) {
@@ -48,6 +50,7 @@ std::vector<std::string> engine_walk(const Cycle& c, AxisStates axes,
     }
     const Batch& b = std::get<Batch>(next);
     paths.push_back(b.path);
+    if (after) after(b, axes);
     std::vector<ActivityResult> r(b.activities.size(), ActivityResult{outcome(b), ""});
     e.finished(r);
   }
@@ -82,24 +85,17 @@ steps:
 )",
                               "cell.yaml");
   const auto walk = [&](int met_after_pass, Finished& end) {
-    Engine e(c);
-    AxisStates axes{{"x", ready_axis(0)}, {"z", ready_axis(0)}};
-    std::vector<std::string> paths;
     int passes = 0;
-    for (;;) {
-      auto next = e.next(axes);
-      if (auto* f = std::get_if<Finished>(&next)) {
-        end = *f;
-        return paths;
-      }
-      const Batch& b = std::get<Batch>(next);
-      paths.push_back(b.path);
-      if (b.step->kind == Step::Kind::Dwell && b.path.starts_with("1.2") &&
-          ++passes == met_after_pass)
-        axes["z"].flags.set(lec::StatusFlags::Inp, true);
-      e.finished({ActivityResult{
-          b.step->kind == Step::Kind::Dwell ? Outcome::Done : Outcome::Reached, ""}});
-    }
+    return engine_walk(
+        c, {{"x", ready_axis(0)}, {"z", ready_axis(0)}},
+        [](const Batch& b) {
+          return b.step->kind == Step::Kind::Dwell ? Outcome::Done : Outcome::Reached;
+        },
+        end,
+        [&](const Batch& b, AxisStates& axes) {
+          if (b.path.starts_with("1.2") && ++passes == met_after_pass)
+            axes["z"].flags.set(lec::StatusFlags::Inp, true);
+        });
   };
   Finished end;
   EXPECT_THAT(walk(2, end),

@@ -115,6 +115,7 @@ struct Peer {
   std::atomic<bool> connected{false};
 
   explicit Peer(const char* id) {
+    mosquitto_lib_init();  // counted: once per Peer is fine
     m = mosquitto_new(id, true, this);
     mosquitto_connect_callback_set(m, [](mosquitto*, void* self, int rc) {
       if (rc == 0) static_cast<Peer*>(self)->connected = true;
@@ -165,6 +166,23 @@ std::string unclean_lines(const Broker& broker) {
   return unclean;
 }
 
+// A broker and a checker subscribed to t/#, both up (up() says what is not).
+struct Plant {
+  Broker broker;
+  Peer checker;
+  explicit Plant(const char* checker_id, const std::string& extra = {})
+      : broker(extra), checker(checker_id) {}
+  ::testing::AssertionResult up() {
+    if (broker.pid <= 0)
+      return ::testing::AssertionFailure() << "cannot start mosquitto (tools/deps.txt lists it)";
+    if (!wait_for([&] { return listening(broker.port); }, 10s))
+      return ::testing::AssertionFailure() << "mosquitto not listening";
+    if (!start_checker(checker, broker.port))
+      return ::testing::AssertionFailure() << "the checker did not hear its own probe";
+    return ::testing::AssertionSuccess();
+  }
+};
+
 MqttClientOptions options(const Broker& broker, const std::string& id) {
   MqttClientOptions o;
   o.url = BrokerUrl{false, "127.0.0.1", broker.port};
@@ -177,18 +195,13 @@ MqttClientOptions options(const Broker& broker, const std::string& id) {
 }
 
 TEST(MqttClientWill, AStopWhileMessagesStreamInNeverFiresTheWill) {
-  mosquitto_lib_init();
-  Broker broker;
-  ASSERT_GT(broker.pid, 0) << "cannot start mosquitto (tools/deps.txt lists it)";
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s)) << "mosquitto not listening";
-
-  Peer checker("will-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("will-checker");
+  ASSERT_TRUE(p.up());
 
   // The flooder keeps the client's socket readable: a packet is there to be
   // read at any instant the DISCONNECT could be queued.
   Peer flooder("will-flooder");
-  ASSERT_TRUE(flooder.start(broker.port));
+  ASSERT_TRUE(flooder.start(p.broker.port));
   std::atomic<bool> flooding{true};
   std::thread flood([&] {
     const std::string payload(64, 'x');
@@ -203,7 +216,7 @@ TEST(MqttClientWill, AStopWhileMessagesStreamInNeverFiresTheWill) {
   int connected_rounds = 0;
   for (int i = 0; i < kRounds; ++i) {
     MqttClientOptions o;
-    o.url = BrokerUrl{false, "127.0.0.1", broker.port};
+    o.url = BrokerUrl{false, "127.0.0.1", p.broker.port};
     o.client_id = "will-client-" + std::to_string(i);
     o.will_topic = "t/will";
     o.will_payload = "died " + std::to_string(i);
@@ -227,11 +240,11 @@ TEST(MqttClientWill, AStopWhileMessagesStreamInNeverFiresTheWill) {
   flood.join();
   // A will is published the moment the broker sees the socket close; give
   // the checker's delivery a bounded wait for the last one.
-  wait_for([&] { return checker.wills.load() > 0; }, 500ms);
+  wait_for([&] { return p.checker.wills.load() > 0; }, 500ms);
   EXPECT_EQ(connected_rounds, kRounds);
-  EXPECT_EQ(checker.wills.load(), 0)
-      << "a clean stop fired the will " << checker.wills.load() << " times in " << kRounds
-      << " rounds; the broker said:" << unclean_lines(broker);
+  EXPECT_EQ(p.checker.wills.load(), 0)
+      << "a clean stop fired the will " << p.checker.wills.load() << " times in " << kRounds
+      << " rounds; the broker said:" << unclean_lines(p.broker);
 }
 
 }  // namespace
@@ -245,31 +258,27 @@ namespace {
 // answers on a socket the client had closed (broken pipe, the will) unless
 // the client kept the connection open for it.
 TEST(MqttClientWill, AStopWhileTheBrokerStallsNeverFiresTheWill) {
-  mosquitto_lib_init();
-  Broker broker;
-  ASSERT_GT(broker.pid, 0);
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
-  Peer checker("stall-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("stall-checker");
+  ASSERT_TRUE(p.up());
   std::atomic<bool> up{false};
   MqttClientHandlers h;
   h.connected = [&up] { up = true; };
   h.message = [](const MqttMessage&) {};
-  MqttClient client(options(broker, "stall-client"), h);
+  MqttClient client(options(p.broker, "stall-client"), h);
   client.start();
   ASSERT_TRUE(wait_for([&] { return up.load(); }, 5s));
   client.subscribe({"in/#"});
   client.publish("t/warm", "x", 1, false);  // acknowledged: the SUBSCRIBE before it was read
   ASSERT_TRUE(wait_for([&] { return client.stats().pending == 0; }, 5s));
-  ::kill(broker.pid, SIGSTOP);
+  ::kill(p.broker.pid, SIGSTOP);
   std::thread resume([&] {
     std::this_thread::sleep_for(2500ms);  // the stall: past the 2 s grace
-    ::kill(broker.pid, SIGCONT);
+    ::kill(p.broker.pid, SIGCONT);
   });
   client.stop({{"t/last", "bye"}}, 2s);
   resume.join();
-  wait_for([&] { return checker.wills.load() > 0; }, 1500ms);
-  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+  wait_for([&] { return p.checker.wills.load() > 0; }, 1500ms);
+  EXPECT_EQ(p.checker.wills.load(), 0) << "the broker said:" << unclean_lines(p.broker);
 }
 
 // reconnect() while the broker stalls, after a QoS 1 publish (the Sparkplug
@@ -277,12 +286,8 @@ TEST(MqttClientWill, AStopWhileTheBrokerStallsNeverFiresTheWill) {
 // (libmosquitto would send an unacknowledged one again on the next
 // connection), and the will never.
 TEST(MqttClientWill, AReconnectWhileTheBrokerStallsSaysItsLastWordsOnce) {
-  mosquitto_lib_init();
-  Broker broker;
-  ASSERT_GT(broker.pid, 0);
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
-  Peer checker("redial-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("redial-checker");
+  ASSERT_TRUE(p.up());
   std::atomic<int> ups{0};
   MqttClient* self = nullptr;
   MqttClientHandlers h;
@@ -291,35 +296,31 @@ TEST(MqttClientWill, AReconnectWhileTheBrokerStallsSaysItsLastWordsOnce) {
     if (self) self->subscribe({"in/#"});
   };
   h.message = [](const MqttMessage&) {};
-  MqttClient client(options(broker, "redial-client"), h);
+  MqttClient client(options(p.broker, "redial-client"), h);
   self = &client;
   client.start();
   ASSERT_TRUE(wait_for([&] { return ups.load() == 1 && client.stats().pending == 0; }, 5s));
-  ::kill(broker.pid, SIGSTOP);
+  ::kill(p.broker.pid, SIGSTOP);
   client.publish("t/last", "bye", 1, false);
   client.reconnect();
   std::this_thread::sleep_for(2500ms);  // the stall
-  ::kill(broker.pid, SIGCONT);
+  ::kill(p.broker.pid, SIGCONT);
   EXPECT_TRUE(wait_for([&] { return ups.load() == 2; }, 15s)) << "no new connection";
-  EXPECT_TRUE(wait_for([&] { return checker.lasts.load() > 0; }, 5s));
-  wait_for([&] { return checker.lasts.load() > 1 || checker.wills.load() > 0; }, 1000ms);
+  EXPECT_TRUE(wait_for([&] { return p.checker.lasts.load() > 0; }, 5s));
+  wait_for([&] { return p.checker.lasts.load() > 1 || p.checker.wills.load() > 0; }, 1000ms);
   client.stop({}, 1s);
-  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
-  EXPECT_EQ(checker.lasts.load(), 1) << "the last QoS 1 message of the old connection";
+  EXPECT_EQ(p.checker.wills.load(), 0) << "the broker said:" << unclean_lines(p.broker);
+  EXPECT_EQ(p.checker.lasts.load(), 1) << "the last QoS 1 message of the old connection";
 }
 
 // QoS 1 messages streaming in (a host's QoS 1 DCMDs): the broker still has
 // some queued or in flight for the client when it stops; closed with them
 // unread, the socket was reset and the broker published the will.
 TEST(MqttClientWill, AStopWithAQos1BacklogNeverFiresTheWill) {
-  mosquitto_lib_init();
-  Broker broker;
-  ASSERT_GT(broker.pid, 0);
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
-  Peer checker("backlog-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("backlog-checker");
+  ASSERT_TRUE(p.up());
   Peer flooder("backlog-flooder");
-  ASSERT_TRUE(flooder.start(broker.port));
+  ASSERT_TRUE(flooder.start(p.broker.port));
   std::atomic<bool> flooding{true};
   std::thread flood([&] {
     const std::string payload(64, 'x');
@@ -337,7 +338,7 @@ TEST(MqttClientWill, AStopWithAQos1BacklogNeverFiresTheWill) {
     MqttClientHandlers h;
     h.connected = [&up] { up = true; };
     h.message = [](const MqttMessage&) {};
-    MqttClient client(options(broker, "backlog-client-" + std::to_string(i)), h);
+    MqttClient client(options(p.broker, "backlog-client-" + std::to_string(i)), h);
     client.start();
     if (!wait_for([&] { return up.load(); }, 5s)) continue;
     client.subscribe({"in/#"});
@@ -347,10 +348,10 @@ TEST(MqttClientWill, AStopWithAQos1BacklogNeverFiresTheWill) {
   }
   flooding = false;
   flood.join();
-  wait_for([&] { return checker.wills.load() > 0; }, 1s);
+  wait_for([&] { return p.checker.wills.load() > 0; }, 1s);
   EXPECT_EQ(stops, kRounds);
-  EXPECT_EQ(checker.wills.load(), 0)
-      << "wills in " << kRounds << " stops; the broker said:" << unclean_lines(broker);
+  EXPECT_EQ(p.checker.wills.load(), 0)
+      << "wills in " << kRounds << " stops; the broker said:" << unclean_lines(p.broker);
 }
 
 // A second reviewer's attacks on the lingering DISCONNECT.
@@ -358,60 +359,52 @@ TEST(MqttClientWill, AStopWithAQos1BacklogNeverFiresTheWill) {
 // CONNECT is written, its CONNACK not come; closed without a DISCONNECT,
 // the broker (once it resumes) publishes the will.
 TEST(MqttClientWill, AStopDuringARedialToAStalledBrokerNeverFiresTheWill) {
-  mosquitto_lib_init();
-  Broker broker;
-  ASSERT_GT(broker.pid, 0);
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
-  Peer checker("redial-stop-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("redial-stop-checker");
+  ASSERT_TRUE(p.up());
   std::atomic<int> ups{0};
   MqttClientHandlers h;
   h.connected = [&ups] { ++ups; };
   h.message = [](const MqttMessage&) {};
-  auto client = std::make_unique<MqttClient>(options(broker, "redial-stop-client"), h);
+  auto client = std::make_unique<MqttClient>(options(p.broker, "redial-stop-client"), h);
   client->start();
   ASSERT_TRUE(wait_for([&] { return ups.load() == 1; }, 5s));
-  ::kill(broker.pid, SIGSTOP);
+  ::kill(p.broker.pid, SIGSTOP);
   client->reconnect();
   // The old connection lingers 2 s for the stalled broker, then the CONNECT
   // of the new one goes out: the stop comes after it.
   std::this_thread::sleep_for(2500ms);
   client->stop({{"t/last", "bye"}}, 1s);
-  ::kill(broker.pid, SIGCONT);
+  ::kill(p.broker.pid, SIGCONT);
   client.reset();  // lec serve exits right after stop()
-  wait_for([&] { return checker.wills.load() > 0; }, 1500ms);
-  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+  wait_for([&] { return p.checker.wills.load() > 0; }, 1500ms);
+  EXPECT_EQ(p.checker.wills.load(), 0) << "the broker said:" << unclean_lines(p.broker);
 }
 
 // A QoS 1 backlog larger than the socket buffers, the broker stalled just past
 // the grace: the DISCONNECT is queued behind megabytes; written as the socket
 // takes them (never a read by libmosquitto between), it still goes out clean.
 TEST(MqttClientWill, AStopBehindABacklogLargerThanTheSocketNeverFiresTheWill) {
-  mosquitto_lib_init();
-  Broker broker;
-  ASSERT_GT(broker.pid, 0);
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
-  Peer checker("backlog-stall-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("backlog-stall-checker");
+  ASSERT_TRUE(p.up());
   std::atomic<int> ups{0};
   MqttClientHandlers h;
   h.connected = [&ups] { ++ups; };
   h.message = [](const MqttMessage&) {};
-  auto client = std::make_unique<MqttClient>(options(broker, "backlog-stall-client"), h);
+  auto client = std::make_unique<MqttClient>(options(p.broker, "backlog-stall-client"), h);
   client->start();
   ASSERT_TRUE(wait_for([&] { return ups.load() == 1; }, 5s));
-  ::kill(broker.pid, SIGSTOP);
+  ::kill(p.broker.pid, SIGSTOP);
   const std::string big(256 * 1024, 'y');
   for (int i = 0; i < 30; ++i) client->publish("b/big", big, 1, false);
   std::thread resume([&] {
     std::this_thread::sleep_for(1100ms);  // past the 1 s grace
-    ::kill(broker.pid, SIGCONT);
+    ::kill(p.broker.pid, SIGCONT);
   });
   client->stop({{"t/last", "bye"}}, 1s);
   resume.join();
   client.reset();
-  wait_for([&] { return checker.wills.load() > 0; }, 1500ms);
-  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+  wait_for([&] { return p.checker.wills.load() > 0; }, 1500ms);
+  EXPECT_EQ(p.checker.wills.load(), 0) << "the broker said:" << unclean_lines(p.broker);
 }
 
 // A third reviewer's attacks.
@@ -419,44 +412,36 @@ TEST(MqttClientWill, AStopBehindABacklogLargerThanTheSocketNeverFiresTheWill) {
 // kept the unacknowledged last words and sent them again on the new
 // connection (a second NDEATH); the new session now starts on a fresh handle.
 TEST(MqttClientWill, AReconnectPastItsDrainNeverResendsTheOldSessionsMessages) {
-  mosquitto_lib_init();
-  Broker broker;
-  ASSERT_GT(broker.pid, 0);
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
-  Peer checker("drain-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("drain-checker");
+  ASSERT_TRUE(p.up());
   std::atomic<int> ups{0};
   MqttClientHandlers h;
   h.connected = [&ups] { ++ups; };
   h.message = [](const MqttMessage&) {};
-  auto o = options(broker, "drain-client");
+  auto o = options(p.broker, "drain-client");
   o.redial_drain = 300ms;
   MqttClient client(o, h);
   client.start();
   ASSERT_TRUE(wait_for([&] { return ups.load() == 1 && client.stats().pending == 0; }, 5s));
-  ::kill(broker.pid, SIGSTOP);
+  ::kill(p.broker.pid, SIGSTOP);
   client.publish("t/last", "bye", 1, false);
   client.reconnect();
   std::this_thread::sleep_for(1500ms);  // the stall: past the drain
-  ::kill(broker.pid, SIGCONT);
+  ::kill(p.broker.pid, SIGCONT);
   EXPECT_TRUE(wait_for([&] { return ups.load() == 2; }, 15s)) << "no new connection";
-  EXPECT_TRUE(wait_for([&] { return checker.lasts.load() > 0; }, 5s));
-  wait_for([&] { return checker.lasts.load() > 1; }, 1000ms);
+  EXPECT_TRUE(wait_for([&] { return p.checker.lasts.load() > 0; }, 5s));
+  wait_for([&] { return p.checker.lasts.load() > 1; }, 1000ms);
   client.stop({}, 1s);
-  EXPECT_EQ(checker.lasts.load(), 1) << "the old session's QoS 1 message, on the new connection";
-  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+  EXPECT_EQ(p.checker.lasts.load(), 1) << "the old session's QoS 1 message, on the new connection";
+  EXPECT_EQ(p.checker.wills.load(), 0) << "the broker said:" << unclean_lines(p.broker);
 }
 
 // stop() gives up waiting for a loop thread held in a slow handler; when the
 // thread comes back it still sends the last words and the DISCONNECT (it left
 // without them: the will).
 TEST(MqttClientWill, AStopThatGaveUpOnASlowHandlerStillDisconnectsCleanly) {
-  mosquitto_lib_init();
-  Broker broker;
-  ASSERT_GT(broker.pid, 0);
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
-  Peer checker("slow-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("slow-checker");
+  ASSERT_TRUE(p.up());
   std::atomic<bool> up{false}, in_handler{false};
   MqttClient* self = nullptr;
   MqttClientHandlers h;
@@ -468,52 +453,48 @@ TEST(MqttClientWill, AStopThatGaveUpOnASlowHandlerStillDisconnectsCleanly) {
     in_handler = true;
     std::this_thread::sleep_for(5500ms);  // past stop()'s own bound (~4.5 s)
   };
-  auto client = std::make_unique<MqttClient>(options(broker, "slow-client"), h);
+  auto client = std::make_unique<MqttClient>(options(p.broker, "slow-client"), h);
   self = client.get();
   client->start();
   ASSERT_TRUE(wait_for([&] { return up.load() && client->stats().pending == 0; }, 5s));
   client->publish("t/warm", "x", 1, false);  // the SUBSCRIBE before it was read
   ASSERT_TRUE(wait_for([&] { return client->stats().pending == 0; }, 5s));
-  mosquitto_publish(checker.m, nullptr, "in/x", 1, "x", 1, false);
+  mosquitto_publish(p.checker.m, nullptr, "in/x", 1, "x", 1, false);
   ASSERT_TRUE(wait_for([&] { return in_handler.load(); }, 5s));
   client->stop({{"t/last", "bye"}}, 1s);
   client.reset();
-  wait_for([&] { return checker.lasts.load() > 0 || checker.wills.load() > 0; }, 2000ms);
-  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
-  EXPECT_EQ(checker.lasts.load(), 1);
+  wait_for([&] { return p.checker.lasts.load() > 0 || p.checker.wills.load() > 0; }, 2000ms);
+  EXPECT_EQ(p.checker.wills.load(), 0) << "the broker said:" << unclean_lines(p.broker);
+  EXPECT_EQ(p.checker.lasts.load(), 1);
 }
 
 // QoS 1 messages past the broker's receive maximum wait in libmosquitto; a
 // QoS 1 last word waits behind them and the DISCONNECT overtook it: gone, and
 // no will either. At last_qos 0 (the JSON bridge's "offline") it goes ahead.
 TEST(MqttClientWill, LastWordsAtQos0GoAheadOfMessagesBeyondTheReceiveMaximum) {
-  mosquitto_lib_init();
-  Broker broker("max_inflight_messages 2\n");
-  ASSERT_GT(broker.pid, 0);
-  ASSERT_TRUE(wait_for([&] { return listening(broker.port); }, 10s));
-  Peer checker("quota-checker");
-  ASSERT_TRUE(start_checker(checker, broker.port));
+  Plant p("quota-checker", "max_inflight_messages 2\n");
+  ASSERT_TRUE(p.up());
   std::atomic<bool> up{false};
   MqttClientHandlers h;
   h.connected = [&up] { up = true; };
   h.message = [](const MqttMessage&) {};
-  auto o = options(broker, "quota-client");
+  auto o = options(p.broker, "quota-client");
   o.last_qos = 0;
   auto client = std::make_unique<MqttClient>(o, h);
   client->start();
   ASSERT_TRUE(wait_for([&] { return up.load(); }, 5s));
-  ::kill(broker.pid, SIGSTOP);
+  ::kill(p.broker.pid, SIGSTOP);
   for (int i = 0; i < 10; ++i) client->publish("b/x", "y", 1, false);
   std::thread resume([&] {
     std::this_thread::sleep_for(1500ms);  // past the 1 s grace
-    ::kill(broker.pid, SIGCONT);
+    ::kill(p.broker.pid, SIGCONT);
   });
   client->stop({{"t/last", "bye"}}, 1s);
   resume.join();
   client.reset();
-  wait_for([&] { return checker.lasts.load() > 0 || checker.wills.load() > 0; }, 2000ms);
-  EXPECT_EQ(checker.lasts.load(), 1);
-  EXPECT_EQ(checker.wills.load(), 0) << "the broker said:" << unclean_lines(broker);
+  wait_for([&] { return p.checker.lasts.load() > 0 || p.checker.wills.load() > 0; }, 2000ms);
+  EXPECT_EQ(p.checker.lasts.load(), 1);
+  EXPECT_EQ(p.checker.wills.load(), 0) << "the broker said:" << unclean_lines(p.broker);
 }
 
 }  // namespace
