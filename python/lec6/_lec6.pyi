@@ -287,6 +287,9 @@ class Axis:
              keep: bool = False, wait: bool = True, timeout: float = 60.0,
              progress: Optional[_Progress] = None,
              cancel: Optional[_Cancel] = None) -> MoveResult: ...
+    def wait(self, move: MoveResult, *, timeout: float = 60.0,
+             progress: Optional[_Progress] = None, cancel: Optional[_Cancel] = None
+             ) -> MoveResult: ...  # a move(wait=False) to its end, judged as move() judges
     def run_step(self, step: int, *, timeout: float = 60.0, progress: Optional[_Progress] = None,
                  cancel: Optional[_Cancel] = None) -> MoveResult: ...
     def jog(self, direction: Literal["+", "-"], seconds: Optional[float] = None, *,

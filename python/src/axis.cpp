@@ -201,13 +201,22 @@ void bind_motion(py::class_<Axis>& c) {
                 direct_move({to, speed, accel, decel, moving_force, in_position, area, push,
                              trigger, push_speed, relative, keep});
             const Duration limit = seconds_arg(timeout, "timeout");
-            return finished(self.wait_call(progress, cancel, kStopped,
-                                           [&](client::Client& c, client::Actuator& a,
-                                               const client::WaitOptions& w) {
-                                             if (wait) return a.move(m, a.deadline_in(limit), w);
-                                             return started_only(a.start(m), c);
-                                           }),
-                            "move", wait);
+            std::optional<client::StartedMove> started;
+            MoveResult r = finished(self.wait_call(progress, cancel, kStopped,
+                                                   [&](client::Client& c, client::Actuator& a,
+                                                       const client::WaitOptions& w) {
+                                                     if (wait)
+                                                       return a.move(m, a.deadline_in(limit), w);
+                                                     started = a.start(m);
+                                                     return started_only(*started, c);
+                                                   }),
+                                    "move", wait);
+            if (!wait) {
+              r.started = started;
+              r.line = self.line.get();
+              r.id = self.id();
+            }
+            return r;
           },
           py::arg("to"), py::kw_only(), py::arg("relative") = false, py::arg("speed") = py::none(),
           py::arg("accel") = py::none(), py::arg("decel") = py::none(),
@@ -220,7 +229,34 @@ void bind_motion(py::class_<Axis>& c) {
           "the defaults (100 mm/s, 1000 mm/s², moving force 100 %, in "
           "position 0.50 mm, pushing speed 20 mm/s); keep=True keeps what the controller holds "
           "instead, and the result's message names those values. push=% makes it a pushing "
-          "move. Waits for BUSY to fall (wait=False: returns after the start).")
+          "move. Waits for BUSY to fall (wait=False: returns after the start; axis.wait(result) "
+          "waits for it later).")
+      .def(
+          "wait",
+          [](Axis& self, const MoveResult& started, double timeout, py::object progress,
+             py::object cancel) {
+            if (started.waited) return started;  // it ended already: as it ended
+            if (!started.started || started.line != self.line.get() || started.id != self.id())
+              throw client::InvalidRequest(fmt::format(
+                  "wait(): this move was started on axis {}{}; wait for it on that axis",
+                  started.id, started.line == self.line.get() ? "" : " of another bus"));
+            const Duration limit = seconds_arg(timeout, "timeout");
+            return finished(
+                self.wait_call(
+                    progress, cancel, kStopped,
+                    [&](client::Client&, client::Actuator& a, const client::WaitOptions& w) {
+                      return a.wait(*started.started, a.deadline_in(limit), w);
+                    }),
+                started.operation);
+          },
+          py::arg("move"), py::kw_only(), py::arg("timeout") = 60.0,
+          py::arg("progress") = py::none(), py::arg("cancel") = py::none(),
+          "Waits for a move started with move(wait=False) to end, judged as move() judges it "
+          "(the same completion rule: BUSY that rises late, a move that ended before the first "
+          "poll). Returns its MoveResult; raises as move() does: AlarmError; DeadlineError when "
+          "`timeout` passes first (the move goes on: wait again, or stop()); on Ctrl-C or "
+          "cancel() the axis is stopped and Cancelled raised. A result that was already waited "
+          "for is returned as it is.")
       .def(
           "run_step",
           [](Axis& self, int step, double timeout, py::object progress, py::object cancel) {

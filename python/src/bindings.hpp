@@ -14,6 +14,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -78,6 +79,11 @@ struct MoveResult {
   client::MoveResult result;
   std::string operation;  // "move", "step 3", "home", "jog"
   bool waited = true;     // false: move(wait=False), the status right after the start
+  // move(wait=False): what Axis.wait() judges the move against, and the axis
+  // (its line and ID) that started it.
+  std::optional<client::StartedMove> started{};
+  const void* line = nullptr;
+  uint8_t id = 0;
 };
 
 // ---- waiting (wait.cpp) -------------------------------------------------------

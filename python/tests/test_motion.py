@@ -77,6 +77,57 @@ def test_move_without_waiting_returns_at_the_start(ready):
     assert s.inp
 
 
+def test_wait_judges_a_move_started_without_waiting(ready):
+    started = ready.move(to=100.0, speed=200, wait=False)
+    r = ready.wait(started)
+    # Judged by the completion rule, not by "at rest" (which the default
+    # twin's late BUSY makes true right after the start).
+    assert r.operation == "move" and r.outcome == "reached" and r.succeeded
+    assert r.position_mm == 100.0 and r.status.inp and not r.status.busy
+    assert ready.wait(r) is not None and ready.wait(r).position_mm == 100.0  # already ended
+
+
+def test_wait_after_the_move_ended_unseen_still_says_reached(ready):
+    started = ready.move(to=60.0, speed=500, wait=False)
+    wait_for(lambda: (s := at_rest(ready)) and s.position_mm == 60.0 and s, what="the move")
+    r = ready.wait(started)
+    assert r.outcome == "reached" and r.position_mm == 60.0
+
+
+def test_a_wait_that_times_out_leaves_the_move_to_a_second_wait(ready):
+    started = ready.move(to=400.0, speed=100, wait=False)
+    with pytest.raises(lec6.DeadlineError) as e:
+        ready.wait(started, timeout=0.3)
+    # As move(timeout=...): the deadline ends the wait, not the move.
+    assert e.value.result.position_mm < 390 and e.value.result.status.busy
+    r = ready.wait(started)
+    assert r.outcome == "reached" and r.position_mm == 400.0
+
+
+def test_a_cancelled_wait_stops_the_axis(ready):
+    started = ready.move(to=400.0, speed=100, wait=False)
+    with pytest.raises(lec6.Cancelled, match="stopped"):
+        ready.wait(started, cancel=lambda: ready.status().position_mm > 20)
+    s = wait_for(lambda: at_rest(ready), what="the stop")
+    assert 20 < s.position_mm < 390 and not s.inp
+
+
+def test_wait_on_another_axis_is_refused_with_its_id(twin_factory):
+    twin = twin_factory(ids=[1, 2], initial_position_mm=1.0)
+    bus = twin.connect()
+    a1, a2 = bus.axis(1), bus.axis(2)
+    for a in (a1, a2):
+        a.set_serial_mode(True)
+        a.servo_on()
+        a.home()
+    started = a1.move(to=20.0, wait=False)
+    with pytest.raises(lec6.InvalidRequest, match="started on axis 1"):
+        a2.wait(started)
+    with pytest.raises(ValueError, match="timeout"):
+        a1.wait(started, timeout=0)
+    assert a1.wait(started).position_mm == 20.0
+
+
 def test_run_step(ready):
     ready.write_step(3, lec6.Step(position_mm=40.0, speed_mm_s=800))
     r = ready.run_step(3)
