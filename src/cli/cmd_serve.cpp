@@ -188,6 +188,17 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
   // --record FILE: one capture per line (FILE with one line, FILE-<line>.jsonl with more).
   if (const std::string& rec = a.record.empty() ? g.record : a.record; !rec.empty()) {
     const std::filesystem::path path(rec);
+    // FILE-<line>.jsonl beside a pipe, a device or /dev/fd/N names nothing
+    // the user made: refused before anything starts.
+    std::error_code ec;
+    const auto kind = std::filesystem::status(path, ec).type();
+    if (config.lines.size() > 1 && kind != std::filesystem::file_type::not_found &&
+        kind != std::filesystem::file_type::regular)
+      throw UsageError(fmt::format(
+          "--record {}: the config has {} lines and each gets its own capture, "
+          "FILE-<line>{}, but {} is not a regular file (a pipe, a device or /dev/fd/N); give a "
+          "file name, or run one lec serve per line",
+          rec, config.lines.size(), path.extension().string(), rec));
     for (auto& l : config.lines) {
       l.record = config.lines.size() == 1
                      ? rec

@@ -46,7 +46,15 @@ std::optional<std::string> keep_earlier_capture(const std::string& path) {
 CaptureWriter::CaptureWriter(const std::string& path, const modbus::CaptureHeader& header,
                              std::chrono::milliseconds flush_interval)
     : path_(path), flush_interval_(flush_interval) {
-  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  // A FIFO is opened without blocking: with no reader yet, open() would
+  // wait for one for ever (lec serve --record FIFO hung at start).
+  struct stat before {};
+  const bool fifo = ::stat(path.c_str(), &before) == 0 && S_ISFIFO(before.st_mode);
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | (fifo ? O_NONBLOCK : O_TRUNC), 0666);
+  if (fd_ < 0 && fifo && errno == ENXIO)
+    throw InvalidArgument(fmt::format(
+        "cannot record to {}: it is a FIFO and nothing reads it yet; start its reader first",
+        path));
   if (fd_ < 0)
     throw InvalidArgument(fmt::format("cannot create {}: {}", path, std::strerror(errno)));
   // A pipe or a device is written without blocking, so that a reader that

@@ -43,6 +43,33 @@ check "the line still answers through the gateway" L status
 stop_twin "$SERVE_PID"
 check "lec serve exits 0 on SIGTERM (not 141, SIGPIPE)" [ "$STATUS" = 0 ]
 
+# A FIFO nothing reads yet: opening it for writing would wait for a reader for
+# ever (lec serve hung at start, before its ready line); the start is refused,
+# naming the FIFO and what to do.
+mkfifo "$TMP/unread.pipe"
+out=$(timeout 10 "$LEC" serve --no-history --port sim --modbus-tcp 127.0.0.1:0 --http "" \
+  --record "$TMP/unread.pipe" 2>&1 </dev/null)
+rc=$?
+check_sh "a FIFO nobody reads refuses the start at once (exit 2, not a hang: $rc): $out" \
+  '[ $rc = 2 ] && grep -qF "cannot record to $TMP/unread.pipe: it is a FIFO and nothing reads it yet" <<<"$out"'
+
+# Several lines and a --record that is not a file name (a pipe, /dev/fd/N):
+# FILE-<line>.jsonl would be a path nobody made; refused before anything starts.
+cat >"$TMP/two.yaml" <<'YAML'
+lines:
+  - {name: left, port: sim, axes: [{name: a, id: 1}]}
+  - {name: right, port: sim, axes: [{name: b, id: 1}]}
+YAML
+out=$(timeout 10 "$LEC" serve --no-history --config "$TMP/two.yaml" --modbus-tcp 127.0.0.1:0 \
+  --http "" --record /dev/fd/1 2>&1 </dev/null | head -c 2000)
+check_sh "--record /dev/fd/1 with two lines is refused, naming the rule: $out" \
+  'grep -qF -- "--record /dev/fd/1: the config has 2 lines and each gets its own capture" <<<"$out"'
+out=$(timeout 10 "$LEC" serve --no-history --config "$TMP/two.yaml" --modbus-tcp 127.0.0.1:0 \
+  --http "" --record "$TMP/unread.pipe" 2>&1 </dev/null)
+rc=$?
+check_sh "a FIFO with two lines is refused (exit 2: $rc), not opened" \
+  '[ $rc = 2 ] && grep -qF "is not a regular file" <<<"$out"'
+
 # A directory that is gone: the start is refused, naming the file.
 out=$("$LEC" serve --no-history --port sim --modbus-tcp 127.0.0.1:0 --http "" \
   --record "$TMP/gone/c.jsonl" 2>&1 </dev/null)

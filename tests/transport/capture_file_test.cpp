@@ -126,6 +126,20 @@ TEST_F(CaptureFileTest, AnUncreatableFileIsAClearError) {
   }
 }
 
+// A FIFO with no reader: refused at once, naming it (open() for writing
+// would wait for a reader for ever).
+TEST_F(CaptureFileTest, AFifoNobodyReadsIsAClearErrorNotAHang) {
+  const auto path = (dir / "unread.pipe").string();
+  ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0);
+  try {
+    CaptureWriter w(path, header());
+    FAIL() << "opened a FIFO nobody reads";
+  } catch (const InvalidArgument& e) {
+    EXPECT_THAT(e.what(),
+                HasSubstr("cannot record to " + path + ": it is a FIFO and nothing reads it yet"));
+  }
+}
+
 // A full disk (/dev/full: every write fails with ENOSPC): the error is told
 // once, naming the file; writes never throw and are dropped (memory stays
 // bounded); flush() and close() still report it.
