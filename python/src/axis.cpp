@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include "axis.hpp"
+#include "lec6/lec/alarm_check.hpp"
 #include "lec6/lec/units.hpp"
 
 namespace lec6::python {
@@ -325,12 +326,9 @@ void bind_motion(py::class_<Axis>& c) {
           [](Axis& self) {
             const auto left =
                 self.call([](client::Client&, client::Actuator& a) { return a.reset_alarms(); });
-            if (!left.empty()) {
-              std::string codes;
-              for (uint8_t c : left) codes += fmt::format(" {} ({})", c, lec::alarm_meaning(c));
-              throw client::AlarmError(left, "alarm still active after RESET:" + codes +
-                                                 "; it may need the servo off or a power cycle");
-            }
+            if (!left.empty())
+              throw client::AlarmError(left,
+                                       lec::alarm_after_reset(left, self.options.alarm_polarity));
           },
           "Resets alarms (RESET pulse); AlarmError if one is still active after it.");
 }

@@ -66,3 +66,32 @@ def test_a_bad_polarity_is_refused(inverted_sim):
     with lec6.connect(inverted_sim) as bus:
         with pytest.raises(lec6.InvalidRequest, match="alarm_polarity='low'"):
             bus.axis(1, alarm_polarity="low")
+
+
+def test_a_reset_that_leaves_an_old_code_names_the_polarity(inverted_sim, lec_binary):
+    # The case the cross-check cannot judge from one read: a healthy inverted
+    # controller whose alarm history still holds a code that RESET cleared
+    # (62, after a move beyond the stroke). Read active-high it shows ALARM
+    # with code 62 - and a RESET "leaves" it: that RESET clears 62 is the clue.
+    with lec6.connect(inverted_sim, alarm_polarity="active-low") as bus:
+        ax = bus.axis(1)
+        ax.set_serial_mode(True)
+        ax.servo_on()
+        ax.home()
+        with pytest.raises(lec6.AlarmError):
+            ax.move(to=500.0)
+        ax.reset()
+        assert not ax.status().alarm
+    with lec6.connect(inverted_sim) as bus:
+        ax = bus.axis(1)
+        assert [a.code for a in ax.status().alarms] == [62]
+        with pytest.raises(lec6.AlarmError, match="set `alarm_polarity: active-low`") as e:
+            ax.reset()
+        assert e.value.codes == [62] and "RESET clears this code" in str(e.value)
+    out = subprocess.run([lec_binary, "--port", inverted_sim, "reset"], capture_output=True,
+                         text=True, timeout=30)
+    assert out.returncode != 0 and "set `alarm_polarity: active-low`" in out.stderr, out.stderr
+    # Told the polarity, the same RESET finds nothing active.
+    out = subprocess.run([lec_binary, "--port", inverted_sim, "--alarm-polarity", "active-low",
+                          "reset"], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0, out.stderr

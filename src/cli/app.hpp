@@ -73,6 +73,11 @@ struct GlobalOptions {
       "default";  // --sim-profile: the twin of --port sim (default, ideal, FILE)
 };
 
+// Before a capture is written at `path` (--record, lec sniff --capture): an
+// earlier capture there is kept as path.1, path.2, … and stderr says so
+// (transport::keep_earlier_capture; never truncated, as lec serve --record).
+void keep_earlier_capture_said(const std::string& path);
+
 // --soft-limits MIN:MAX (mm) → limits; empty → none. UsageError when malformed.
 std::optional<client::SoftLimits> parse_soft_limits(const std::string& text);
 

@@ -318,9 +318,10 @@ dx::ControllerState read_controller(client::Client& c, client::Actuator& axis, u
     }
     auto flags = c.read_flags();
     auto alarms = axis.active_alarms(flags);
+    std::vector<uint8_t> left;  // resettable codes a RESET left (lec::alarm_after_reset)
     if (fix.on && !alarms.empty() &&
         std::all_of(alarms.begin(), alarms.end(), lec::alarm_resettable) && controls.serial_mode) {
-      const auto left = axis.reset_alarms();
+      left = axis.reset_alarms();
       for (uint8_t a : alarms)
         if (std::find(left.begin(), left.end(), a) == left.end())
           st.fixed.push_back(fmt::format("alarm {} cleared (RESET)", a));
@@ -336,6 +337,8 @@ dx::ControllerState read_controller(client::Client& c, client::Actuator& axis, u
         lec::judge_alarm(flags, c.read_alarms().groups[0], c.options().alarm_polarity);
     st.alarms = judged.codes;
     st.alarm_check = judged.disagreement;
+    if (st.alarm_check.empty() && !left.empty() && judged.active)
+      st.alarm_check = lec::alarm_after_reset(left, c.options().alarm_polarity);
     try {
       st.name = c.read_name().text;
     } catch (const client::TransportError&) {
@@ -505,8 +508,8 @@ void run_doctor(Session& s, const DoctorArgs& a) {
           if (a.fix && t->ms > 1) obs.latency_fixed = doctor_line::set_latency_timer_1ms(*t);
         }
       }
-      read_controllers(spec, port_options(g, *obs.found_baud, obs.echo_seen || g.echo), found,
-                       fix, obs, g);
+      read_controllers(spec, port_options(g, *obs.found_baud, obs.echo_seen || g.echo), found, fix,
+                       obs, g);
     }
   }
   const dx::Report r = dx::diagnose(obs);

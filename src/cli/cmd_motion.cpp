@@ -9,6 +9,7 @@
 #include "cli/duration_option.hpp"
 #include "cli/move_report.hpp"
 #include "cli/views.hpp"
+#include "lec6/lec/alarm_check.hpp"
 #include "lec6/lec/step_data.hpp"
 #include "lec6/lec/units.hpp"
 
@@ -276,13 +277,11 @@ void add_motion_commands(CLI::App& app, Session& session) {
 
   app.add_subcommand("reset", "Reset alarms (RESET pulse)")->callback([&session] {
     const auto left = session.axis().reset_alarms();
-    if (!left.empty()) {
-      std::string codes;
-      for (uint8_t c : left) codes += fmt::format(" {} ({})", c, lec::alarm_meaning(c));
+    if (!left.empty())
       throw client::AlarmError(
-          left, "alarm still active after RESET:" + codes +
-                    "; it may need the servo off (`lec servo off`) or a power cycle");
-    }
+          left,
+          lec::alarm_after_reset(left, lec::parse_alarm_polarity(session.options().alarm_polarity)
+                                           .value_or(lec::AlarmPolarity::ActiveHigh)));
     say(session, "Alarms reset: none active", {{"alarms", nlohmann::json::array()}});
   });
 }

@@ -54,6 +54,13 @@ transport::UniqueFd open_listen_only(const std::string& path, uint32_t baud) {
   if (!fd) {
     throw CommandFailed(kTransport, fmt::format("cannot open {}: {}", path, std::strerror(errno)));
   }
+  // Listen-only (issue 33): RTS and DTR low, so an RS485 adapter whose driver
+  // enable follows RTS (or DTR) never drives the bus. The kernel raises both
+  // on open: lowered first thing, before the port is configured, to keep that
+  // window as short as a program can (and again below, once configured). A
+  // pty has no modem lines: the ioctl fails there and nothing is lost.
+  const int modem_lines = TIOCM_RTS | TIOCM_DTR;
+  (void)::ioctl(fd.get(), TIOCMBIC, &modem_lines);
   termios tio{};
   if (::tcgetattr(fd.get(), &tio) != 0) {
     throw CommandFailed(kTransport,
@@ -70,14 +77,10 @@ transport::UniqueFd open_listen_only(const std::string& path, uint32_t baud) {
     throw CommandFailed(kTransport,
                         fmt::format("cannot configure {}: {}", path, std::strerror(errno)));
   }
-  // Listen-only (issue 33): RTS and DTR low, so an RS485 adapter whose driver
-  // enable follows RTS (or DTR) never drives the bus. The kernel raises both
-  // on open; HUPCL off keeps a later close from toggling them. A pty has no
-  // modem lines: the ioctl fails there and nothing is lost.
+  // HUPCL off keeps a later close from toggling RTS and DTR.
   tio.c_cflag &= ~static_cast<tcflag_t>(HUPCL);
   (void)::tcsetattr(fd.get(), TCSANOW, &tio);
-  int lines = TIOCM_RTS | TIOCM_DTR;
-  (void)::ioctl(fd.get(), TIOCMBIC, &lines);
+  (void)::ioctl(fd.get(), TIOCMBIC, &modem_lines);
   // What the driver (or a pty: the twin's tap) held before we listened is no
   // part of this session: its times are lost, and it would be shown as now.
   ::tcflush(fd.get(), TCIFLUSH);
@@ -152,6 +155,7 @@ void run_read(const SniffArgs& a, modbus::SnifferOptions options, bool json) {
   if (!a.capture.empty()) {
     modbus::CaptureHeader h = capture.header;
     h.source = "sniff";
+    keep_earlier_capture_said(a.capture);
     out.emplace(a.capture, h);
   }
   std::optional<PcapWriter> pcap;
@@ -211,7 +215,10 @@ void run_port(const SniffArgs& a, const GlobalOptions& g, modbus::SnifferOptions
   std::optional<transport::CaptureWriter> out;
   const modbus::CaptureHeader header = header_for(g.port, g.baud);
   const auto wall_origin = std::chrono::system_clock::now();
-  if (!a.capture.empty()) out.emplace(a.capture, header);
+  if (!a.capture.empty()) {
+    keep_earlier_capture_said(a.capture);
+    out.emplace(a.capture, header);
+  }
   std::optional<PcapWriter> pcap;
   if (!a.pcap.empty()) pcap.emplace(a.pcap);
   Sink sink(printer, filter, out, pcap, origin, wall_origin);

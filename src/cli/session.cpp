@@ -4,6 +4,7 @@
 #include "cli/trace_printer.hpp"
 #include "lec6/lec/step_data.hpp"
 #include "lec6/lec/units.hpp"
+#include "lec6/transport/capture_file.hpp"
 #include "lec6/transport/port_spec.hpp"
 #include "lec6/twin/field_profile.hpp"
 #include "lec6/twin/line_recorder.hpp"
@@ -102,6 +103,7 @@ client::Client& Session::client(std::string_view default_port) {
   }
   const auto spec = transport::parse_port_spec(text);
   if (!options_.record.empty() && spec.kind != transport::PortKind::Tcp) {
+    keep_earlier_capture_said(options_.record);
     static const SteadyClock steady;  // every link but a --timing fast twin's runs on it
     impl->recorder = std::make_unique<twin::LineRecorder>(options_.record, "record", options_.baud,
                                                           text, steady);
@@ -146,6 +148,11 @@ client::WaitOptions Session::wait_options(
 
 TimePoint Session::deadline_in(Duration d) {
   return client().clock().now() + d;
+}
+
+void keep_earlier_capture_said(const std::string& path) {
+  if (const auto kept = transport::keep_earlier_capture(path))
+    fmt::print(stderr, "lec: kept the earlier capture {} as {}\n", path, *kept);
 }
 
 }  // namespace lec6::cli

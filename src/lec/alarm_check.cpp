@@ -56,4 +56,29 @@ AlarmJudgement judge_alarm(const StatusFlags& flags, const AlarmGroup& group0,
   return j;
 }
 
+std::string alarm_after_reset(const std::vector<uint8_t>& left, AlarmPolarity configured) {
+  std::string codes;
+  for (uint8_t c : left)
+    codes += fmt::format("{}{} ({})", codes.empty() ? "" : ", ", c, alarm_meaning(c));
+  std::string out = "alarm still active after RESET: " + codes;
+  for (uint8_t c : left) {
+    if (!alarm_resettable(c))
+      return out + fmt::format(
+                       "; RESET does not clear alarm {} (only 48-99): turn the servo off, "
+                       "or switch the controller's power off and on",
+                       c);
+  }
+  const AlarmPolarity other = configured == AlarmPolarity::ActiveHigh ? AlarmPolarity::ActiveLow
+                                                                      : AlarmPolarity::ActiveHigh;
+  return out +
+         fmt::format(
+             "; RESET clears {}, so either its cause is still there (check the axis and "
+             "the step data), or this controller reports ALARM {} and is healthy: the "
+             "code is then an old one the alarm history keeps; if the axis is otherwise "
+             "ready (SVRE and SETON on), set `alarm_polarity: {}`",
+             left.size() == 1 ? "this code" : "these codes",
+             other == AlarmPolarity::ActiveLow ? "inverted" : "as the manual says (X4F = 1: alarm)",
+             to_string(other));
+}
+
 }  // namespace lec6::lec

@@ -3,6 +3,8 @@
 # with ENOSPC): one clear error naming the file, and the line keeps serving
 # (issue 33). A record path whose directory is gone refuses the start, naming
 # the file. Waits are on events (the ready line, the log line) with deadlines.
+# Also: a FIFO nobody reads, several lines with a --record that is no file
+# name, and the CLI's --record / lec sniff --capture keeping earlier captures.
 
 source "$(dirname "${BASH_SOURCE[0]}")/twin_lib.sh"
 
@@ -69,6 +71,19 @@ out=$(timeout 10 "$LEC" serve --no-history --config "$TMP/two.yaml" --modbus-tcp
 rc=$?
 check_sh "a FIFO with two lines is refused (exit 2: $rc), not opened" \
   '[ $rc = 2 ] && grep -qF "is not a regular file" <<<"$out"'
+
+# The CLI's --record and lec sniff --capture keep an earlier capture as lec
+# serve does (found in review: a second `lec --record c.jsonl ...` truncated
+# the first, which docs/replay.md tells users to run a few times).
+"$LEC" --port sim --record "$TMP/cli.jsonl" status >/dev/null 2>&1
+first=$(wc -l <"$TMP/cli.jsonl")
+out=$("$LEC" --port sim --record "$TMP/cli.jsonl" status 2>&1 >/dev/null)
+check_sh "a second lec --record keeps the first capture as .1 and says so: $out" \
+  '[ "$(wc -l <"$TMP/cli.jsonl.1")" = "$first" ] && [ "$first" -gt 1 ] && grep -qF "kept the earlier capture $TMP/cli.jsonl as $TMP/cli.jsonl.1" <<<"$out"'
+"$LEC" sniff --read "$TMP/cli.jsonl.1" --capture "$TMP/sniffed.jsonl" >/dev/null 2>&1
+out=$("$LEC" sniff --read "$TMP/cli.jsonl.1" --capture "$TMP/sniffed.jsonl" 2>&1 >/dev/null)
+check_sh "a second lec sniff --capture keeps the first as .1: $out" \
+  '[ -s "$TMP/sniffed.jsonl.1" ] && [ -s "$TMP/sniffed.jsonl" ] && grep -qF "kept the earlier capture" <<<"$out"'
 
 # A directory that is gone: the start is refused, naming the file.
 out=$("$LEC" serve --no-history --port sim --modbus-tcp 127.0.0.1:0 --http "" \

@@ -73,5 +73,27 @@ TEST(AlarmCheck, AlarmWhileBusyIsADisagreementButStillAStop) {
   EXPECT_NE(j.disagreement.find("X4F = 0"), std::string::npos) << j.disagreement;
 }
 
+// After a RESET: a code RESET clears that stays is its cause still there, or
+// an old code on a healthy controller of the other polarity; both are said,
+// with the setting. A code RESET does not clear needs the power cycled.
+TEST(AlarmCheck, AResettableCodeLeftAfterResetNamesTheOtherPolarity) {
+  const std::string high = alarm_after_reset({62}, AlarmPolarity::ActiveHigh);
+  EXPECT_NE(high.find("alarm still active after RESET: 62 ("), std::string::npos) << high;
+  EXPECT_NE(high.find("its cause is still there"), std::string::npos) << high;
+  EXPECT_NE(high.find("reports ALARM inverted"), std::string::npos) << high;
+  EXPECT_NE(high.find("set `alarm_polarity: active-low`"), std::string::npos) << high;
+  const std::string low = alarm_after_reset({62, 99}, AlarmPolarity::ActiveLow);
+  EXPECT_NE(low.find("62 ("), std::string::npos) << low;
+  EXPECT_NE(low.find(", 99 ("), std::string::npos) << low;
+  EXPECT_NE(low.find("RESET clears these codes"), std::string::npos) << low;
+  EXPECT_NE(low.find("set `alarm_polarity: active-high`"), std::string::npos) << low;
+}
+
+TEST(AlarmCheck, ACodeResetDoesNotClearNeedsThePowerNotAPolarity) {
+  const std::string m = alarm_after_reset({62, 149}, AlarmPolarity::ActiveHigh);
+  EXPECT_NE(m.find("RESET does not clear alarm 149 (only 48-99)"), std::string::npos) << m;
+  EXPECT_EQ(m.find("alarm_polarity"), std::string::npos) << m;
+}
+
 }  // namespace
 }  // namespace lec6::lec

@@ -53,4 +53,15 @@ struct AlarmJudgement {
 AlarmJudgement judge_alarm(const StatusFlags& flags, const AlarmGroup& group0,
                            AlarmPolarity configured);
 
+// What to tell a user whose RESET left alarms `left` active (group 0's codes
+// while X4F still reads as an alarm), for a controller configured as
+// `configured`; `reset_how` names the front end's reset ("`lec reset`").
+// A code RESET does not clear (outside 48-99) needs the servo off or a power
+// cycle. A code RESET does clear that survives it means its cause is still
+// there, or (the cross-check judge_alarm cannot make: group 0 keeps the old
+// code, docs/protocol-decisions.md "ALARM polarity") that the controller
+// reports ALARM inverted and is healthy: the message says both and names the
+// setting. "alarm still active after RESET: 62 (…); …".
+std::string alarm_after_reset(const std::vector<uint8_t>& left, AlarmPolarity configured);
+
 }  // namespace lec6::lec

@@ -106,14 +106,12 @@ OpResult jog_result(const client::MoveResult& r, bool lease_expired, bool stream
   return {200, body};
 }
 
-OpResult reset_result(const std::vector<uint8_t>& still_active) {
+OpResult reset_result(const std::vector<uint8_t>& still_active, lec::AlarmPolarity polarity) {
   nlohmann::json body{{"ok", still_active.empty()}, {"op", "reset"}};
   body["alarms"] = alarms_json(still_active);
-  body["message"] =
-      still_active.empty()
-          ? "RESET pulse: no alarm active"
-          : fmt::format("RESET pulse: alarm {} is still active (not resettable by RESET)",
-                        still_active.front());
+  body["message"] = still_active.empty()
+                        ? "RESET pulse: no alarm active"
+                        : "RESET pulse: " + lec::alarm_after_reset(still_active, polarity);
   return {still_active.empty() ? 200 : 422, body};
 }
 

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "lec6/client/actuator.hpp"
+#include "lec6/lec/alarm_check.hpp"
 #include "lec6/lec/step_table.hpp"
 #include "ops/commands.hpp"
 #include "ops/operations.hpp"
@@ -17,7 +18,8 @@ OpResult refusal(int status, const std::string& message, const std::string& fiel
 OpResult done_result(Op op, const std::string& message);
 OpResult move_result(Op op, const client::MoveResult& r, bool stopped_by_other);
 OpResult jog_result(const client::MoveResult& r, bool lease_expired, bool stream_closed);
-OpResult reset_result(const std::vector<uint8_t>& still_active);
+// A RESET's answer: 422 with lec::alarm_after_reset's words when alarms stay.
+OpResult reset_result(const std::vector<uint8_t>& still_active, lec::AlarmPolarity polarity);
 OpResult step_read_result(unsigned step, const lec::StepData& data);
 OpResult table_result(const lec::StepTable& table);
 // Reads the step, changes the given fields, checks the whole record, and

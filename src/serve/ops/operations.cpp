@@ -387,7 +387,7 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
     case Op::Stop:
       return judged(cmd.op, act.stop(client::StopKind::Stop, stop_policy(axis)));
     case Op::Reset:
-      return reset_result(act.reset_alarms());
+      return reset_result(act.reset_alarms(), axis.config->alarm_polarity);
     case Op::StepRead:
       if (cmd.step) return step_read_result(*cmd.step, c.read_step(*cmd.step));
       return table_result(client::backup_steps(c));
