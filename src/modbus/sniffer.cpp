@@ -3,6 +3,7 @@
 #include "lec6/modbus/sniffer.hpp"
 
 #include <algorithm>
+#include <array>
 
 #include "lec6/modbus/crc.hpp"
 #include "lec6/modbus/length.hpp"
@@ -142,8 +143,9 @@ bool Sniffer::matches_pending(std::span<const uint8_t> frame) const {
 // FC05/FC06/FC08 replies equal their queries, so a master's resend of such a
 // query after no answer looks like the first one's reply. A candidate: a
 // frame equal to the waiting query, delivered in chunks of its own, that
-// began after the controller's response time (Tx + tolerance); scan() then
-// decides by what follows (untimed frames keep the reply reading).
+// began after the controller's response time (Tx + tolerance); judge_resend()
+// then decides by timing and by what follows (untimed frames keep the reply
+// reading).
 bool Sniffer::resent_query(std::size_t length) const {
   if (!pending_ || !pending_->timed || !timed_frame(head_, length)) return false;
   if (!std::equal(pending_->query.begin(), pending_->query.end(), buf_.begin() + head_,
@@ -152,6 +154,55 @@ bool Sniffer::resent_query(std::size_t length) const {
     return false;
   const TimePoint start = times_[head_ + length - 1] - options_.timing.wire_time(length);
   return start > pending_->end + options_.timing.response_time(length) + options_.tolerance;
+}
+
+// A candidate (resent_query) is the query sent again when:
+//  - it began at least twice the reply window (Tx + tolerance) after the
+//    query, and later than 1.5 times the slowest reply this ID gave to a
+//    query it did not echo: a LEC answers within Tx, a master resends after
+//    its own timeout; a device seen to be slow keeps its late echoes; or
+//  - its own reply follows at once: a frame equal to it or the exception to
+//    it, beginning within the reply window after it and sooner than it came
+//    after the query (a reply is quicker than a master's retry).
+// Otherwise it is the late reply: a master that repeats the same write every
+// cycle is answered late, not resending (issue 33's review). Undecided while
+// the bytes after it could still become its reply and no silence settled them.
+Sniffer::Resend Sniffer::judge_resend(std::span<const uint8_t> head, std::size_t length,
+                                      bool settle) const {
+  const Duration window = options_.timing.response_time(length) + options_.tolerance;
+  const TimePoint end = times_[head_ + length - 1];
+  const Duration gap = end - options_.timing.wire_time(length) - pending_->end;
+  Duration slowest{};
+  if (const auto it = longest_reply_.find(head[0]); it != longest_reply_.end())
+    slowest = it->second;
+  if (gap >= 2 * window && gap > slowest * 3 / 2) return Resend::Yes;
+  // Its own reply next? An echo of `length` bytes or a 5-byte exception.
+  const auto rest = head.subspan(length);
+  std::size_t reply = 0;
+  bool may_become = false;
+  const std::array<uint8_t, 2> exception_head{head[0], static_cast<uint8_t>(head[1] | 0x80)};
+  if (rest.size() >= kExceptionLength && rest[0] == exception_head[0] &&
+      rest[1] == exception_head[1] && crc_ok(rest.first(kExceptionLength))) {
+    reply = kExceptionLength;
+  } else if (rest.size() >= length &&
+             std::equal(head.begin(), head.begin() + length, rest.begin())) {
+    reply = length;
+  } else {
+    const std::size_t n = rest.size();
+    may_become =
+        std::equal(rest.begin(), rest.end(), head.begin(), head.begin() + std::min(n, length)) &&
+        n < length;
+    may_become = may_become || (n < kExceptionLength &&
+                                std::equal(rest.begin(), rest.begin() + std::min<std::size_t>(n, 2),
+                                           exception_head.begin()));
+  }
+  if (reply == 0) return may_become && !settle ? Resend::Undecided : Resend::No;
+  if (timed_frame(head_ + length, reply)) {
+    const Duration after =
+        times_[head_ + length + reply - 1] - options_.timing.wire_time(reply) - end;
+    if (after > window || after >= gap) return Resend::No;
+  }
+  return Resend::Yes;
 }
 
 bool Sniffer::timed_frame(std::size_t first, std::size_t length) const {
@@ -289,6 +340,10 @@ void Sniffer::emit_reply(std::size_t length, bool paired, uint32_t flags) {
       s.response_us.push_back(static_cast<uint32_t>(std::clamp<int64_t>(
           std::chrono::duration_cast<std::chrono::microseconds>(*e.response).count(), 0,
           UINT32_MAX)));
+      if (!std::equal(e.bytes.begin(), e.bytes.end(), e.query.begin(), e.query.end())) {
+        Duration& slowest = longest_reply_[id];
+        slowest = std::max(slowest, *e.response);
+      }
       if (*e.response > e.limit + options_.tolerance) {
         e.flags |= kSniffLate;
         ++s.late;
@@ -322,16 +377,12 @@ void Sniffer::scan(bool settle) {
     if (pending_) {
       if (r == Reading::Confirmed && matches_pending(head.first(rlen))) {
         if (resent_query(rlen)) {
-          // Late and equal to the query: a resend if the same frame follows
-          // (its own echo), else the late reply. Decided when the next bytes
-          // are in, or at the silence that settles them (issue 33).
-          const auto rest = head.subspan(rlen);
-          std::size_t nlen = 0;
-          const Reading next = rest.empty() ? Reading::Incomplete : try_reply(rest, nlen);
-          if (next == Reading::Incomplete && !settle) return;
-          if (next == Reading::Confirmed && nlen == rlen &&
-              std::equal(rest.begin(), rest.begin() + static_cast<std::ptrdiff_t>(rlen),
-                         head.begin())) {
+          // Late and equal to the query: the query again, or its late reply
+          // (judge_resend; decided when the next bytes are in, or at the
+          // silence that settles them: issue 33).
+          const Resend resend = judge_resend(head, rlen, settle);
+          if (resend == Resend::Undecided) return;
+          if (resend == Resend::Yes) {
             emit_query(rlen);
             continue;
           }

@@ -293,16 +293,16 @@ TEST(Sniffer, AResentQueryIsNotTheFirstOnesEcho) {
   EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 1u);
 }
 
-// A late echo (after Tx) followed by another query, or by silence, is the
-// reply all the same: only the same frame again makes it a resend.
+// A late echo (after Tx, well within twice the reply window) followed by
+// another query, or by silence, is the reply all the same.
 TEST(Sniffer, ALateEchoIsStillTheReply) {
   Line l;
   l.at(t0 + 1ms, kSvon);
-  l.at(t0 + 40ms, kSvon);  // late
-  l.at(t0 + 60ms, kRead);
-  l.at(t0 + 70ms, kReadReply);
+  l.at(t0 + 20ms, kSvon);  // late (Tx at 115200 is ~12 ms)
+  l.at(t0 + 40ms, kRead);
+  l.at(t0 + 48ms, kReadReply);
   l.at(t0 + 100ms, kSvon);
-  l.at(t0 + 150ms, kSvon);  // late, then silence
+  l.at(t0 + 120ms, kSvon);  // late, then silence
   const auto e = l.done(t0 + 2s);
   ASSERT_EQ(e.size(), 6u);
   EXPECT_EQ(e[1].kind, SniffKind::Reply);
@@ -310,6 +310,90 @@ TEST(Sniffer, ALateEchoIsStillTheReply) {
   EXPECT_EQ(e[3].kind, SniffKind::Reply);
   EXPECT_EQ(e[5].kind, SniffKind::Reply);
   EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 0u);
+}
+
+// A dead controller: the master sends SVON three times, 50 ms apart, then
+// polls another ID. Every resend is a query that timed out, the last one
+// too (found in review: it was shown as the first one's late "ok" reply).
+TEST(Sniffer, ADeadControllersResendsAreQueriesUpToTheLast) {
+  const Bytes read2 = frame({0x02, 0x03, 0x90, 0x00, 0x00, 0x01});
+  const Bytes reply2 = frame({0x02, 0x03, 0x02, 0x00, 0x64});
+  Line l;
+  l.at(t0 + 1ms, kSvon);
+  l.at(t0 + 51ms, kSvon);
+  l.at(t0 + 101ms, kSvon);
+  l.at(t0 + 151ms, read2);
+  l.at(t0 + 159ms, reply2);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 8u);
+  for (std::size_t i : {0u, 2u, 4u}) {
+    EXPECT_EQ(e[i].kind, SniffKind::Query) << i;
+    EXPECT_EQ(e[i + 1].kind, SniffKind::NoReply) << i;
+  }
+  EXPECT_EQ(e[7].kind, SniffKind::Reply);
+  EXPECT_EQ(e[7].query, read2);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 3u);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).exchanges, 0u);
+}
+
+// A PLC that writes the same coil every 30 ms to a controller that answers
+// 2 ms after Tx: each echo is that cycle's reply, not the next query (found
+// in review: every reply became a "query" and every exchange a timeout).
+TEST(Sniffer, TheSameWriteEveryCycleWithLateRepliesPairsEachCycle) {
+  Line l;
+  for (int k = 0; k < 4; ++k) {
+    l.at(t0 + 1ms + k * 30ms, kSvon);
+    l.at(t0 + 15ms + k * 30ms, kSvon);  // 14 ms: late
+  }
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 8u);
+  for (std::size_t i = 0; i < 8; i += 2) {
+    EXPECT_EQ(e[i].kind, SniffKind::Query) << i;
+    EXPECT_EQ(e[i + 1].kind, SniffKind::Reply) << i;
+    EXPECT_EQ(e[i + 1].query_number, e[i].query_number) << i;
+    EXPECT_TRUE(e[i + 1].has(kSniffLate)) << i;
+  }
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).exchanges, 4u);
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 0u);
+}
+
+// An FC06 sent again soon after no answer, refused at once with exception
+// 01: the resend is a query and the exception its reply (it was the first
+// one's late echo, and the exception a reply nobody asked for).
+TEST(Sniffer, AResendAnsweredWithAnExceptionIsAQuery) {
+  const Bytes fc06 = frame({0x01, 0x06, 0x91, 0x00, 0x01, 0x00});
+  const Bytes refused = frame({0x01, 0x86, 0x01});
+  Line l;
+  l.at(t0 + 1ms, fc06);
+  l.at(t0 + 20ms, fc06);
+  l.at(t0 + 25ms, refused);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[0].kind, SniffKind::Query);
+  EXPECT_EQ(e[1].kind, SniffKind::NoReply);
+  EXPECT_EQ(e[2].kind, SniffKind::Query);
+  EXPECT_EQ(e[3].kind, SniffKind::Reply);
+  EXPECT_EQ(e[3].bytes, refused);
+  EXPECT_EQ(e[3].query_number, e[2].query_number);
+  EXPECT_FALSE(e[3].has(kSniffUnsolicited));
+}
+
+// A device seen to answer reads in 40 ms keeps its 40 ms echo as the reply:
+// its own slowness, not a master's retry.
+TEST(Sniffer, ASlowDevicesLateEchoStaysItsReply) {
+  const Bytes read3 = frame({0x03, 0x03, 0x90, 0x00, 0x00, 0x01});
+  const Bytes reply3 = frame({0x03, 0x03, 0x02, 0x00, 0x64});
+  const Bytes svon3 = frame({0x03, 0x05, 0x00, 0x19, 0xFF, 0x00});
+  Line l;
+  l.at(t0 + 1ms, read3);
+  l.at(t0 + 41ms, reply3);
+  l.at(t0 + 100ms, svon3);
+  l.at(t0 + 140ms, svon3);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_EQ(e[3].kind, SniffKind::Reply);
+  EXPECT_EQ(e[3].query_number, e[2].query_number);
+  EXPECT_EQ(l.sniffer.stats().ids.at(3).timeouts, 0u);
 }
 
 // FC17 (read/write multiple registers, a SCADA's): its reply is sized from the

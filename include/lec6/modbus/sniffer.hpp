@@ -154,6 +154,8 @@ class Sniffer {
 
   void scan(bool settle);
   bool resent_query(std::size_t length) const;
+  enum class Resend : uint8_t { Yes, No, Undecided };
+  Resend judge_resend(std::span<const uint8_t> head, std::size_t length, bool settle) const;
   Reading try_query(std::span<const uint8_t> head, std::size_t& length) const;
   Reading try_reply(std::span<const uint8_t> head, std::size_t& length) const;
   bool matches_pending(std::span<const uint8_t> frame) const;
@@ -191,6 +193,9 @@ class Sniffer {
   bool lumpy_now_ = false;
   std::deque<SniffEvent> events_;
   SniffStats stats_;
+  // Per ID, the longest response of a timed reply that differs from its
+  // query (a read, an exception): how slow this device's replies are.
+  std::map<uint8_t, Duration> longest_reply_;
 };
 
 }  // namespace lec6::modbus
