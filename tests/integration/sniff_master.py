@@ -6,10 +6,12 @@ every tenth a write of Y19 SVON), as fast as pymodbus goes.
     sniff_master.py tcp://H:P N        RTU frames over TCP (a second master)
 
 Prints "N done, E errors"; exit status 0 (errors are the twin's business here:
-a second master's collisions make some).
+a second master's collisions make some). SNIFF_MASTER_TIMEOUT (s, default 1):
+how long a request waits for its reply (each collision costs that much).
 """
 
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -25,13 +27,14 @@ logging.basicConfig(level=logging.CRITICAL)
 
 
 def main():
+    timeout = float(os.environ.get("SNIFF_MASTER_TIMEOUT", "1"))
     if sys.argv[1].startswith("tcp://"):
         host, port = sys.argv[1][len("tcp://"):].rsplit(":", 1)
-        client = ModbusTcpClient(host, port=int(port), framer=ModbusRtuFramer, timeout=1,
+        client = ModbusTcpClient(host, port=int(port), framer=ModbusRtuFramer, timeout=timeout,
                                  retries=0, retry_on_empty=False)
         n = int(sys.argv[2])
     else:
-        client = ModbusSerialClient(port=sys.argv[1], baudrate=int(sys.argv[2]), timeout=1,
+        client = ModbusSerialClient(port=sys.argv[1], baudrate=int(sys.argv[2]), timeout=timeout,
                                     retries=0, retry_on_empty=False)
         n = int(sys.argv[3])
     if not client.connect():

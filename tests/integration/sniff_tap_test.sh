@@ -126,9 +126,11 @@ fi
 if start_twin t5 --pty "$TMP/p5" --tcp 127.0.0.1:0 --tap "$TMP/tap5" --baud 38400; then
   url=$(grep -o 'rtu+tcp://[0-9.:]*' <<<"$READY")
   start_sniff s5 --port "$TMP/tap5" --baud 38400
-  timeout 60 "$PY" "$MASTER" "$TMP/p5" 38400 200 >/dev/null &
+  # Collisions are what this case makes: each costs a master its timeout
+  # (0.2 s: a reply at 38400 takes ~15 ms; 1 s made this case 40 s long).
+  SNIFF_MASTER_TIMEOUT=0.2 timeout 60 "$PY" "$MASTER" "$TMP/p5" 38400 100 >/dev/null &
   m1=$!
-  timeout 60 "$PY" "$MASTER" "tcp://${url#rtu+tcp://}" 200 >/dev/null
+  SNIFF_MASTER_TIMEOUT=0.2 timeout 60 "$PY" "$MASTER" "tcp://${url#rtu+tcp://}" 100 >/dev/null
   wait "$m1"
   stop_sniff
   second=$(grep -o '"second_master":[0-9]*' "$TMP/s5.jsonl" | tail -1 | cut -d: -f2)
