@@ -29,6 +29,11 @@ struct Job {
   // took its first attempt. A stop accepted after that supersedes it as it
   // would have superseded the first attempt (scheduler.cpp).
   std::optional<TimePoint> first_submitted{};
+  // A write of one of lec serve's operations (LineMaster::count_from): when
+  // its command was accepted. A stop accepted after that supersedes the
+  // command's starts however late they are submitted (a move's start comes
+  // after its reads: a stop that came meanwhile must still win; scheduler.cpp).
+  std::optional<TimePoint> command_accepted{};
 };
 
 // A job waiting for the wire.

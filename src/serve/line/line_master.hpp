@@ -35,6 +35,10 @@ class LineMaster final : public client::Master {
   modbus::ResponseFrame exchange(const modbus::RequestFrame& frame) override;
   const Clock& clock() const override { return line_.clock(); }
   std::string describe() const override;
+  // The operation this master serves was accepted at `accepted` (the line's
+  // clock): its writes carry it (Job::command_accepted), so a stop accepted
+  // after the command supersedes the command's starts, however late they come.
+  void count_from(TimePoint accepted) { accepted_ = accepted; }
   client::LinkStats stats() const override { return stats_; }
   Duration last_round_trip() const override { return last_round_trip_; }
   // The line's own times (issue 32): the exchange's start and its reply's
@@ -54,6 +58,7 @@ class LineMaster final : public client::Master {
   // attempt: a Client resends it as a new job, which a stop accepted after
   // that first attempt supersedes all the same (Job::first_submitted).
   std::optional<std::pair<modbus::RequestFrame, TimePoint>> lost_write_;
+  std::optional<TimePoint> accepted_;
 };
 
 }  // namespace lec6::serve

@@ -135,8 +135,11 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     complete(job, std::move(*refused));
     return id;
   }
-  if (job.first_submitted && superseded(job, id)) {  // a resend of a lost start, after a stop
-    supersede(job, now, now, true);
+  // A resend of a lost start, or a start of a command accepted before a
+  // stop that came meanwhile: refused as the stop would have refused it queued.
+  if ((job.first_submitted || job.command_accepted) && superseded(job, id)) {
+    const bool lost = job.first_submitted && superseded_since(job, *job.first_submitted);
+    supersede(job, now, now, lost);
     return id;
   }
   if (job.priority == Priority::Emergency) {
@@ -393,10 +396,22 @@ void Scheduler::fail_one(Queued& x, Failure why, const std::string& text, TimePo
   complete(x.job, std::move(r));
 }
 
+bool Scheduler::superseded_since(const Job& job, TimePoint since) const {
+  if (job.priority == Priority::Emergency || !client::starts_motion(job.frame.pdu)) return false;
+  const auto after = [&](const HardStop& s) { return s.accepted >= since; };
+  if (job.frame.id == modbus::kBroadcastId) return any_hard_stop_ && after(*any_hard_stop_);
+  for (const uint8_t to : {job.frame.id, modbus::kBroadcastId}) {
+    const auto it = hard_stop_.find(to);
+    if (it != hard_stop_.end() && after(it->second)) return true;
+  }
+  return false;
+}
+
 bool Scheduler::superseded(const Job& job, JobId id) const {
   if (job.priority == Priority::Emergency || !client::starts_motion(job.frame.pdu)) return false;
   const auto after = [&](const HardStop& s) {
-    return s.id > id || (job.first_submitted && s.accepted >= *job.first_submitted);
+    return s.id > id || (job.first_submitted && s.accepted >= *job.first_submitted) ||
+           (job.command_accepted && s.accepted >= *job.command_accepted);
   };
   if (job.frame.id == modbus::kBroadcastId) return any_hard_stop_ && after(*any_hard_stop_);
   for (const uint8_t to : {job.frame.id, modbus::kBroadcastId}) {

@@ -252,6 +252,8 @@ class Scheduler {
   // A write that starts motion, submitted before a hard stop to its
   // controller was accepted: refused with Failure::Superseded (submit()).
   bool superseded(const Job& job, JobId id) const;
+  // Whether a hard stop to its controller was accepted at or after `since`.
+  bool superseded_since(const Job& job, TimePoint since) const;
   // `lost`: its reply was lost, and it is not sent again.
   void supersede(Job& job, TimePoint submitted, TimePoint now, bool lost = false);
   std::optional<JobResult> refuse_now(const Job& job, TimePoint now) const;

@@ -14,6 +14,11 @@ struct Operations::Running {
   Op op = Op::Move;
   std::string source;
   TimePoint since{};
+  // When it was accepted, on its line's clock: a stop accepted after that
+  // supersedes its starts, however late they reach the line (LineMaster::
+  // count_from; a DCMD move raced by a stop 1.4 ms later moved the axis after
+  // the stop's "stopped": the move's start came after its reads).
+  TimePoint accepted{};
   bool jog_plus = true;
   std::atomic<bool> cancel{false};
   std::atomic<bool> stopped_by_other{false};
@@ -135,6 +140,7 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
       run->op = cmd.op;
       run->source = source;
       run->since = kClock.now();
+      run->accepted = axis.line->clock().now();
       run->jog_plus = cmd.jog_plus;
       if (cmd.op == Op::Jog && cmd.jog_lease > Duration{}) renew(run->lease_until, cmd.jog_lease);
       if (is_motion(cmd.op)) slot.motion = run, slot.unsettled.reset();
@@ -322,6 +328,7 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
   const bool urgent = stops_motion(cmd);
   LineMaster master(*axis.line, urgent ? Priority::Emergency : Priority::Completion,
                     urgent ? Priority::Emergency : Priority::Command);
+  if (!urgent) master.count_from(run.accepted);
   client::ClientOptions co;
   co.id = axis.id;
   co.retries = axis.line_config->retries;

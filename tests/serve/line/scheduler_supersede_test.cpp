@@ -228,6 +228,50 @@ TEST(SchedulerSupersede, AResendOfALostStartIsRefusedAfterAStopThatCameAfterTheF
   EXPECT_EQ(result_of(s, "new drive").failure, Failure::None);
 }
 
+// An operation's start comes after its reads (a move reads the flags and
+// the state, writes the direct data, then starts): a stop accepted after the
+// command, before the start reaches the line, supersedes the start all the
+// same (Job::command_accepted; the Sparkplug attack's DCMD move raced by a
+// stop 1.4 ms later moved the axis after the stop's "stopped"). A command
+// accepted after the stop is carried out.
+TEST(SchedulerSupersede, AStartOfACommandAcceptedBeforeTheStopIsRefusedHoweverLateItComes) {
+  Harness h;
+  Submitted s;
+  const TimePoint move_accepted = h.clock.now();
+  h.clock.advance(1ms);
+  submit(h, s, "reset", 1, kResetOn);  // the stop, while the move is still reading
+  h.run_for(100ms);
+  Job start;
+  start.priority = Priority::Command;
+  start.frame = {1, direct_start()};
+  start.command_accepted = move_accepted;
+  start.done = [&s](const JobResult& r) { s.results.emplace_back("start", r); };
+  h.s.submit(std::move(start), h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+  const JobResult& r = result_of(s, "start");
+  EXPECT_EQ(r.failure, Failure::Superseded);
+  EXPECT_THAT(r.error, HasSubstr("a stop to ID 1 accepted after it came first"));
+  // Step data written by the same command is not a start: carried out.
+  Job data;
+  data.priority = Priority::Command;
+  const uint16_t v[] = {10000, 0};
+  data.frame = {1, modbus::WriteRegistersRequest::of(lec::kDirectData, v)};
+  data.command_accepted = move_accepted;
+  data.done = [&s](const JobResult& r) { s.results.emplace_back("data", r); };
+  h.s.submit(std::move(data), h.clock.now());
+  h.run_for(100ms);
+  EXPECT_EQ(result_of(s, "data").failure, Failure::None);
+  // The next command, accepted after the stop: its start goes.
+  Job next;
+  next.priority = Priority::Command;
+  next.frame = {1, direct_start()};
+  next.command_accepted = h.clock.now();
+  next.done = [&s](const JobResult& r) { s.results.emplace_back("next", r); };
+  h.s.submit(std::move(next), h.clock.now());
+  h.run_for(100ms);
+  EXPECT_EQ(result_of(s, "next").failure, Failure::None);
+}
+
 // Modbus TCP: a superseded write is answered with exception 04 (not carried
 // out), never 0B (which would say the controller is dead).
 TEST(SchedulerSupersede, TheGatewayAnswersASupersededWriteWithException04) {

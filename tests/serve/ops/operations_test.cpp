@@ -141,6 +141,43 @@ TEST(Operations, AMoveWhoseControllerStoppedAnsweringKeepsTheAxisAndAStopStillGo
   EXPECT_EQ(next.status, 200) << next.body.dump();
 }
 
+// A stop that came while a move was still reading (its start not yet on the
+// line) wins: the move's start is refused and the axis never moves after the
+// stop's answer. The Sparkplug attack's race (a DCMD move, a stop 1.4 ms
+// later), made deterministic: the line is held until both have queued.
+TEST(Operations, AStopThatCameWhileAMoveWasReadingSupersedesItsStart) {
+  Rig rig;
+  rig.prepare();
+  const auto depth = [&](Priority p) { return rig.line->stats().queue_depth[index(p)]; };
+  std::promise<void> gate;
+  std::shared_future<void> opened = gate.get_future().share();
+  rig.line->post([opened] { opened.wait(); });  // the line's thread waits here
+  auto move = rig.start("move", {{"position_mm", 300}, {"speed_mm_s", 100}});
+  ASSERT_TRUE(eventually([&] { return depth(Priority::Completion) >= 1; }))
+      << "the move's first read never queued";
+  auto stop = rig.start("stop", nlohmann::json::object());
+  ASSERT_TRUE(eventually([&] { return depth(Priority::Emergency) >= 1; }))
+      << "the stop never queued";
+  gate.set_value();
+  ASSERT_EQ(stop.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(stop.get().status, 200);
+  ASSERT_EQ(move.wait_for(30s), std::future_status::ready);
+  const OpResult m = move.get();
+  EXPECT_EQ(m.status, 422) << m.body.dump();
+  // Refused at the line (its start never sent), not started and then stopped
+  // at its first poll (the axis moved after the stop's answer until then).
+  EXPECT_THAT(m.body.value("error", ""), HasSubstr("accepted after it came first")) << m.body.dump();
+  // Never moving after the stop's answer: BUSY stays 0 and the carriage home.
+  const auto end = std::chrono::steady_clock::now() + 300ms;
+  while (std::chrono::steady_clock::now() < end) {
+    const auto s = rig.line->snapshot(1);
+    ASSERT_TRUE(s.flags && s.state);
+    EXPECT_FALSE(s.flags->busy());
+    EXPECT_LT(s.state->position_001mm, 10) << "the move started after the stop";
+    std::this_thread::sleep_for(20ms);
+  }
+}
+
 // A burst of noise long enough to back the controller off, in the middle of
 // a move: the move is seen through to its target once a probe finds the
 // controller again (the history's healthy scenario lost a move to a 502 this
