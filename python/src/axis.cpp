@@ -214,7 +214,7 @@ void bind_motion(py::class_<Axis>& c) {
                                     "move", wait);
             if (!wait) {
               r.started = started;
-              r.line = self.line.get();
+              r.line = self.line;
               r.id = self.id();
             }
             return r;
@@ -237,10 +237,18 @@ void bind_motion(py::class_<Axis>& c) {
           [](Axis& self, const MoveResult& started, double timeout, py::object progress,
              py::object cancel) {
             if (started.waited) return started;  // it ended already: as it ended
-            if (!started.started || started.line != self.line.get() || started.id != self.id())
+            // The bus that started it, still open: a closed bus's line may be
+            // freed, and a new one's is another line (another controller).
+            const auto line = started.line.lock();
+            if (!started.started || !line || line->closed())
+              throw client::InvalidRequest(
+                  "wait(): the bus this move was started on is closed; wait on the bus that "
+                  "started it");
+            if (line != self.line || started.id != self.id())
               throw client::InvalidRequest(fmt::format(
                   "wait(): this move was started on axis {}{}; wait for it on that axis",
-                  started.id, started.line == self.line.get() ? "" : " of another bus"));
+                  started.id,
+                  line.get() == static_cast<void*>(self.line.get()) ? "" : " of another bus"));
             const Duration limit = seconds_arg(timeout, "timeout");
             return finished(
                 self.wait_call(

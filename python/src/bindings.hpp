@@ -14,11 +14,13 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "lec6/client/actuator.hpp"
+#include "lec6/client/shared_master.hpp"
 #include "lec6/lec/alarms.hpp"
 #include "lec6/lec/flags.hpp"
 #include "lec6/lec/state_data.hpp"
@@ -82,7 +84,7 @@ struct MoveResult {
   // move(wait=False): what Axis.wait() judges the move against, and the axis
   // (its line and ID) that started it.
   std::optional<client::StartedMove> started{};
-  const void* line = nullptr;
+  std::weak_ptr<client::SharedMaster> line{};  // the bus's line: not kept open by a result
   uint8_t id = 0;
 };
 

@@ -112,6 +112,32 @@ def test_a_cancelled_wait_stops_the_axis(ready):
     assert 20 < s.position_mm < 390 and not s.inp
 
 
+def test_wait_after_a_stop_says_stopped_and_sends_nothing_more(ready):
+    started = ready.move(to=300.0, speed=100, wait=False)
+    wait_for(lambda: ready.status().position_mm > 10, what="motion")
+    ready.stop()
+    r = ready.wait(started)  # the run ended unseen, short of its target
+    assert r.outcome == "stopped" and not r.succeeded and 10 < r.position_mm < 290
+
+
+def test_a_move_of_a_closed_bus_is_refused(twin_factory):
+    twin = twin_factory(initial_position_mm=1.0)
+    bus = twin.connect()
+    a = bus.axis(1)
+    a.set_serial_mode(True)
+    a.servo_on()
+    a.home()
+    started = a.move(to=50.0, wait=False)
+    bus.close()
+    del a, bus
+    import gc
+    gc.collect()
+    # Another bus (another twin's), maybe at the freed one's address.
+    with twin_factory(initial_position_mm=1.0).connect() as bus2:
+        with pytest.raises(lec6.InvalidRequest, match="bus this move was started on is closed"):
+            bus2.axis(1).wait(started)
+
+
 def test_wait_on_another_axis_is_refused_with_its_id(twin_factory):
     twin = twin_factory(ids=[1, 2], initial_position_mm=1.0)
     bus = twin.connect()

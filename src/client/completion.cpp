@@ -96,6 +96,22 @@ bool Completion::settled_without_busy(const Poll& p) const {
   return false;
 }
 
+// Rule 3's stopped short: the controller holds this move's target (D9004)
+// and the carriage has come toward it by more than the position tolerance
+// since the start, with BUSY never seen (a start given while BUSY is not
+// judged so: the previous move may have carried it).
+bool Completion::moved_toward_target(const Poll& p) const {
+  const MoveGoal& g = start_.goal;
+  if (g.operation != Operation::Positioning || retarget()) return false;
+  if (p.state.target_001mm != g.target_001mm) return false;
+  const int64_t from = start_.state_before.position_001mm;
+  const int64_t to = g.target_001mm;
+  const int64_t now = p.state.position_001mm;
+  const int64_t dir = to >= from ? 1 : -1;
+  return (now - from) * dir > kPositionTolerance001mm &&
+         (to - now) * dir >= -kPositionTolerance001mm;
+}
+
 // Rule 2's INP after BUSY fell: a positioning move or homing whose BUSY fell
 // at its target, within its band, with INP not up yet, is given the settle
 // window for INP to rise before it is judged.
@@ -189,6 +205,11 @@ std::optional<MoveResult> Completion::feed(const Poll& p) {
       if (!p.flags.busy() && settled_without_busy(p)) {
         evidence_ = "at the target with INP = 1 and D9004 = the target (BUSY not seen)";
         return result(MoveOutcome::Reached, p);
+      }
+      if (!p.flags.busy() && moved_toward_target(p)) {
+        evidence_ = "D9004 = the target and the carriage moved toward it (BUSY not seen)";
+        started_ = true;
+        return result(judge(p), p);
       }
       // A start given while BUSY: by now the new move has begun, and D9004 says so.
       if (retarget() && p.flags.busy() && p.state.target_001mm == start_.goal.target_001mm) {

@@ -2,6 +2,8 @@
 
 #include "lec6/lec/alarm_check.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 namespace lec6::lec {
@@ -60,25 +62,27 @@ std::string alarm_after_reset(const std::vector<uint8_t>& left, AlarmPolarity co
   std::string codes;
   for (uint8_t c : left)
     codes += fmt::format("{}{} ({})", codes.empty() ? "" : ", ", c, alarm_meaning(c));
-  std::string out = "alarm still active after RESET: " + codes;
-  for (uint8_t c : left) {
-    if (!alarm_resettable(c))
-      return out + fmt::format(
-                       "; RESET does not clear alarm {} (only 48-99): turn the servo off, "
-                       "or switch the controller's power off and on",
-                       c);
-  }
   const AlarmPolarity other = configured == AlarmPolarity::ActiveHigh ? AlarmPolarity::ActiveLow
                                                                       : AlarmPolarity::ActiveHigh;
-  return out +
-         fmt::format(
-             "; RESET clears {}, so either its cause is still there (check the axis and "
-             "the step data), or this controller reports ALARM {} and is healthy: the "
-             "code is then an old one the alarm history keeps; if the axis is otherwise "
-             "ready (SVRE and SETON on), set `alarm_polarity: {}`",
-             left.size() == 1 ? "this code" : "these codes",
-             other == AlarmPolarity::ActiveLow ? "inverted" : "as the manual says (X4F = 1: alarm)",
-             to_string(other));
+  const std::string_view reports =
+      other == AlarmPolarity::ActiveLow ? "inverted" : "as the manual says (X4F = 1: alarm)";
+  std::string out = "alarm still active after RESET: " + codes;
+  const bool resettable = std::all_of(left.begin(), left.end(), alarm_resettable);
+  if (!resettable) {
+    // The remedy alarm_clear_hint gives everywhere; an old code of a healthy
+    // controller of the other polarity survives the power cycle too.
+    return out + fmt::format(
+                     "; {}. If ALARM is still on after that while the axis is otherwise ready "
+                     "(SVRE and SETON on), the code is an old one the alarm history keeps and "
+                     "this controller reports ALARM {}: set `alarm_polarity: {}`",
+                     alarm_clear_hint(left), reports, to_string(other));
+  }
+  return out + fmt::format(
+                   "; RESET clears {}, so either its cause is still there (check the axis and "
+                   "the step data), or this controller reports ALARM {} and is healthy: the "
+                   "code is then an old one the alarm history keeps; if the axis is otherwise "
+                   "ready (SVRE and SETON on), set `alarm_polarity: {}`",
+                   left.size() == 1 ? "this code" : "these codes", reports, to_string(other));
 }
 
 }  // namespace lec6::lec

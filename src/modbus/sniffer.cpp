@@ -197,12 +197,13 @@ Sniffer::Resend Sniffer::judge_resend(std::span<const uint8_t> head, std::size_t
                                            exception_head.begin()));
   }
   if (reply == 0) return may_become && !settle ? Resend::Undecided : Resend::No;
-  if (timed_frame(head_ + length, reply)) {
-    const Duration after =
-        times_[head_ + length + reply - 1] - options_.timing.wire_time(reply) - end;
-    if (after > window || after >= gap) return Resend::No;
-  }
-  return Resend::Yes;
+  // A follower delivered with other bytes has no time of its own: the reply
+  // reading stays (found in review: one lumped read turned a late echo into
+  // a query, and the misreading ran on).
+  if (!timed_frame(head_ + length, reply)) return Resend::No;
+  const Duration after =
+      times_[head_ + length + reply - 1] - options_.timing.wire_time(reply) - end;
+  return after > window || after >= gap ? Resend::No : Resend::Yes;
 }
 
 bool Sniffer::timed_frame(std::size_t first, std::size_t length) const {

@@ -36,8 +36,10 @@ std::optional<std::string> keep_earlier_capture(const std::string& path) {
     struct stat other {};
     if (::stat(kept.c_str(), &other) == 0) continue;
     if (::rename(path.c_str(), kept.c_str()) != 0) {
-      throw InvalidArgument(fmt::format("cannot keep the earlier capture {} as {}: {}", path, kept,
-                                        std::strerror(errno)));
+      throw InvalidArgument(fmt::format(
+          "cannot keep the earlier capture {} as {}: {}; it is not overwritten: move or remove "
+          "it first, or record to another file",
+          path, kept, std::strerror(errno)));
     }
     return kept;
   }

@@ -117,6 +117,29 @@ TEST(Completion, NoEvidenceEndsAsNotStartedNeverSuccess) {
   EXPECT_NE(r.result->describe().find("did not start"), std::string::npos);
 }
 
+// A move whose whole run fell before the first poll and was stopped short
+// (Python's axis.wait() begun after stop()): D9004 holds its target and the
+// carriage came toward it; it started and it stopped, it is not "not
+// started" (which would send another stop).
+TEST(Completion, AMoveStoppedBeforeAnyPollIsStoppedNotNotStarted) {
+  const auto before = flags({StatusFlags::Inp});
+  Completion c(from(positioning(15000), before, state(0, 0)), t0 + ms(5000));
+  std::vector<std::pair<StatusFlags, lec::StateData>> rest(30, {flags({}), state(1156, 15000)});
+  const auto r = run(c, rest);
+  ASSERT_TRUE(r.result);
+  EXPECT_EQ(r.at, 19);  // judged when the start window is over, as rule 3's other case
+  EXPECT_EQ(r.result->outcome, MoveOutcome::Stopped);
+  EXPECT_EQ(r.result->evidence,
+            "D9004 = the target and the carriage moved toward it (BUSY not seen)");
+  // Moved, but away from the target, or by less than the tolerance, or with
+  // another target in D9004: no evidence that this move ran.
+  for (const auto& seen : {state(-500, 15000), state(5, 15000), state(1156, 9000)}) {
+    Completion d(from(positioning(15000), before, state(0, 0)), t0 + ms(5000));
+    std::vector<std::pair<StatusFlags, lec::StateData>> polls(30, {flags({}), seen});
+    EXPECT_EQ(run(d, polls).result->outcome, MoveOutcome::NotStarted) << seen.position_001mm;
+  }
+}
+
 TEST(Completion, PushWithoutAnyEvidenceIsNotStarted) {
   const auto before = flags({StatusFlags::Inp});
   Completion c(from(pushing(30000, 2000), before, state(10000, 10000)), t0 + ms(5000));

@@ -378,6 +378,27 @@ TEST(Sniffer, AResendAnsweredWithAnExceptionIsAQuery) {
   EXPECT_FALSE(e[3].has(kSniffUnsolicited));
 }
 
+// A late echo whose follower came in one read with more bytes (no time of
+// its own): the echo stays the reply, and the lump's two frames a query and
+// its reply (found in review: one lumped read made the late echo a query and
+// the misreading ran on into the next cycles).
+TEST(Sniffer, ALateEchoFollowedByALumpStaysTheReply) {
+  Line l;
+  l.at(t0 + 700us, kSvon);
+  l.at(t0 + 16ms, kSvon);  // late (15 ms)
+  l.at(t0 + 50700us, cat({kSvon, kSvon}));
+  l.at(t0 + 100700us, kSvon);
+  l.at(t0 + 116ms, kSvon);
+  const auto e = l.done(t0 + 2s);
+  ASSERT_EQ(e.size(), 6u);
+  for (std::size_t i = 0; i < 6; i += 2) {
+    EXPECT_EQ(e[i].kind, SniffKind::Query) << i;
+    EXPECT_EQ(e[i + 1].kind, SniffKind::Reply) << i;
+    EXPECT_EQ(e[i + 1].query_number, e[i].query_number) << i;
+  }
+  EXPECT_EQ(l.sniffer.stats().ids.at(1).timeouts, 0u);
+}
+
 // A device seen to answer reads in 40 ms keeps its 40 ms echo as the reply:
 // its own slowness, not a master's retry.
 TEST(Sniffer, ASlowDevicesLateEchoStaysItsReply) {

@@ -39,7 +39,13 @@
 //    axis is demonstrably where it was sent: INP = 1, D9004 = the target,
 //    the position within the in-position band (homing: SETON, INP, at the
 //    origin). That settles a BUSY pulse that fell between two polls of a
-//    move already at its target. Otherwise: NotStarted, never success.
+//    move already at its target. A positioning move whose whole run fell
+//    between two polls and was stopped short (a wait begun late:
+//    Python's axis.wait() after stop()) shows as D9004 = the target and
+//    the carriage moved toward it by more than the position tolerance: it
+//    started, and it ended Stopped (completion_test.cpp
+//    AMoveStoppedBeforeAnyPollIsStoppedNotNotStarted). Otherwise: NotStarted,
+//    never success.
 // 4. An alarm ends the move at once; past the deadline, Deadline.
 //
 // The start window must exceed the controller's BUSY delay plus its
@@ -110,6 +116,7 @@ class Completion {
   void look_for_start(const Poll& p, Duration t);
   void mark_started(const Poll& p, Duration t, std::string evidence);
   bool settled_without_busy(const Poll& p) const;
+  bool moved_toward_target(const Poll& p) const;
   bool settling(const Poll& p, Duration t) const;
   MoveOutcome judge(const Poll& p) const;
   int32_t push_end() const;
