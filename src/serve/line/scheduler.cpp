@@ -158,8 +158,18 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     // must go. Decision row: docs/protocol-decisions.md, "A stop supersedes".
     const uint8_t to = job.frame.id;
     if (client::stops_hard(job.frame.pdu)) {
-      hard_stop_[to] = {id, now};
-      any_hard_stop_ = HardStop{id, now};
+      // Dated when its command was accepted, for one of lec serve's own
+      // operations (a RESET pulse's RESET <- 1 follows its RESET <- 0's
+      // exchange: a move accepted in between came after the reset, and must
+      // go); never moved back by a later write of an earlier stop.
+      const TimePoint at = std::min(now, job.command_accepted.value_or(now));
+      const auto record = [&](std::optional<HardStop> before) {
+        return HardStop{id, before ? std::max(before->accepted, at) : at};
+      };
+      const auto it = hard_stop_.find(to);
+      hard_stop_[to] =
+          record(it == hard_stop_.end() ? std::nullopt : std::optional<HardStop>(it->second));
+      any_hard_stop_ = record(any_hard_stop_);
     }
     const auto reaches = [&](uint8_t target) {
       return target == to || to == modbus::kBroadcastId || target == modbus::kBroadcastId;
@@ -433,7 +443,8 @@ void Scheduler::supersede(Job& job, TimePoint submitted, TimePoint now, bool los
                       job.frame.id)
                 : fmt::format(
                       "not carried out: a stop to ID {} accepted after it came first (a stop "
-                      "supersedes the writes queued before it that would start or resume motion)",
+                      "supersedes the writes before it that would start or resume motion: those "
+                      "queued, and those of commands accepted before it)",
                       job.frame.id);
   r.submitted = submitted;
   r.started = r.finished = now;

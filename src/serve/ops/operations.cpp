@@ -328,7 +328,9 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
   const bool urgent = stops_motion(cmd);
   LineMaster master(*axis.line, urgent ? Priority::Emergency : Priority::Completion,
                     urgent ? Priority::Emergency : Priority::Command);
-  if (!urgent) master.count_from(run.accepted);
+  // Its writes carry when it was accepted: a start's, so that a stop accepted
+  // after it supersedes it; a stop's, so that it is dated then (scheduler.cpp).
+  master.count_from(run.accepted);
   client::ClientOptions co;
   co.id = axis.id;
   co.retries = axis.line_config->retries;

@@ -272,6 +272,55 @@ TEST(SchedulerSupersede, AStartOfACommandAcceptedBeforeTheStopIsRefusedHoweverLa
   EXPECT_EQ(result_of(s, "next").failure, Failure::None);
 }
 
+// The other way round (a reviewer's finding): a reset accepted before a
+// move, whose RESET <- 1 reaches the line after the move was accepted (it
+// follows its RESET <- 0's exchange), is dated at its acceptance: the move
+// came after it and goes. A later write of that earlier stop never moves the
+// date of a newer stop back.
+TEST(SchedulerSupersede, AStopAcceptedBeforeACommandDoesNotRefuseItWhenItsWriteComesLater) {
+  Harness h;
+  Submitted s;
+  const TimePoint reset_accepted = h.clock.now();
+  h.clock.advance(2ms);
+  const TimePoint move_accepted = h.clock.now();
+  h.clock.advance(3ms);
+  Job reset;
+  reset.priority = Priority::Emergency;
+  reset.frame = {1, kResetOn};
+  reset.command_accepted = reset_accepted;
+  reset.done = [&s](const JobResult& r) { s.results.emplace_back("reset", r); };
+  h.s.submit(std::move(reset), h.clock.now());
+  h.run_for(50ms);
+  Job start;
+  start.priority = Priority::Command;
+  start.frame = {1, direct_start()};
+  start.command_accepted = move_accepted;
+  start.done = [&s](const JobResult& r) { s.results.emplace_back("start", r); };
+  h.s.submit(std::move(start), h.clock.now());
+  h.run_for(50ms);
+  EXPECT_EQ(result_of(s, "start").failure, Failure::None) << result_of(s, "start").error;
+  // A stop accepted after that move, then a late write of the old reset: the
+  // newer stop's date stands, and a start of a command between them is refused.
+  const TimePoint second_move = h.clock.now();
+  h.clock.advance(1ms);
+  submit(h, s, "stop", 1, kResetOn);
+  Job old;
+  old.priority = Priority::Emergency;
+  old.frame = {1, kResetOn};
+  old.command_accepted = reset_accepted;
+  old.done = [](const JobResult&) {};
+  h.s.submit(std::move(old), h.clock.now());
+  h.run_for(50ms);
+  Job late;
+  late.priority = Priority::Command;
+  late.frame = {1, direct_start()};
+  late.command_accepted = second_move;
+  late.done = [&s](const JobResult& r) { s.results.emplace_back("late", r); };
+  h.s.submit(std::move(late), h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+  EXPECT_EQ(result_of(s, "late").failure, Failure::Superseded);
+}
+
 // Modbus TCP: a superseded write is answered with exception 04 (not carried
 // out), never 0B (which would say the controller is dead).
 TEST(SchedulerSupersede, TheGatewayAnswersASupersededWriteWithException04) {

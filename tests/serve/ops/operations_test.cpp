@@ -178,6 +178,29 @@ TEST(Operations, AStopThatCameWhileAMoveWasReadingSupersedesItsStart) {
   }
 }
 
+// The other way round (a reviewer's finding): a reset accepted just before
+// a move (an alarm-recovery script's two commands), whose RESET <- 1 reaches
+// the line after the move was accepted, does not refuse the move: the reset
+// came first.
+TEST(Operations, AMoveRightAfterAResetGoes) {
+  Rig rig;
+  rig.prepare();
+  const auto depth = [&](Priority p) { return rig.line->stats().queue_depth[index(p)]; };
+  std::promise<void> gate;
+  std::shared_future<void> opened = gate.get_future().share();
+  rig.line->post([opened] { opened.wait(); });
+  auto reset = rig.start("reset", nlohmann::json::object());
+  ASSERT_TRUE(eventually([&] { return depth(Priority::Emergency) >= 1; }));
+  auto move = rig.start("move", {{"position_mm", 30}, {"speed_mm_s", 500}});
+  ASSERT_TRUE(eventually([&] { return depth(Priority::Completion) >= 1; }));
+  gate.set_value();
+  ASSERT_EQ(reset.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(reset.get().status, 200);
+  ASSERT_EQ(move.wait_for(30s), std::future_status::ready);
+  const OpResult m = move.get();
+  EXPECT_EQ(m.status, 200) << m.body.dump();
+}
+
 // A burst of noise long enough to back the controller off, in the middle of
 // a move: the move is seen through to its target once a probe finds the
 // controller again (the history's healthy scenario lost a move to a 502 this
