@@ -54,6 +54,21 @@ void submit(Harness& h, Submitted& out, std::string name, uint8_t id, modbus::Re
   for (auto& c : h.s.take_completions()) c.done(c.result);
 }
 
+// As submit(), for a write of one of lec serve's operations: one attempt,
+// dated at its command's acceptance (Job::command_accepted).
+void submit_accepted(Harness& h, Submitted& out, std::string name, uint8_t id, modbus::Request r,
+                     TimePoint accepted) {
+  Job j;
+  j.priority = client::stops_or_releases(r) ? Priority::Emergency : Priority::Command;
+  j.frame = {id, std::move(r)};
+  j.command_accepted = accepted;
+  j.done = [&out, name = std::move(name)](const JobResult& res) {
+    out.results.emplace_back(name, res);
+  };
+  h.s.submit(std::move(j), h.clock.now());
+  for (auto& c : h.s.take_completions()) c.done(c.result);
+}
+
 const JobResult& result_of(const Submitted& s, const std::string& name) {
   for (const auto& [n, r] : s.results)
     if (n == name) return r;
@@ -241,33 +256,18 @@ TEST(SchedulerSupersede, AStartOfACommandAcceptedBeforeTheStopIsRefusedHoweverLa
   h.clock.advance(1ms);
   submit(h, s, "reset", 1, kResetOn);  // the stop, while the move is still reading
   h.run_for(100ms);
-  Job start;
-  start.priority = Priority::Command;
-  start.frame = {1, direct_start()};
-  start.command_accepted = move_accepted;
-  start.done = [&s](const JobResult& r) { s.results.emplace_back("start", r); };
-  h.s.submit(std::move(start), h.clock.now());
-  for (auto& c : h.s.take_completions()) c.done(c.result);
+  submit_accepted(h, s, "start", 1, direct_start(), move_accepted);
   const JobResult& r = result_of(s, "start");
   EXPECT_EQ(r.failure, Failure::Superseded);
   EXPECT_THAT(r.error, HasSubstr("a stop to ID 1 accepted after it came first"));
   // Step data written by the same command is not a start: carried out.
-  Job data;
-  data.priority = Priority::Command;
   const uint16_t v[] = {10000, 0};
-  data.frame = {1, modbus::WriteRegistersRequest::of(lec::kDirectData, v)};
-  data.command_accepted = move_accepted;
-  data.done = [&s](const JobResult& r) { s.results.emplace_back("data", r); };
-  h.s.submit(std::move(data), h.clock.now());
+  submit_accepted(h, s, "data", 1, modbus::WriteRegistersRequest::of(lec::kDirectData, v),
+                  move_accepted);
   h.run_for(100ms);
   EXPECT_EQ(result_of(s, "data").failure, Failure::None);
   // The next command, accepted after the stop: its start goes.
-  Job next;
-  next.priority = Priority::Command;
-  next.frame = {1, direct_start()};
-  next.command_accepted = h.clock.now();
-  next.done = [&s](const JobResult& r) { s.results.emplace_back("next", r); };
-  h.s.submit(std::move(next), h.clock.now());
+  submit_accepted(h, s, "next", 1, direct_start(), h.clock.now());
   h.run_for(100ms);
   EXPECT_EQ(result_of(s, "next").failure, Failure::None);
 }
@@ -284,19 +284,9 @@ TEST(SchedulerSupersede, AStopAcceptedBeforeACommandDoesNotRefuseItWhenItsWriteC
   h.clock.advance(2ms);
   const TimePoint move_accepted = h.clock.now();
   h.clock.advance(3ms);
-  Job reset;
-  reset.priority = Priority::Emergency;
-  reset.frame = {1, kResetOn};
-  reset.command_accepted = reset_accepted;
-  reset.done = [&s](const JobResult& r) { s.results.emplace_back("reset", r); };
-  h.s.submit(std::move(reset), h.clock.now());
+  submit_accepted(h, s, "reset", 1, kResetOn, reset_accepted);
   h.run_for(50ms);
-  Job start;
-  start.priority = Priority::Command;
-  start.frame = {1, direct_start()};
-  start.command_accepted = move_accepted;
-  start.done = [&s](const JobResult& r) { s.results.emplace_back("start", r); };
-  h.s.submit(std::move(start), h.clock.now());
+  submit_accepted(h, s, "start", 1, direct_start(), move_accepted);
   h.run_for(50ms);
   EXPECT_EQ(result_of(s, "start").failure, Failure::None) << result_of(s, "start").error;
   // A stop accepted after that move, then a late write of the old reset: the
@@ -304,20 +294,9 @@ TEST(SchedulerSupersede, AStopAcceptedBeforeACommandDoesNotRefuseItWhenItsWriteC
   const TimePoint second_move = h.clock.now();
   h.clock.advance(1ms);
   submit(h, s, "stop", 1, kResetOn);
-  Job old;
-  old.priority = Priority::Emergency;
-  old.frame = {1, kResetOn};
-  old.command_accepted = reset_accepted;
-  old.done = [](const JobResult&) {};
-  h.s.submit(std::move(old), h.clock.now());
+  submit_accepted(h, s, "old reset", 1, kResetOn, reset_accepted);
   h.run_for(50ms);
-  Job late;
-  late.priority = Priority::Command;
-  late.frame = {1, direct_start()};
-  late.command_accepted = second_move;
-  late.done = [&s](const JobResult& r) { s.results.emplace_back("late", r); };
-  h.s.submit(std::move(late), h.clock.now());
-  for (auto& c : h.s.take_completions()) c.done(c.result);
+  submit_accepted(h, s, "late", 1, direct_start(), second_move);
   EXPECT_EQ(result_of(s, "late").failure, Failure::Superseded);
 }
 

@@ -77,6 +77,14 @@ struct Rig {
       bus->set_faults(f);
     });
   }
+  // Holds the line's thread until the returned promise is set: what is
+  // submitted meanwhile queues, in the order it came.
+  std::promise<void> hold_line() {
+    std::promise<void> gate;
+    line->post([opened = gate.get_future().share()] { opened.wait(); });
+    return gate;
+  }
+  std::size_t depth(Priority p) const { return line->stats().queue_depth[index(p)]; }
   void prepare() {
     ASSERT_EQ(run("serial", {{"on", true}}).status, 200);
     ASSERT_EQ(run("servo", {{"on", true}}).status, 200);
@@ -148,15 +156,12 @@ TEST(Operations, AMoveWhoseControllerStoppedAnsweringKeepsTheAxisAndAStopStillGo
 TEST(Operations, AStopThatCameWhileAMoveWasReadingSupersedesItsStart) {
   Rig rig;
   rig.prepare();
-  const auto depth = [&](Priority p) { return rig.line->stats().queue_depth[index(p)]; };
-  std::promise<void> gate;
-  std::shared_future<void> opened = gate.get_future().share();
-  rig.line->post([opened] { opened.wait(); });  // the line's thread waits here
+  std::promise<void> gate = rig.hold_line();
   auto move = rig.start("move", {{"position_mm", 300}, {"speed_mm_s", 100}});
-  ASSERT_TRUE(eventually([&] { return depth(Priority::Completion) >= 1; }))
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Completion) >= 1; }))
       << "the move's first read never queued";
   auto stop = rig.start("stop", nlohmann::json::object());
-  ASSERT_TRUE(eventually([&] { return depth(Priority::Emergency) >= 1; }))
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }))
       << "the stop never queued";
   gate.set_value();
   ASSERT_EQ(stop.wait_for(30s), std::future_status::ready);
@@ -166,7 +171,8 @@ TEST(Operations, AStopThatCameWhileAMoveWasReadingSupersedesItsStart) {
   EXPECT_EQ(m.status, 422) << m.body.dump();
   // Refused at the line (its start never sent), not started and then stopped
   // at its first poll (the axis moved after the stop's answer until then).
-  EXPECT_THAT(m.body.value("error", ""), HasSubstr("accepted after it came first")) << m.body.dump();
+  EXPECT_THAT(m.body.value("error", ""), HasSubstr("accepted after it came first"))
+      << m.body.dump();
   // Never moving after the stop's answer: BUSY stays 0 and the carriage home.
   const auto end = std::chrono::steady_clock::now() + 300ms;
   while (std::chrono::steady_clock::now() < end) {
@@ -185,14 +191,11 @@ TEST(Operations, AStopThatCameWhileAMoveWasReadingSupersedesItsStart) {
 TEST(Operations, AMoveRightAfterAResetGoes) {
   Rig rig;
   rig.prepare();
-  const auto depth = [&](Priority p) { return rig.line->stats().queue_depth[index(p)]; };
-  std::promise<void> gate;
-  std::shared_future<void> opened = gate.get_future().share();
-  rig.line->post([opened] { opened.wait(); });
+  std::promise<void> gate = rig.hold_line();
   auto reset = rig.start("reset", nlohmann::json::object());
-  ASSERT_TRUE(eventually([&] { return depth(Priority::Emergency) >= 1; }));
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
   auto move = rig.start("move", {{"position_mm", 30}, {"speed_mm_s", 500}});
-  ASSERT_TRUE(eventually([&] { return depth(Priority::Completion) >= 1; }));
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Completion) >= 1; }));
   gate.set_value();
   ASSERT_EQ(reset.wait_for(30s), std::future_status::ready);
   EXPECT_EQ(reset.get().status, 200);
