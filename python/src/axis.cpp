@@ -240,7 +240,12 @@ void bind_motion(py::class_<Axis>& c) {
             // The bus that started it, still open: a closed bus's line may be
             // freed, and a new one's is another line (another controller).
             const auto line = started.line.lock();
-            if (!started.started || !line || line->closed())
+            const bool closed = [&] {
+              if (!line) return true;
+              py::gil_scoped_release nogil;  // closed() waits for a transaction in progress
+              return line->closed();
+            }();
+            if (!started.started || closed)
               throw client::InvalidRequest(
                   "wait(): the bus this move was started on is closed; wait on the bus that "
                   "started it");

@@ -96,13 +96,19 @@ bool Completion::settled_without_busy(const Poll& p) const {
   return false;
 }
 
-// Rule 3's stopped short: the controller holds this move's target (D9004)
-// and the carriage has come toward it by more than the position tolerance
-// since the start, with BUSY never seen (a start given while BUSY is not
-// judged so: the previous move may have carried it).
+// Rule 3's stopped short: the controller holds this move's target (D9004),
+// the carriage was at rest at the start and is at rest now, and it has come
+// toward the target by more than the position tolerance, with BUSY never
+// seen (a start given while BUSY is not judged so: the previous move may
+// have carried it).
 bool Completion::moved_toward_target(const Poll& p) const {
   const MoveGoal& g = start_.goal;
   if (g.operation != Operation::Positioning || retarget()) return false;
+  // At rest at the start and now: motion seen between them came after this
+  // start. A carriage still coasting from an earlier stop (BUSY falls at a
+  // RESET while it decelerates) is no evidence, and a start the controller
+  // takes late must stay NotStarted, so that it is stopped (a reviewer's case).
+  if (start_.state_before.speed_mm_s != 0 || p.state.speed_mm_s != 0) return false;
   if (p.state.target_001mm != g.target_001mm) return false;
   const int64_t from = start_.state_before.position_001mm;
   const int64_t to = g.target_001mm;

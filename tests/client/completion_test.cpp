@@ -138,6 +138,19 @@ TEST(Completion, AMoveStoppedBeforeAnyPollIsStoppedNotNotStarted) {
     std::vector<std::pair<StatusFlags, lec::StateData>> polls(30, {flags({}), seen});
     EXPECT_EQ(run(d, polls).result->outcome, MoveOutcome::NotStarted) << seen.position_001mm;
   }
+  // A carriage still coasting from an earlier stop when the start was given
+  // (BUSY falls at a RESET while it decelerates), or still moving now: a
+  // start taken late must stay NotStarted, so that it is stopped.
+  lec::StateData coasting = state(0, 15000);
+  coasting.speed_mm_s = 40;
+  lec::StateData rolling = state(1156, 15000);
+  rolling.speed_mm_s = 20;
+  for (const auto& [was, seen] :
+       {std::pair{coasting, state(1156, 15000)}, std::pair{state(0, 0), rolling}}) {
+    Completion d(from(positioning(15000), before, was), t0 + ms(5000));
+    std::vector<std::pair<StatusFlags, lec::StateData>> polls(30, {flags({}), seen});
+    EXPECT_EQ(run(d, polls).result->outcome, MoveOutcome::NotStarted) << was.speed_mm_s;
+  }
 }
 
 TEST(Completion, PushWithoutAnyEvidenceIsNotStarted) {

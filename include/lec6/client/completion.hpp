@@ -42,8 +42,9 @@
 //    move already at its target. A positioning move whose whole run fell
 //    between two polls and was stopped short (a wait begun late:
 //    Python's axis.wait() after stop()) shows as D9004 = the target and
-//    the carriage moved toward it by more than the position tolerance: it
-//    started, and it ended Stopped (completion_test.cpp
+//    the carriage, at rest at the start and at rest now, moved toward it by
+//    more than the position tolerance: it started, and it ended Stopped
+//    (a carriage still coasting at either end is no evidence; completion_test.cpp
 //    AMoveStoppedBeforeAnyPollIsStoppedNotNotStarted). Otherwise: NotStarted,
 //    never success.
 // 4. An alarm ends the move at once; past the deadline, Deadline.
