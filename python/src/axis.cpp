@@ -252,8 +252,7 @@ void bind_motion(py::class_<Axis>& c) {
             if (line != self.line || started.id != self.id())
               throw client::InvalidRequest(fmt::format(
                   "wait(): this move was started on axis {}{}; wait for it on that axis",
-                  started.id,
-                  line.get() == static_cast<void*>(self.line.get()) ? "" : " of another bus"));
+                  started.id, line == self.line ? "" : " of another bus"));
             const Duration limit = seconds_arg(timeout, "timeout");
             return finished(
                 self.wait_call(
