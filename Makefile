@@ -54,14 +54,13 @@ build: deps $(BUILD)/CMakeCache.txt
 demo: build
 	$(BUILD)/lec demo
 
-# The optimised tree's tests run one more than the cores at a time: most of
-# them wait on the wall clock (a twin's timing, a broker, a browser), and at
-# -j2 the cores were idle 60 % of the phase. The tests that compile (pip
-# install, the header check, the consumer) take 2 of the slots (PROCESSORS);
-# those that judge timing run at real-time priority or alone, as before
-# (tests/CMakeLists.txt). The sanitizer tree's tests, 2-3 times heavier on
-# the CPU, keep one per core.
-TEST_JOBS ?= $(shell echo $$(( $(JOBS) + 1 )))
+# The optimised tree's tests, TEST_JOBS at a time: one per core. Most of them
+# wait on the wall clock (the cores are idle about 60 % of the phase), and at
+# JOBS + 1 the phase took 503 s instead of ~620, but three clean runs of it
+# saw doctor_test's clean line time out (the pty's kernel work waits behind
+# the tests even when the twins run at real-time priority) and a browser
+# test's page miss a move's state for 20 s: not worth a CI run that fails.
+TEST_JOBS ?= $(JOBS)
 
 test-fast: build
 	$(PHASE) tests-gcc sh -c "cd $(BUILD) && ctest --output-on-failure -j $(TEST_JOBS) -E '$(SHOWN_TESTS)' && ctest -V -R '$(SHOWN_TESTS)'"
