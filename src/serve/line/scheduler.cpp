@@ -419,9 +419,14 @@ bool Scheduler::superseded_since(const Job& job, TimePoint since) const {
 
 bool Scheduler::superseded(const Job& job, JobId id) const {
   if (job.priority == Priority::Emergency || !client::starts_motion(job.frame.pdu)) return false;
+  // A write of one of lec serve's operations is judged by when its command
+  // was accepted, not by when it was queued: a stop accepted before the
+  // command, whose write came after the command's start was queued (a
+  // reset's RESET <- 1 follows its RESET <- 0's exchange), does not refuse it.
   const auto after = [&](const HardStop& s) {
-    return s.id > id || (job.first_submitted && s.accepted >= *job.first_submitted) ||
-           (job.command_accepted && s.accepted >= *job.command_accepted);
+    if (job.first_submitted && s.accepted >= *job.first_submitted) return true;
+    if (job.command_accepted) return s.accepted >= *job.command_accepted;
+    return s.id > id;
   };
   if (job.frame.id == modbus::kBroadcastId) return any_hard_stop_ && after(*any_hard_stop_);
   for (const uint8_t to : {job.frame.id, modbus::kBroadcastId}) {
