@@ -127,6 +127,70 @@ TEST(Silence, TheEndOfTsIsWaitedForExactlyAndTheReplyIsNot) {
   EXPECT_EQ(link.exact[1], reply_done + master.line_timing().silent_interval());
 }
 
+// Passes everything to the twin's link; its next `stalls` reads begin
+// `stall` late, as on a host that ran something else first.
+class LateWakes final : public Link {
+ public:
+  LateWakes(Link& inner, VirtualClock& clock) : inner_(inner), clock_(clock) {}
+  void write(std::span<const uint8_t> bytes) override {
+    ++writes;
+    inner_.write(bytes);
+  }
+  std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline) override {
+    if (stalls > 0) --stalls, clock_.advance(stall);
+    return inner_.read_some(buffer, deadline);
+  }
+  void discard_input() override { inner_.discard_input(); }
+  const Clock& clock() const override { return inner_.clock(); }
+  uint32_t baud() const override { return inner_.baud(); }
+  std::string describe() const override { return inner_.describe(); }
+
+  int stalls = 0;
+  Duration stall{};
+  int writes = 0;
+
+ private:
+  Link& inner_;
+  VirtualClock& clock_;
+};
+
+// CI, stop 40: a master woken 130 ms late found the noise of that time
+// (50 bytes/s) and said "line never silent" with nothing sent and no retry.
+TEST(Silence, ALateWakeIsNotTakenForABusyLine) {
+  SimFixture f;
+  noise(f, 50);
+  LateWakes link(*f.link, f.clock);
+  RtuMaster master(link);
+  const modbus::RequestFrame read{1, modbus::ReadRegistersRequest{0x9000, 7}};
+  master.exchange(read);
+  for (int i = 0; i < 20; ++i) {
+    link.stalls = 1;
+    // Longer than four windows (about 540 ms at 38400): the bytes of them all
+    // at once, and still a whole window to watch after the wake.
+    link.stall = std::chrono::milliseconds(700);
+    EXPECT_NO_THROW(master.exchange(read)) << "exchange " << i;
+  }
+  EXPECT_GT(master.stats().bytes_discarded, 20u) << "the stalls must have found noise";
+}
+
+TEST(Silence, ABusyLineStillFailsWithinABoundWhenEveryLookIsLate) {
+  SimFixture f;
+  noise(f, 1e9);
+  LateWakes link(*f.link, f.clock);
+  link.stalls = 1'000'000;
+  link.stall = std::chrono::milliseconds(15);
+  RtuMaster master(link);
+  const TimePoint began = f.clock.now();
+  const modbus::RequestFrame read{1, modbus::ReadRegistersRequest{0x9000, 7}};
+  EXPECT_THROW(master.exchange(read), TransportError);
+  const auto& line = f.bus.line().line;
+  const Duration window =
+      line.silent_interval() + line.response_time(modbus::kMaxAdu) + std::chrono::milliseconds(50);
+  EXPECT_GT(f.clock.now() - began, window) << "late looks start the bound again";
+  EXPECT_LE(f.clock.now() - began, 4 * window + 4 * link.stall) << "but a bounded number of times";
+  EXPECT_EQ(link.writes, 0) << "nothing may be sent on a line that is not quiet";
+}
+
 TEST(Broadcast, AReadToIdZeroIsRefusedUnsent) {
   SimFixture f;
   f.client->set_id(0);
