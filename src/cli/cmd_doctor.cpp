@@ -210,16 +210,33 @@ void burst(const transport::PortSpec& spec, const GlobalOptions& g, const std::v
     // timer ticks on its own clock; paced at one rate, every reply would
     // meet it at the same phase and the lumps would look like a longer Td.
     std::this_thread::sleep_for(milliseconds((i * 7) % 17));
-    const auto h = p.exchange(state_query(id), kStateReplyBytes, g.reply_margin);
+    auto h = p.exchange(state_query(id), kStateReplyBytes, g.reply_margin);
     ++b.exchanges;
     ++b.per_id_exchanges[id];
-    b.noise_bytes += h.result.noise_bytes;
-    const bool answered =
-        h.result.kind == dx::ReplyKind::Good || h.result.kind == dx::ReplyKind::Exception;
-    if (!answered || h.round_trip < fastest) {
+    const auto whole = [](dx::ReplyKind k) {
+      return k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception;
+    };
+    const bool answered = whole(h.result.kind);
+    if (h.result.kind == dx::ReplyKind::None || h.result.kind == dx::ReplyKind::Garbage ||
+        h.result.kind == dx::ReplyKind::Framing) {
+      // No whole reply in its window (nothing, or only its first bytes: a
+      // USB adapter hands replies over in lumps): listen one more margin. A
+      // whole reply then is late, not lost or garbled (a slow controller,
+      // adapter or host: the reply window is what to change, not the
+      // cabling); either way it must not answer the next query.
+      const modbus::Bytes more = p.listen(g.reply_margin);
+      h.bytes.insert(h.bytes.end(), more.begin(), more.end());
+      const auto late = dx::classify_exchange(state_query(id), h.bytes);
+      if (whole(late.kind)) {
+        ++b.late;
+        b.noise_bytes += late.noise_bytes;
+        continue;
+      }
+    } else if (!answered || h.round_trip < fastest) {
       // A late reply still on its way must not answer the next query.
       std::this_thread::sleep_for(g.reply_margin);
     }
+    b.noise_bytes += h.result.noise_bytes;
     switch (h.result.kind) {
       case dx::ReplyKind::Good:
       case dx::ReplyKind::Exception:
@@ -413,10 +430,9 @@ nlohmann::json to_json(const dx::Observations& obs, const dx::Report& r) {
     j["findings"].push_back(fj);
   }
   const auto& b = obs.burst;
-  j["burst"] = {
-      {"exchanges", b.exchanges}, {"good", b.good},         {"crc", b.crc},
-      {"framing", b.framing},     {"timeouts", b.timeouts}, {"noise_bytes", b.noise_bytes},
-      {"unpaced", b.unpaced}};
+  j["burst"] = {{"exchanges", b.exchanges},     {"good", b.good},         {"crc", b.crc},
+                {"framing", b.framing},         {"timeouts", b.timeouts}, {"late", b.late},
+                {"noise_bytes", b.noise_bytes}, {"unpaced", b.unpaced}};
   return j;
 }
 

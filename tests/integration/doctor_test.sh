@@ -28,9 +28,26 @@ hasnt() { ! grep -qF -- "$2" "$TMP/$1.doc"; }
 # that hears nothing, a few timeouts in the burst.
 doctor_healthy() {
   doctor "$@"
-  if [[ $RC -ne 0 ]]; then
+  if [[ $RC -eq 7 || $RC -eq 8 ]]; then
     echo "    (not healthy once: a loaded host? once more)"
     doctor "$@"
+  fi
+}
+# doctor_expect CODE NAME ARGS...: as doctor, for a line whose verdict must be
+# exit CODE: the verdict must hold in one of two runs, for the same reason (CI,
+# stop 40: doctor_test failed once at -j2 beside the other tests; a real
+# regression fails both runs).
+# Only a verdict (0, 7, 8) gets the second run: a crash, a sanitizer's abort
+# or a hang (timeout's 124) fails at once; SECS is the longer run's.
+doctor_expect() {
+  local code=$1
+  shift
+  doctor "$@"
+  if [[ $RC -ne $code && ($RC -eq 0 || $RC -eq 7 || $RC -eq 8) ]]; then
+    echo "    (exit $RC, not $code: a loaded host? once more)"
+    local first=$SECS
+    doctor "$@"
+    ((SECS = SECS > first ? SECS : first))
   fi
 }
 # warm PTY [BAUD]: one read before the doctor runs. A twin that has just
@@ -57,7 +74,7 @@ check "clean: healthy" has clean "healthy"
 check "clean: information only" only_info clean
 check "clean: the baud and ID" has clean "ID 1 at 38400"
 check "clean: line quality clean" has clean "the line is clean"
-doctor clean-json --port "$TMP/clean" --json doctor --ids 1-4
+doctor_expect 0 clean-json --port "$TMP/clean" --json doctor --ids 1-4
 check_sh "clean --json: health and baud" \
   "/usr/bin/python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d[\"health\"]==\"healthy\" and d[\"baud\"]==38400 and d[\"ids\"]==[1], d' '$TMP/clean-json.doc'"
 stop_twin "$TWIN_PID"
@@ -67,7 +84,7 @@ start_twin two --pty "$TMP/two" --ids 1,3 --baud 57600 --strict-baud || exit 1
 L3() { "$LEC" --port "$TMP/two" --baud 57600 --id 3 "$@" >/dev/null 2>&1; }
 L3 serial on && L3 servo on && L3 home
 L3 move --to 900  # beyond the stroke: alarm 62
-doctor two --port "$TMP/two" doctor
+doctor_expect 7 two --port "$TMP/two" doctor
 check "two: exit 7 (degraded: an alarm)" test "$RC" -eq 7
 check "two: both IDs and the baud" has two "ID 1 and 3 at 57600; nothing at 38400, 9600, 19200"
 check "two: --baud named" has two "give --baud 57600"
@@ -86,7 +103,7 @@ stop_twin "$TWIN_PID"
 # Echo: a 2-wire adapter.
 start_twin echo --pty "$TMP/echo" --ids 1 --echo-adapter --strict-baud || exit 1
 warm "$TMP/echo"
-doctor echo --port "$TMP/echo" doctor --ids 1-4
+doctor_expect 8 echo --port "$TMP/echo" doctor --ids 1-4
 check "echo: exit 8" test "$RC" -eq 8
 check "echo: named, with --echo verified" has echo "add --echo to every lec command (verified"
 doctor_healthy echo-fixed --port "$TMP/echo" --echo doctor --ids 1-4
@@ -106,7 +123,7 @@ stop_twin "$TWIN_PID"
 # Two controllers with ID 2.
 start_twin dup --pty "$TMP/dup" --ids 1,2 --duplicate-ids 2 --strict-baud || exit 1
 warm "$TMP/dup"
-doctor dup --port "$TMP/dup" doctor --ids 1-4
+doctor_expect 8 dup --port "$TMP/dup" doctor --ids 1-4
 check "duplicate: exit 8" test "$RC" -eq 8
 check "duplicate: ID 2 named" has dup "two controllers answer ID 2"
 stop_twin "$TWIN_PID"
@@ -115,7 +132,7 @@ if full_run; then
 # A second master polling ID 1.
 start_twin other --pty "$TMP/other" --ids 1 --other-master 20 --strict-baud || exit 1
 warm "$TMP/other"
-doctor other --port "$TMP/other" doctor --ids 1-4
+doctor_expect 8 other --port "$TMP/other" doctor --ids 1-4
 check "other master: exit 8" test "$RC" -eq 8
 check "other master: named" has other "another master polls this line"
 stop_twin "$TWIN_PID"
@@ -123,7 +140,7 @@ stop_twin "$TWIN_PID"
 # Td of 20 ms (the controller's Min Resp delay), lec assumes 5.
 start_twin td --pty "$TMP/td" --ids 1 --td 20ms --strict-baud || exit 1
 warm "$TMP/td"
-doctor td --port "$TMP/td" doctor --ids 1-4
+doctor_expect 7 td --port "$TMP/td" doctor --ids 1-4
 check "Td: exit 7" test "$RC" -eq 7
 check "Td: inferred and named" has td "--td 20ms"
 stop_twin "$TWIN_PID"
@@ -135,7 +152,7 @@ warm "$TMP/usb"
 PTS=$(basename "$(readlink -f "$TMP/usb")")
 mkdir -p "$TMP/sys/bus/usb-serial/devices/$PTS"
 echo 16 >"$TMP/sys/bus/usb-serial/devices/$PTS/latency_timer"
-LEC6_SYSFS_ROOT=$TMP/sys doctor usb --port "$TMP/usb" doctor --ids 1-4
+LEC6_SYSFS_ROOT=$TMP/sys doctor_expect 7 usb --port "$TMP/usb" doctor --ids 1-4
 check "usb latency: exit 7" test "$RC" -eq 7
 check "usb latency: the command" has usb "echo 1 | sudo tee $TMP/sys/bus/usb-serial/devices/$PTS/latency_timer"
 LEC6_SYSFS_ROOT=$TMP/sys doctor_healthy usb-fix --port "$TMP/usb" doctor --ids 1-4 --fix
@@ -168,7 +185,7 @@ if full_run; then
 # Silent INT 20 (Ts = 70 chars, 18 ms at 38400), lec assumes 1: a query in two parts is still one frame.
 start_twin ts --pty "$TMP/ts" --ids 1 --silent-interval 20 --strict-baud || exit 1
 warm "$TMP/ts"
-doctor ts --port "$TMP/ts" doctor --ids 1-4
+doctor_expect 7 ts --port "$TMP/ts" doctor --ids 1-4
 check "Silent INT: exit 7" test "$RC" -eq 7
 # (On a loaded host the split-query probe may not bracket Ts; the Td finding
 # then names Silent INT too.)
@@ -178,7 +195,7 @@ stop_twin "$TWIN_PID"
 # Combination 1: echo and a wrong baud.
 start_twin c1 --pty "$TMP/c1" --ids 2 --baud 19200 --strict-baud --echo-adapter || exit 1
 warm "$TMP/c1" 19200
-doctor c1 --port "$TMP/c1" doctor --ids 1-4
+doctor_expect 8 c1 --port "$TMP/c1" doctor --ids 1-4
 check "echo + baud: exit 8" test "$RC" -eq 8
 check "echo + baud: the baud" has c1 "ID 2 at 19200"
 check "echo + baud: the echo" has c1 "add --echo"
@@ -187,7 +204,7 @@ stop_twin "$TWIN_PID"
 # Combination 2: another master and a long Td.
 start_twin c2 --pty "$TMP/c2" --ids 1 --other-master 10 --td 20ms --strict-baud || exit 1
 warm "$TMP/c2"
-doctor c2 --port "$TMP/c2" doctor --ids 1-4
+doctor_expect 8 c2 --port "$TMP/c2" doctor --ids 1-4
 check "other master + Td: the master" has c2 "another master polls this line"
 check "other master + Td: broken" test "$RC" -eq 8
 stop_twin "$TWIN_PID"
@@ -197,7 +214,7 @@ start_twin c3 --pty "$TMP/c3" --ids 1,4 --duplicate-ids 4 --baud 115200 --strict
 L1() { "$LEC" --port "$TMP/c3" --baud 115200 --id 1 "$@" >/dev/null 2>&1; }
 L1 serial on && L1 servo on && L1 home
 L1 move --to 900
-doctor c3 --port "$TMP/c3" doctor --ids 1-4
+doctor_expect 8 c3 --port "$TMP/c3" doctor --ids 1-4
 check "dup + baud + alarm: exit 8" test "$RC" -eq 8
 check "dup + baud + alarm: the baud" has c3 "at 115200"
 check "dup + baud + alarm: the duplicate" has c3 "two controllers answer ID 4"
@@ -206,7 +223,7 @@ stop_twin "$TWIN_PID"
 
 # A dead line: nothing answers at any baud, within the budget.
 start_twin dead --pty "$TMP/dead" --ids 1 --drop-rate 1 || exit 1
-doctor dead --port "$TMP/dead" doctor
+doctor_expect 8 dead --port "$TMP/dead" doctor
 check "dead: exit 8" test "$RC" -eq 8
 check "dead: nothing answers at any baud" has dead "nothing answers at any baud"
 check "dead: the list of what to check" has dead "A/B (+/-) are not swapped"

@@ -205,11 +205,17 @@ def commands(label, n, raw, env, keep=False):
     # documented answer, a report); 2 and above are errors. `lec doctor`
     # exits 7 for a line that works, degraded (a loaded host delays a twin's
     # reply now and then), 8 for a broken one.
+    # A broken verdict gets one more run: the twin shares the host with the
+    # other tests, and a -j2 ctest beside it (a pip install compiling) once
+    # delayed 39 of its 46 burst replies past their windows (CI, stop 40); a
+    # user's idle machine never does, and a real fault fails both runs.
+    out.append(last)
     if re.match(LEC + r"?replay\b", last):
         ok = "1"
     elif re.match(LEC + r"?doctor\b", last):
         ok = "7"
-    out.append(last)
+        out.append(f"rc=$?; if [[ $rc -eq 8 ]]; then echo \"(broken once: a loaded host? once "
+                   f"more)\"; {last}; else (exit $rc); fi")
     out.append(f"rc=$?; if [[ $rc -gt {ok} ]]; then echo \"FAIL: {label}:{n} exited "
                f"$rc: \"{text}; exit 1; fi")
     return out

@@ -64,7 +64,10 @@ struct BaudProbe {
 struct BurstStats {
   int exchanges = 0;
   int good = 0;
-  int timeouts = 0;
+  int timeouts = 0;  // no whole reply, not even within one more margin after the window
+  // Whole, sound replies that came after their window (Tx + margin), within
+  // one more margin: a slow controller, adapter or host, not a lost frame.
+  int late = 0;
   int crc = 0;
   int framing = 0;
   uint64_t noise_bytes = 0;
