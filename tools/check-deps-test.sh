@@ -11,6 +11,8 @@
 #                   imports serial_asyncio; Debian only Recommends it): fails
 #   python-module   without python3-pymodbus (a Python module's package): fails
 #   program         without mbpoll (a program's package): fails
+#   doc-program     without mosquitto-clients (docs/mqtt.md's ```sh lines run
+#                   mosquitto_sub; the README test runs them as pasted): fails
 #   redundant       with python3 added (a hard Depends of python3-pymodbus): fails
 #   wrong-note      with a [py: ...] note on the wrong package: fails
 #   installer       tools/install-deps.sh --dry-run reads entries, comments
@@ -64,6 +66,11 @@ case $case_name in
     without mbpoll
     expect_fail "mbpoll" "program mbpoll" "tests/integration/mbpoll_test.sh" \
       "sudo apt-get install -y --no-install-recommends mbpoll"
+    ;;
+  doc-program)
+    without mosquitto-clients
+    expect_fail "mosquitto-clients" "program mosquitto_sub" "docs/mqtt.md" \
+      "sudo apt-get install -y --no-install-recommends mosquitto-clients"
     ;;
   redundant)
     cp "$tools/deps.txt" "$list"

@@ -86,6 +86,29 @@ def shell_files():
                        (not p.suffix and re.search(r"\b(ba)?sh\b", _shebang(p)))))
 
 
+class _DocBlocks(type(Path())):
+    """A Markdown file read as the shell of its ```sh blocks: the README test
+    runs them as pasted (tests/integration/readme.py), so the programs they
+    start are needs like a script's (mosquitto_sub in docs/mqtt.md was not
+    listed, and a fresh machine's README test failed on it)."""
+
+    def read_text(self, *args, **kwargs):
+        out, inside = [], False
+        for line in super().read_text(*args, **kwargs).splitlines():
+            if not inside and line.strip() == "```sh":
+                inside = True
+            elif inside and line.strip() == "```":
+                inside = False
+            elif inside:
+                out.append(line)
+        return "\n".join(out) + "\n"
+
+
+def doc_shell_files():
+    """README.md and docs/*.md, each read as the shell of its ```sh blocks."""
+    return [_DocBlocks(p) for p in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))] if p.is_file()]
+
+
 # ---- Python -----------------------------------------------------------------------
 
 def _imports(code):
