@@ -33,7 +33,7 @@ PHASE = LEC6_PHASE_LOG=$(abspath $(BUILD))/phases.log tools/phase
 # number of fuzz regression inputs replayed, the dependency check): run apart, verbose.
 SHOWN_TESTS ?= ^Soak\.|KeptRegressionInputsPass|^deps\.
 
-.PHONY: all deps check-deps build demo test phases-begin test-fast test-asan test-fuzz fuzz-build bench fuzz soak deb format clean
+.PHONY: all deps check-deps build demo test phases-begin test-fast test-asan tests-gcc tests-asan test-fuzz fuzz-build bench fuzz soak deb format clean
 
 all: build
 
@@ -63,6 +63,9 @@ demo: build
 TEST_JOBS ?= $(JOBS)
 
 test-fast: build
+	$(MAKE) --no-print-directory tests-gcc
+
+tests-gcc:
 	$(PHASE) tests-gcc sh -c "cd $(BUILD) && ctest --output-on-failure -j $(TEST_JOBS) -E '$(SHOWN_TESTS)' && ctest -V -R '$(SHOWN_TESTS)'"
 
 # The sanitizer tree is clang's: it compiles it in about 60 % of gcc's time, and
@@ -84,6 +87,9 @@ ASAN_SKIPPED_TESTS ?= ^package\.|^integration\.readme_test$$
 
 test-asan: deps $(ASAN_BUILD)/CMakeCache.txt
 	$(PHASE) build-asan cmake --build $(ASAN_BUILD) -j $(JOBS)
+	$(MAKE) --no-print-directory tests-asan
+
+tests-asan:
 	$(PHASE) tests-asan env ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  sh -c "cd $(ASAN_BUILD) && ctest --output-on-failure -j $(JOBS) -E '$(SHOWN_TESTS)|$(ASAN_SKIPPED_TESTS)' && ctest -V -R '$(SHOWN_TESTS)'"
 
@@ -103,7 +109,18 @@ test-fuzz: fuzz-build
 
 # The fuzzers are built in the sanitizer tree (they rot otherwise: a clang-only
 # error was caught so); fuzzing itself runs in `make fuzz` / `make test-fuzz`.
-test: phases-begin check-deps test-fast test-asan
+# The sanitizer tree builds while the optimised tree's tests run, at idle
+# priority (tools/idle-build: those tests leave the cores idle most of their
+# phase, and take a core back at once when they want it); `finish` waits for
+# what is left of it (phase build-asan; build-asan* is the whole build, beside
+# the tests, not counted twice in the total). Measured: BENCHMARKS.md.
+# One shell: a Ctrl-C (or a failure of the tests) ends the build beside them.
+test: phases-begin check-deps build
+	@trap 'tools/idle-build stop $(ASAN_BUILD)' INT TERM HUP; \
+	LEC6_PHASE_LOG=$(abspath $(BUILD))/phases.log tools/idle-build start $(ASAN_BUILD) $(JOBS) && \
+	{ $(MAKE) --no-print-directory tests-gcc || { tools/idle-build stop $(ASAN_BUILD); exit 1; }; } && \
+	$(PHASE) build-asan tools/idle-build finish $(ASAN_BUILD) && \
+	$(MAKE) --no-print-directory tests-asan
 	@tools/phase --summary $(BUILD)/phases.log
 
 # A fresh phase log per `make test`.
