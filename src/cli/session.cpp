@@ -2,6 +2,7 @@
 
 #include "cli/app.hpp"
 #include "cli/trace_printer.hpp"
+#include "lec6/client/rtu_master.hpp"
 #include "lec6/lec/step_data.hpp"
 #include "lec6/lec/units.hpp"
 #include "lec6/transport/capture_file.hpp"
@@ -70,6 +71,7 @@ twin::PortOptions line_port_options(const GlobalOptions& o) {
   po.delay_td = o.delay_td;
   po.timeout_margin = o.reply_margin;
   po.wait_for_silence = !o.no_silence_wait;
+  po.reply_spin = o.reply_spin_given || !o.no_silence_wait ? o.reply_spin : client::kFastReplySpin;
   po.discard_echo = o.echo;
   po.rs485.enabled = o.rs485;
   po.rs485.rts_after_send = o.rs485_rts_after_send;

@@ -52,6 +52,7 @@ RtuOptions rtu_options(const ClientOptions& o) {
   r.delay_td = o.delay_td;
   r.timeout_margin = o.timeout_margin;
   r.wait_for_silence = o.wait_for_silence;
+  r.reply_spin = o.reply_spin;
   r.trace = o.trace;
   r.interrupted = o.interrupted;
   return r;
@@ -66,6 +67,7 @@ const ClientOptions& refuse_line_settings(const ClientOptions& o) {
   if (o.delay_td != defaults.delay_td) set.emplace_back("delay_td");
   if (o.timeout_margin != defaults.timeout_margin) set.emplace_back("timeout_margin");
   if (o.wait_for_silence != defaults.wait_for_silence) set.emplace_back("wait_for_silence");
+  if (o.reply_spin != defaults.reply_spin) set.emplace_back("reply_spin");
   if (o.trace) set.emplace_back("trace");
   if (o.interrupted) set.emplace_back("interrupted");
   if (!set.empty()) {

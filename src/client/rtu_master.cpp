@@ -41,7 +41,9 @@ TransportErrorKind kind_of(LinkErrorKind k) {
 RtuMaster::RtuMaster(Link& link, RtuOptions options)
     : link_(link),
       options_(std::move(options)),
-      backoff_(backoff_seed(link.clock(), options_.backoff_seed)) {
+      backoff_(backoff_seed(link.clock(), options_.backoff_seed)),
+      // A virtual clock stands still while nothing waits on it: no spin there.
+      spin_(dynamic_cast<const SteadyClock*>(&link.clock()) ? options_.reply_spin : Duration{}) {
   timing_.line.baud = link_.baud();
   timing_.line.silent_interval_k = options_.silent_interval_k;
   timing_.line.delay_td = options_.delay_td;
@@ -138,6 +140,17 @@ void RtuMaster::wait_for_silence(bool interruptible, bool urgent, uint8_t to) {
   }
 }
 
+// RtuOptions::reply_spin: zero-timeout looks (a poll each) until a byte or
+// the spin's end, then the usual sleeping read.
+std::size_t RtuMaster::spin_then_read(std::span<uint8_t> buffer, TimePoint deadline,
+                                      bool interruptible) {
+  const TimePoint until = std::min(deadline, link_.clock().now() + spin_);
+  do {
+    if (const std::size_t n = link_.read_some(buffer, TimePoint{}); n > 0) return n;
+  } while (link_.clock().now() < until);
+  return read_some(buffer, deadline, interruptible);
+}
+
 void RtuMaster::check_interrupt(bool interruptible, std::string_view during) {
   if (interruptible && options_.interrupted()) {
     throw Cancelled(fmt::format("interrupted while {}", during));
@@ -215,7 +228,9 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
             "interrupted while waiting for the reply: the request was sent and may "
             "have been carried out");
       }
-      const std::size_t n = read_some(buffer, tx.deadline(), interruptible);
+      const std::size_t n = spin_ > Duration::zero()
+                                ? spin_then_read(buffer, tx.deadline(), interruptible)
+                                : read_some(buffer, tx.deadline(), interruptible);
       const TimePoint now = link_.clock().now();
       if (n > 0) {
         tx.received(std::span(buffer.data(), n), now);

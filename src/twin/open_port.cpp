@@ -26,6 +26,7 @@ client::RtuOptions rtu_options(const PortOptions& o) {
   r.delay_td = o.delay_td;
   r.timeout_margin = o.timeout_margin;
   r.wait_for_silence = o.wait_for_silence;
+  r.reply_spin = o.reply_spin;
   r.trace = o.trace;
   r.interrupted = o.interrupted;
   return r;

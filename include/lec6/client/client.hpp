@@ -59,6 +59,7 @@ struct ClientOptions {
   Duration delay_td = std::chrono::milliseconds(5);         // the controller's "Min Resp delay"
   Duration timeout_margin = std::chrono::milliseconds(50);  // added to Tx
   bool wait_for_silence = true;                             // see RtuOptions
+  Duration reply_spin{};                                    // see RtuOptions
   TraceSink trace{};                                        // every frame, when set
   std::function<bool()> interrupted{};                      // Ctrl-C, see RtuOptions
 };

@@ -25,6 +25,16 @@ struct RtuOptions {
   // peers that frame by length (a `--timing fast` twin, software benchmarks),
   // where it would measure the line rule rather than the software.
   bool wait_for_silence = true;
+  // Before sleeping on the port for a reply, look for it without sleeping
+  // for this long (busy-waiting: the core is this process's meanwhile). Only
+  // on the wall clock. Zero (the default) for any real line, whose replies
+  // take milliseconds; for a peer that answers in tens of microseconds (a
+  // `--timing fast` twin, a benchmark: `lec --no-silence-wait` sets
+  // kFastReplySpin) a process put to sleep pays the kernel's wake-up on
+  // every reply, a fifth of the round trip on a 2-core VM (BENCHMARKS.md,
+  // "Fast mode"). Attacked by ReplySpin.* (tests/twin/reply_spin_test.cpp):
+  // a silent ID still times out at its deadline; no spin on a virtual clock.
+  Duration reply_spin{};
   TraceSink trace{};  // every frame, when set
   // Ctrl-C: when set and true, the waits of an exchange (the silence before
   // it, the reply after it) end at once with Cancelled, checked at least
@@ -39,6 +49,9 @@ struct RtuOptions {
 };
 
 inline constexpr Duration kInterruptCheck = std::chrono::milliseconds(20);
+// RtuOptions::reply_spin for a fast peer: longer than a fast twin's round trip
+// on a pty (~50-80 us), short enough that a lost reply costs little CPU.
+inline constexpr Duration kFastReplySpin = std::chrono::microseconds(150);
 
 class RtuMaster final : public Master {
  public:
@@ -70,6 +83,7 @@ class RtuMaster final : public Master {
   // the deadline is an instant to keep (Link::read_some_exact).
   std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible,
                         bool exact = false);
+  std::size_t spin_then_read(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible);
   void check_interrupt(bool interruptible, std::string_view during);
   void trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
              const modbus::RequestFrame& request, const modbus::ResponseFrame* response);
@@ -81,6 +95,7 @@ class RtuMaster final : public Master {
   TimePoint
       hold_until_{};  // after a failure: no query before the failed one's reply window is over
   std::minstd_rand backoff_;  // draws the pause after a failure (failure_pause)
+  Duration spin_;             // RtuOptions::reply_spin on the wall clock, else zero
   Duration pause_{};          // the last one drawn, waited beyond hold_until_
   uint8_t failed_id_ = 0;     // the ID the failed transaction was for
   LinkStats stats_;

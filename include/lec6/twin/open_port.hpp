@@ -42,6 +42,7 @@ struct PortOptions {
   Duration delay_td = std::chrono::milliseconds(5);
   Duration timeout_margin = std::chrono::milliseconds(50);  // added to Tx (tcp://: to a second)
   bool wait_for_silence = true;                             // see client::RtuOptions
+  Duration reply_spin{};                                    // see client::RtuOptions
   // Serial devices only.
   bool discard_echo = false;  // 2-wire adapters that echo what they send
   transport::Rs485Options rs485{};
