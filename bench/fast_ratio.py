@@ -2,10 +2,11 @@
 """lec6 against libmodbus in fast mode, as one ratio with its spread.
 
   bench/fast_ratio.py [--build DIR] [--lec PATH ...] [--libmodbus PATH] [--baud 230400] [-n 300]
+                      [--reply-spin 150us]
                       [--rounds 9] [--rt PRIO]
 
 One `lec sim --pty --timing fast` twin; each round runs every stack once, in
-turn (lec6 with --no-silence-wait, then Debian's libmodbus through
+turn (lec6 with --no-silence-wait --reply-spin 150us, then Debian's libmodbus through
 lec6_libmodbus_bench; the order alternates from round to round), N reads of
 D9000 x7 each, and takes the ratio lec6 tx/s / libmodbus tx/s of that round.
 Prints every round and the median ratio (BENCHMARKS.md, "Fast mode"). The
@@ -43,6 +44,9 @@ def main():
     ap.add_argument("--lec", action="append", help="lec binaries to measure (default: BUILD/lec)")
     ap.add_argument("--libmodbus", help="the libmodbus program (default: BUILD/lec6_libmodbus_bench)")
     ap.add_argument("--baud", type=int, default=230400)
+    ap.add_argument("--reply-spin", default="150us",
+                    help="lec's --reply-spin (client::kFastReplySpin); 0 for none, 'none' for a lec "
+                         "older than the option")
     ap.add_argument("-n", type=int, default=300)
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--json", help="also write the raw rounds to this file")
@@ -64,8 +68,9 @@ def main():
                 sys.exit(f"fast_ratio: the twin did not start: {twin.stderr.read()}")
 
             def lec6(path):
-                return run([path, "--port", pty, "--baud", str(a.baud), "--no-silence-wait", "--json",
-                            "bench", "--op", "read-state", "-n", str(a.n)])["tx_per_s"]
+                spin = [] if a.reply_spin == "none" else ["--reply-spin", a.reply_spin]
+                return run([path, "--port", pty, "--baud", str(a.baud), "--no-silence-wait", *spin,
+                            "--json", "bench", "--op", "read-state", "-n", str(a.n)])["tx_per_s"]
 
             def lm():
                 return run([libmodbus, pty, str(a.baud), "read-state", str(a.n)])["tx_per_s"]

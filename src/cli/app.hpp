@@ -65,11 +65,10 @@ struct GlobalOptions {
   bool echo = false;  // 2-wire adapter echoes what it sends
   unsigned silent_interval_k = 1;
   Duration delay_td = std::chrono::milliseconds(5);
-  bool no_silence_wait = false;   // skip the Ts gap before queries (fast twins, benchmarks only)
-  Duration reply_spin{};          // client::RtuOptions::reply_spin
-  bool reply_spin_given = false;  // not given: client::kFastReplySpin with no_silence_wait
-  std::string record;             // --record FILE: every frame on the line into a capture file
-  std::string soft_limits;        // --soft-limits MIN:MAX (mm); empty: none
+  bool no_silence_wait = false;  // skip the Ts gap before queries (fast twins, benchmarks only)
+  Duration reply_spin{};         // client::RtuOptions::reply_spin (a fast peer only)
+  std::string record;            // --record FILE: every frame on the line into a capture file
+  std::string soft_limits;       // --soft-limits MIN:MAX (mm); empty: none
   std::string alarm_polarity = "active-high";  // --alarm-polarity (lec/alarm_check.hpp)
   std::string sim_profile =
       "default";  // --sim-profile: the twin of --port sim (default, ideal, FILE)

@@ -61,18 +61,12 @@ std::string port_text(const GlobalOptions& g) {
       "ports), or set LEC_PORT");
 }
 
+// The line's options as every lec command's (line_port_options), at the baud
+// and echo handling the doctor is trying.
 twin::PortOptions port_options(const GlobalOptions& g, uint32_t baud, bool discard_echo) {
-  twin::PortOptions po;
+  twin::PortOptions po = line_port_options(g);
   po.baud = baud;
-  po.silent_interval_k = g.silent_interval_k;
-  po.delay_td = g.delay_td;
-  po.timeout_margin = g.reply_margin;
-  po.wait_for_silence = !g.no_silence_wait;
   po.discard_echo = discard_echo;
-  po.rs485.enabled = g.rs485;
-  po.rs485.rts_after_send = g.rs485_rts_after_send;
-  po.rs485.delay_before_send_ms = whole_ms(g.rs485_delay_before);
-  po.rs485.delay_after_send_ms = whole_ms(g.rs485_delay_after);
   po.interrupted = [] { return g_interrupted.load(); };
   return po;
 }
@@ -157,6 +151,25 @@ void search(const transport::PortSpec& spec, const GlobalOptions& g,
           g.reply_margin > kScanMargin) {
         scan(g.reply_margin);
       }
+      // Bytes heard while some IDs answered and others did not: a reply later
+      // than the short window lands in the next exchange as stray bytes (a
+      // controller with a longer Td, or a busy host: CI, stop 41, a duplicate
+      // ID missed so in two runs). The silent IDs once more with the full
+      // reply margin.
+      if (!bp.answering.empty() && bp.stray_bytes > 0 && g.reply_margin > window_margin) {
+        for (uint8_t id : ids) {
+          if (g_interrupted || SteadyClock{}.now() >= until) break;
+          if (std::ranges::binary_search(bp.answering, id) ||
+              std::ranges::find(bp.garbled, id) != bp.garbled.end())
+            continue;
+          const auto k = p.exchange(state_query(id), kStateReplyBytes, g.reply_margin).result.kind;
+          if (k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception) {
+            bp.answering.insert(std::ranges::upper_bound(bp.answering, id), id);
+          } else if (k == dx::ReplyKind::Crc || k == dx::ReplyKind::Framing) {
+            bp.garbled.push_back(id);
+          }
+        }
+      }
       if (!bp.answering.empty() || !bp.garbled.empty()) {
         // A garbled reply carried its ID at this rate: that controller is
         // there (a collision or noise); ask it again, so the later checks
@@ -167,7 +180,9 @@ void search(const transport::PortSpec& spec, const GlobalOptions& g,
         for (uint8_t id : bp.garbled) {  // Crc, Framing: a reply that carried the ID
           bool ok = false;
           for (int i = 0; i < 3 && !ok; ++i) {
-            const auto k = p.exchange(state_query(id), kStateReplyBytes, kScanMargin).result.kind;
+            const auto k =
+                p.exchange(state_query(id), kStateReplyBytes, std::max(kScanMargin, g.reply_margin))
+                    .result.kind;
             ok = k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception;
           }
           if (ok) {
@@ -378,8 +393,7 @@ void read_controllers(const transport::PortSpec& spec, const twin::PortOptions& 
       {.id = ids.front(),
        .retries = 2,
        .alarm_polarity =
-           lec::parse_alarm_polarity(g.alarm_polarity).value_or(lec::AlarmPolarity::ActiveHigh),
-       .timeout_margin = po.timeout_margin});
+           lec::parse_alarm_polarity(g.alarm_polarity).value_or(lec::AlarmPolarity::ActiveHigh)});
   client::Actuator axis(c);
   for (uint8_t id : ids) {
     if (g_interrupted) break;
@@ -512,7 +526,13 @@ void run_doctor(Session& s, const DoctorArgs& a) {
       const auto& found = obs.bauds.back().answering;
       if (obs.echo_seen)
         obs.echo_fix_works = echo_fix_works(spec, g, found.front(), *obs.found_baud);
-      burst(spec, g, found, obs);
+      // The burst asks the IDs whose replies stayed garbled too: they are
+      // there (their replies carry their ID), and two controllers on one ID
+      // whose every reply collides are the duplicate the burst must see.
+      std::vector<uint8_t> asked = found;
+      for (uint8_t id : obs.bauds.back().garbled) asked.push_back(id);
+      std::ranges::sort(asked);
+      burst(spec, g, asked, obs);
       // Not with another master on the line: its replies would answer for ours.
       if (obs.foreign_query_ids.empty()) probe_silent_interval(spec, g, found.front(), obs);
       if (spec.kind == transport::PortKind::Serial) {

@@ -70,14 +70,7 @@ std::vector<twin::Exchange> replay_on_port(const ReplayArgs& a, const GlobalOpti
         "replay it at the captured speed: lec --baud {} replay …; nothing was sent",
         a.file, line.baud, g.baud, line.baud));
   }
-  twin::PortOptions po;
-  po.baud = g.baud;
-  po.silent_interval_k = g.silent_interval_k;
-  po.delay_td = g.delay_td;
-  po.timeout_margin = g.reply_margin;
-  po.discard_echo = g.echo;
-  po.rs485.enabled = g.rs485;
-  po.rs485.rts_after_send = g.rs485_rts_after_send;
+  twin::PortOptions po = line_port_options(g);  // the line's options as every command's
   po.interrupted = [] { return g_interrupted.load(); };
   auto port = twin::open_port(transport::parse_port_spec(a.against), po);
   return twin::run_replay(port->master(), captured, timing);

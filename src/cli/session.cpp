@@ -71,7 +71,7 @@ twin::PortOptions line_port_options(const GlobalOptions& o) {
   po.delay_td = o.delay_td;
   po.timeout_margin = o.reply_margin;
   po.wait_for_silence = !o.no_silence_wait;
-  po.reply_spin = o.reply_spin_given || !o.no_silence_wait ? o.reply_spin : client::kFastReplySpin;
+  po.reply_spin = o.reply_spin;
   po.discard_echo = o.echo;
   po.rs485.enabled = o.rs485;
   po.rs485.rts_after_send = o.rs485_rts_after_send;

@@ -43,7 +43,11 @@ RtuMaster::RtuMaster(Link& link, RtuOptions options)
       options_(std::move(options)),
       backoff_(backoff_seed(link.clock(), options_.backoff_seed)),
       // A virtual clock stands still while nothing waits on it: no spin there.
-      spin_(dynamic_cast<const SteadyClock*>(&link.clock()) ? options_.reply_spin : Duration{}) {
+      // At most kMaxReplySpin: a longer busy-wait only burns the core (and
+      // would hold off a Ctrl-C past kInterruptCheck).
+      spin_(dynamic_cast<const SteadyClock*>(&link.clock())
+                ? std::clamp(options_.reply_spin, Duration{}, kMaxReplySpin)
+                : Duration{}) {
   timing_.line.baud = link_.baud();
   timing_.line.silent_interval_k = options_.silent_interval_k;
   timing_.line.delay_td = options_.delay_td;
@@ -141,10 +145,11 @@ void RtuMaster::wait_for_silence(bool interruptible, bool urgent, uint8_t to) {
 }
 
 // RtuOptions::reply_spin: zero-timeout looks (a poll each) until a byte or
-// the spin's end, then the usual sleeping read.
-std::size_t RtuMaster::spin_then_read(std::span<uint8_t> buffer, TimePoint deadline,
+// the spin's end, then the usual sleeping read. The spin is counted from the
+// query's end: one per transaction, however many reads its reply takes.
+std::size_t RtuMaster::spin_then_read(std::span<uint8_t> buffer, TimePoint sent, TimePoint deadline,
                                       bool interruptible) {
-  const TimePoint until = std::min(deadline, link_.clock().now() + spin_);
+  const TimePoint until = std::min(deadline, sent + spin_);
   do {
     if (const std::size_t n = link_.read_some(buffer, TimePoint{}); n > 0) return n;
   } while (link_.clock().now() < until);
@@ -229,7 +234,7 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
             "have been carried out");
       }
       const std::size_t n = spin_ > Duration::zero()
-                                ? spin_then_read(buffer, tx.deadline(), interruptible)
+                                ? spin_then_read(buffer, tx.sent_at(), tx.deadline(), interruptible)
                                 : read_some(buffer, tx.deadline(), interruptible);
       const TimePoint now = link_.clock().now();
       if (n > 0) {

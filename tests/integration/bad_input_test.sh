@@ -42,6 +42,7 @@ refused "id 256" "--id" "0 to 255" -- lec --trace --id 256 status
 refused "baud" "--baud" "38400" -- lec --trace --baud 12345 status
 refused "reply margin" "--reply-margin" "0s to 60s" -- lec --trace --reply-margin -5ms status
 refused "old timeout" "--timeout" "0s to 60s" -- lec --trace --timeout -5 status
+refused "reply spin" "--reply-spin" "0s to 1ms" -- lec --trace --reply-spin 5ms status
 refused "duration unit" "--reply-margin" "no known unit" "500ms" -- lec --trace --reply-margin 5parsecs status
 refused "rs485 delay" "--rs485-delay-before" "whole multiple of 1ms" -- lec --trace --rs485-delay-before 0.5ms status
 refused "retries" "--retries" "0 to 10" -- lec --trace --retries 11 status

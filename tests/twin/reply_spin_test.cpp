@@ -6,10 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include "client/sim_fixture.hpp"
 #include "lec6/client/client.hpp"
 #include "lec6/client/rtu_master.hpp"
 #include "lec6/transport/serial_link.hpp"
-#include "client/sim_fixture.hpp"
 #include "twin/served_twin.hpp"
 
 namespace lec6::twin {
@@ -42,6 +42,7 @@ TEST(ReplySpin, AnIdThatDoesNotAnswerStillTimesOutAtItsDeadline) {
   testing::ServedTwin twin({1}, testing::pty_only(), fast_line());
   transport::SerialLink link(twin.path(), transport::SerialOptions{.baud = 230400});
   client::ClientOptions o = spinning();
+  o.reply_spin = Duration::max();  // clamped to kMaxReplySpin: no overflow, no hour of spinning
   o.retries = 0;
   o.timeout_margin = 40ms;
   client::Client c(link, o);
@@ -51,7 +52,7 @@ TEST(ReplySpin, AnIdThatDoesNotAnswerStillTimesOutAtItsDeadline) {
   EXPECT_THROW(c.read_state(), client::TransportError);
   const Duration took = clock.now() - began;
   EXPECT_GE(took, 40ms) << "the deadline is the reply window, not the spin";
-  EXPECT_LT(took, 2s) << "a loaded host wakes late, never this late";
+  EXPECT_LT(took, 1s);
 }
 
 TEST(ReplySpin, OnTheVirtualClockTheMasterDoesNotSpin) {

@@ -27,13 +27,14 @@ struct RtuOptions {
   bool wait_for_silence = true;
   // Before sleeping on the port for a reply, look for it without sleeping
   // for this long (busy-waiting: the core is this process's meanwhile). Only
-  // on the wall clock. Zero (the default) for any real line, whose replies
-  // take milliseconds; for a peer that answers in tens of microseconds (a
-  // `--timing fast` twin, a benchmark: `lec --no-silence-wait` sets
-  // kFastReplySpin) a process put to sleep pays the kernel's wake-up on
-  // every reply, a fifth of the round trip on a 2-core VM (BENCHMARKS.md,
-  // "Fast mode"). Attacked by ReplySpin.* (tests/twin/reply_spin_test.cpp):
-  // a silent ID still times out at its deadline; no spin on a virtual clock.
+  // on the wall clock, counted from the query's end, at most kMaxReplySpin.
+  // Zero (the default) for any real line, whose replies take milliseconds;
+  // for a peer that answers in tens of microseconds (a `--timing fast` twin,
+  // a benchmark: kFastReplySpin, `lec --reply-spin 150us`) a process put to
+  // sleep pays the kernel's wake-up on every reply, a fifth of the round trip
+  // on a 2-core VM (BENCHMARKS.md, "Fast mode"). Attacked by ReplySpin.*
+  // (tests/twin/reply_spin_test.cpp): a silent ID still times out at its
+  // deadline; no spin on a virtual clock; Ctrl-C still ends the wait.
   Duration reply_spin{};
   TraceSink trace{};  // every frame, when set
   // Ctrl-C: when set and true, the waits of an exchange (the silence before
@@ -52,6 +53,7 @@ inline constexpr Duration kInterruptCheck = std::chrono::milliseconds(20);
 // RtuOptions::reply_spin for a fast peer: longer than a fast twin's round trip
 // on a pty (~50-80 us), short enough that a lost reply costs little CPU.
 inline constexpr Duration kFastReplySpin = std::chrono::microseconds(150);
+inline constexpr Duration kMaxReplySpin = std::chrono::milliseconds(1);
 
 class RtuMaster final : public Master {
  public:
@@ -83,7 +85,8 @@ class RtuMaster final : public Master {
   // the deadline is an instant to keep (Link::read_some_exact).
   std::size_t read_some(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible,
                         bool exact = false);
-  std::size_t spin_then_read(std::span<uint8_t> buffer, TimePoint deadline, bool interruptible);
+  std::size_t spin_then_read(std::span<uint8_t> buffer, TimePoint sent, TimePoint deadline,
+                             bool interruptible);
   void check_interrupt(bool interruptible, std::string_view during);
   void trace(bool outgoing, TimePoint at, std::span<const uint8_t> bytes,
              const modbus::RequestFrame& request, const modbus::ResponseFrame* response);
