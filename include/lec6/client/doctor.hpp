@@ -59,6 +59,9 @@ struct BaudProbe {
   std::vector<uint8_t> garbled;    // replies with the right ID but a failed CRC / framing
   std::size_t stray_bytes = 0;     // bytes that were no reply at all
   bool echo = false;               // our queries came back
+  // Of `garbled`, those garbled again when asked again (never sound): a
+  // controller there whose replies collide, not noise that began with its ID.
+  std::vector<uint8_t> garbled_again{};
 };
 
 struct BurstStats {
