@@ -7,9 +7,13 @@
 #include <sstream>
 
 #include "cli/app.hpp"
+#include "cli/cycle_html.hpp"
 #include "cli/cycle_lines.hpp"
 #include "cli/cycle_report.hpp"
 #include "cli/duration_option.hpp"
+#include "cli/file_output.hpp"
+#include "cli/twin_faults.hpp"
+#include "lec6/cycle/analysis.hpp"
 #include "lec6/cycle/cycle_file.hpp"
 #include "lec6/cycle/runner.hpp"
 #include "lec6/cycle/teach.hpp"
@@ -22,6 +26,8 @@ namespace {
 struct CycleArgs {
   std::string file;
   std::string junit;
+  std::string html;                 // --report FILE
+  std::vector<std::string> faults;  // --fault
   std::string profile;
   bool prepare = false;
   Duration max_cycle_time{};
@@ -64,14 +70,37 @@ void check(const GlobalOptions& g, const CycleArgs& a) {
 // The exit code and, when not 0, the message.
 std::pair<int, std::string> run(const GlobalOptions& g, const CycleArgs& a) {
   const cycle::Cycle c = cycle::load_cycle(a.file);  // before any port is opened
-  CycleLines lines(c, g, cycle_port(g), a.profile);
+  std::vector<cycle::Fault> faults = c.faults;
+  for (const auto& f : a.faults) faults.push_back(cycle::parse_fault(f, "--fault", c));
+  check_outputs({{"--report", a.html}, {"--junit", a.junit}}, {a.file});
+  const std::string port = cycle_port(g);
+  if (!a.faults.empty() && port != "sim") {
+    throw UsageError("--fault makes the twin act out a fault: it goes with --port sim");
+  }
+  CycleLines lines(c, g, port, a.profile);
+  if (!lines.simulated() && !c.faults.empty()) {
+    fmt::print(stderr,
+               "lec: note: the {} fault{} of {} are for the twin (--port sim): none is injected "
+               "on a line\n",
+               c.faults.size(), c.faults.size() == 1 ? "" : "s", a.file);
+  }
   if (lines.simulated() || a.prepare) lines.prepare(c);
   if (!g.json) {
     fmt::print("cycle '{}' on {}\n", c.name, lines.describe());
     std::fflush(stdout);
   }
+  std::optional<TwinFaults> twin_faults;
+  if (lines.simulated() && !faults.empty()) twin_faults.emplace(c, faults, lines);
+  // (c is the Cycle the Runner runs: TwinFaults knows its steps by address.)
   cycle::RunOptions o;
   o.stop_requested = [] { return g_interrupted.load(); };
+  if (twin_faults) {
+    o.at_step = [&](const cycle::Step& step, const std::string& path, cycle::StepMoment m) {
+      twin_faults->at_step(step, path, m);
+      if (g.json) return;
+      for (const auto& line : twin_faults->take_news()) fmt::print("{}\n", line);
+    };
+  }
   if (!g.json) {
     o.on_step = [](const cycle::StepReport& s) {
       fmt::print("{}", format_step(s));
@@ -80,25 +109,38 @@ std::pair<int, std::string> run(const GlobalOptions& g, const CycleArgs& a) {
   }
   cycle::Runner runner(c, lines.clients(), o);
   const cycle::CycleReport r = runner.run();
+  const cycle::CycleAnalysis analysis = cycle::analyse(r);
+  const std::vector<InjectedFault> injected =
+      twin_faults ? twin_faults->report() : std::vector<InjectedFault>{};
   if (g.json) {
-    fmt::print("{}\n", report_json(r, lines.simulated()));
+    fmt::print("{}\n", report_json(c.name, r, analysis, lines.simulated(), injected));
   } else {
-    fmt::print("{}", format_end(r, lines.simulated()));
+    fmt::print("{}{}", format_end(r, lines.simulated()), format_analysis(analysis));
+    for (const auto& f : injected) fmt::print("  fault: {}\n", format_fault(f));
   }
   std::fflush(stdout);  // the report before the exit's message on stderr
   const std::optional<Duration> limit =
       a.max_cycle_time > Duration{} ? std::optional<Duration>(a.max_cycle_time) : std::nullopt;
-  if (!a.junit.empty()) {
-    std::ofstream out(a.junit);
-    out << junit_xml(c.name, r, limit);
-    if (!out.flush()) throw CommandFailed(kFailure, fmt::format("cannot write {}", a.junit));
+  // Both reports are written, whatever became of the other; a report that
+  // could not be written fails a run that completed.
+  std::vector<std::string> unwritten;
+  if (!a.html.empty()) {
+    const CycleReportPage page{c.name, a.file, lines.describe(), lines.simulated()};
+    if (auto e = write_output("--report", a.html, cycle_html(page, r, analysis)))
+      unwritten.push_back(*e);
   }
+  if (!a.junit.empty()) {
+    if (auto e = write_output("--junit", a.junit, junit_xml(c.name, r, limit)))
+      unwritten.push_back(*e);
+  }
+  for (const auto& e : unwritten) fmt::print(stderr, "lec: {}\n", e);
   if (g_interrupted.load()) return {kInterrupted, "cycle stopped (Ctrl-C): every axis was stopped"};
   if (!r.completed) return {kFailure, "cycle not completed: " + r.ended};
   if (limit && r.cycle_time > *limit) {
     return {kFailure, fmt::format("the cycle took {:.3f} s, over --max-cycle-time {:.3f} s",
                                   to_seconds(r.cycle_time), to_seconds(*limit))};
   }
+  if (!unwritten.empty()) return {kFailure, "the cycle completed; a report was not written"};
   return {kSuccess, {}};
 }
 
@@ -109,30 +151,6 @@ std::string read_text(const std::string& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-// Replaces the file by `text` whole (a temporary beside it, renamed over it):
-// a crash or a full disk never leaves half a file. Its permissions are kept.
-void replace_file(const std::string& path, const std::string& text) {
-  namespace fs = std::filesystem;
-  const fs::path tmp = fs::path(path).concat(".lec-teach.tmp");
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out.flush()) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw CommandFailed(
-          kFailure, fmt::format("cannot write {}: nothing changed in {}", tmp.string(), path));
-    }
-  }
-  std::error_code ec;
-  fs::permissions(tmp, fs::status(path).permissions(), fs::perm_options::replace, ec);
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw CommandFailed(kFailure, fmt::format("cannot replace {}: {}", path, ec.message()));
-  }
 }
 
 // `lec cycle teach FILE AXIS.POINT`: the axis's position (or --at) into the file.
@@ -205,6 +223,13 @@ void add_cycle_commands(CLI::App& app, const GlobalOptions& globals) {
   run_cmd->add_option("--profile", a->profile,
                       "--port sim: the twin's field profile (YAML, e.g. from lec sim --calibrate)");
   run_cmd->add_option("--junit", a->junit, "Write the cycle's assertions as JUnit XML to FILE");
+  run_cmd->add_option("--report", a->html,
+                      "Write an HTML report to FILE: the Gantt chart, the critical path, where "
+                      "the time went (motion, line, dwells), each line's utilisation");
+  run_cmd->add_option("--fault", a->faults,
+                      "--port sim: a fault for the twin to act out, as in the file's faults: "
+                      "'{step: 6, push_miss: z}', '{step: 3, alarm: z, code: 149}', "
+                      "'{step: 5, cut_off: x}' (repeatable)");
   run_cmd->add_flag("--prepare", a->prepare,
                     "Serial mode, servo on and return to origin for every axis first (always "
                     "done with --port sim)");

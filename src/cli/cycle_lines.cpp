@@ -21,6 +21,7 @@ struct CycleLines::Impl {
   std::vector<std::unique_ptr<twin::OpenPort>> ports;
   std::map<std::string, std::unique_ptr<client::Client>> clients;  // by axis
   std::vector<std::string> descriptions;
+  std::map<std::string, sim::Bus*> twin_bus;  // by axis
 };
 
 CycleLines::CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals,
@@ -56,6 +57,7 @@ CycleLines::CycleLines(const cycle::Cycle& cycle, const GlobalOptions& globals,
         sim::ActuatorConfig config = profile.actuator;
         config.workpiece_mm = a->twin_workpiece_mm;
         bus->add(a->id, config, impl_->clock.now());
+        impl_->twin_bus[a->name] = bus.get();
       }
       impl_->links.push_back(std::make_unique<twin::SimLink>(*bus, impl_->clock));
       client::RtuOptions ro;
@@ -91,6 +93,16 @@ std::map<std::string, client::Client*> CycleLines::clients() {
   std::map<std::string, client::Client*> out;
   for (auto& [name, c] : impl_->clients) out[name] = c.get();
   return out;
+}
+
+sim::Bus* CycleLines::twin_bus(const std::string& axis) {
+  const auto it = impl_->twin_bus.find(axis);
+  return it == impl_->twin_bus.end() ? nullptr : it->second;
+}
+
+const Clock& CycleLines::clock() const {
+  if (simulated_) return impl_->clock;
+  return impl_->clients.begin()->second->clock();
 }
 
 std::string CycleLines::describe() const {

@@ -16,6 +16,10 @@
 #include "lec6/client/client.hpp"
 #include "lec6/cycle/cycle.hpp"
 
+namespace lec6::sim {
+class Bus;
+}
+
 namespace lec6::cli {
 
 class CycleLines {
@@ -31,6 +35,10 @@ class CycleLines {
   bool simulated() const noexcept { return simulated_; }
   // "in-process twin (simulated time)", "/dev/ttyUSB0 @ 38400".
   std::string describe() const;
+  // --port sim: the twin's line of `axis` (nullptr on a real line), and the
+  // virtual clock the twins run on.
+  sim::Bus* twin_bus(const std::string& axis);
+  const Clock& clock() const;
   // Serial mode, servo on, return to origin, for every axis (the twin's
   // controllers start unpowered, like a machine switched on).
   void prepare(const cycle::Cycle& cycle);

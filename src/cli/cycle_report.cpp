@@ -2,13 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "lec6/lec/units.hpp"
 
 namespace lec6::cli {
-
-namespace {
 
 std::string xml_escape(std::string_view s) {
   std::string out;
@@ -33,7 +32,10 @@ std::string xml_escape(std::string_view s) {
   return out;
 }
 
-}  // namespace
+std::string format_fault(const InjectedFault& f) {
+  return f.step.empty() ? fmt::format("{}: {}", f.fault, f.what)
+                        : fmt::format("step {}: {}: {}", f.step, f.fault, f.what);
+}
 
 std::string format_step(const cycle::StepReport& step) {
   std::string out = fmt::format("step {}  {}  {:.3f} -> {:.3f} s  {}\n", step.path, step.text,
@@ -56,13 +58,97 @@ std::string format_end(const cycle::CycleReport& r, bool simulated) {
   if (!r.stood.empty()) {
     out += "where each axis stood:\n";
     for (const auto& s : r.stood) {
-      out += fmt::format("  {:<6} {:>8} mm  {}\n", s.axis, lec::format_mm(s.position_001mm), s.how);
+      out +=
+          fmt::format("  {:<6} {:>11}  {}\n", s.axis,
+                      s.answered ? lec::format_mm(s.position_001mm) + " mm" : "not known", s.how);
     }
   }
   return out;
 }
 
-std::string report_json(const cycle::CycleReport& r, bool simulated) {
+std::string format_analysis(const cycle::CycleAnalysis& a) {
+  auto pc = [&](Duration d) {
+    return a.cycle_time > Duration::zero() ? 100.0 * to_seconds(d) / to_seconds(a.cycle_time) : 0.0;
+  };
+  std::map<cycle::Share, Duration> line;
+  for (const auto& seg : a.critical_path) {
+    if (cycle::line_share(seg.share)) line[seg.share] += seg.to - seg.from;
+  }
+  std::string parts;
+  for (const auto& [share, d] : line) {
+    parts += fmt::format("{}{} {:.3f}", parts.empty() ? "" : ", ", cycle::share_name(share),
+                         to_seconds(d));
+  }
+  std::string out = fmt::format(
+      "where the time went: motion {:.3f} s ({:.0f} %), the line {:.3f} s ({:.0f} %{}), dwells "
+      "and waits {:.3f} s ({:.0f} %)\n",
+      to_seconds(a.motion), pc(a.motion), to_seconds(a.line), pc(a.line),
+      parts.empty() ? "" : ": " + parts, to_seconds(a.program), pc(a.program));
+  for (const auto& l : a.lines) {
+    out += fmt::format("  line {}: {} exchanges, busy {}\n", l.line, l.transactions,
+                       l.utilisation ? fmt::format("{:.0f} % of the cycle", 100 * *l.utilisation)
+                                     : std::string("not known (no wire times)"));
+  }
+  if (a.max_start_skew) {
+    out += fmt::format("  largest start skew in a parallel group: {:.1f} ms\n",
+                       to_ms(*a.max_start_skew));
+  }
+  return out;
+}
+
+namespace {
+
+nlohmann::json analysis_json(const cycle::CycleAnalysis& a) {
+  nlohmann::json path = nlohmann::json::array();
+  for (const auto& seg : a.critical_path) {
+    path.push_back({{"step", seg.step},
+                    {"axis", seg.axis},
+                    {"share", cycle::share_name(seg.share)},
+                    {"from_s", to_seconds(seg.from)},
+                    {"to_s", to_seconds(seg.to)}});
+  }
+  nlohmann::json steps = nlohmann::json::array();
+  for (const auto& s : a.steps) {
+    nlohmann::json j{{"step", s.step},
+                     {"critical_axis", s.critical_axis},
+                     {"motion_s", to_seconds(s.motion)},
+                     {"line_s", to_seconds(s.line)},
+                     {"program_s", to_seconds(s.program)}};
+    if (s.start_skew) j["start_skew_s"] = to_seconds(*s.start_skew);
+    steps.push_back(std::move(j));
+  }
+  nlohmann::json axes = nlohmann::json::array();
+  for (const auto& u : a.axes) {
+    axes.push_back({{"axis", u.axis},
+                    {"motions", u.motions},
+                    {"moving_s", to_seconds(u.moving)},
+                    {"utilisation", u.utilisation}});
+  }
+  nlohmann::json lines = nlohmann::json::array();
+  for (const auto& l : a.lines) {
+    lines.push_back({{"line", l.line},
+                     {"axes", l.axes},
+                     {"transactions", l.transactions},
+                     {"timeouts", l.timeouts},
+                     {"utilisation", l.utilisation ? nlohmann::json(*l.utilisation) : nullptr}});
+  }
+  nlohmann::json out{{"motion_s", to_seconds(a.motion)},
+                     {"line_s", to_seconds(a.line)},
+                     {"program_s", to_seconds(a.program)},
+                     {"critical_path", path},
+                     {"steps", steps},
+                     {"axes", axes},
+                     {"lines", lines}};
+  out["max_start_skew_s"] =
+      a.max_start_skew ? nlohmann::json(to_seconds(*a.max_start_skew)) : nullptr;
+  return out;
+}
+
+}  // namespace
+
+std::string report_json(const std::string& cycle_name, const cycle::CycleReport& r,
+                        const cycle::CycleAnalysis& analysis, bool simulated,
+                        const std::vector<InjectedFault>& faults) {
   nlohmann::json steps = nlohmann::json::array();
   for (const auto& s : r.steps) {
     nlohmann::json axes = nlohmann::json::array();
@@ -74,6 +160,9 @@ std::string report_json(const cycle::CycleReport& r, bool simulated) {
                       {"outcome", cycle::outcome_name(a.outcome)},
                       {"position_mm", a.position_001mm / 100.0},
                       {"detail", a.detail}});
+      if (a.busy_fell_after && a.busy_fell_by) {
+        axes.back()["busy_fell_s"] = {to_seconds(*a.busy_fell_after), to_seconds(*a.busy_fell_by)};
+      }
     }
     steps.push_back({{"step", s.path},
                      {"text", s.text},
@@ -84,18 +173,30 @@ std::string report_json(const cycle::CycleReport& r, bool simulated) {
   }
   nlohmann::json stood = nlohmann::json::array();
   for (const auto& s : r.stood) {
-    stood.push_back({{"axis", s.axis},
-                     {"stopped", s.stopped},
-                     {"position_mm", s.position_001mm / 100.0},
-                     {"how", s.how}});
+    stood.push_back(
+        {{"axis", s.axis},
+         {"stopped", s.stopped},
+         {"position_mm", s.answered ? nlohmann::json(s.position_001mm / 100.0) : nullptr},
+         {"how", s.how}});
   }
-  return nlohmann::json{{"completed", r.completed},
+  nlohmann::json faults_json = nlohmann::json::array();
+  for (const auto& f : faults) {
+    faults_json.push_back(
+        {{"fault", f.fault},
+         {"step", f.step.empty() ? nlohmann::json(nullptr) : nlohmann::json(f.step)},
+         {"injected", f.injected},
+         {"what", f.what}});
+  }
+  return nlohmann::json{{"cycle", cycle_name},
+                        {"completed", r.completed},
                         {"ended", r.ended},
                         {"cycle_time_s", to_seconds(r.cycle_time)},
                         {"simulated", simulated},
                         {"passes", r.iterations},
                         {"steps", steps},
-                        {"stood", stood}}
+                        {"stood", stood},
+                        {"analysis", analysis_json(analysis)},
+                        {"faults", faults_json}}
       .dump(2);
 }
 

@@ -244,6 +244,7 @@ modbus::ResponseFrame RtuMaster::exchange(const modbus::RequestFrame& frame) {
       }
     }
     line_busy_until_ = link_.clock().now();
+    stats_.busy += line_busy_until_ - start;
     ++stats_.transactions;
     stats_.bytes_discarded += tx.discarded();
     if (tx.step() == Transaction::Step::Failed) {

@@ -182,7 +182,7 @@ Cycle parse_cycle(std::string_view yaml_text, const std::string& source) {
     throw CycleError(source, {e.mark.line + 1, e.mark.column + 1}, "", "not valid YAML: " + e.msg);
   }
   if (!root.IsMap()) r.fail(root, "", "a cycle file is a map with axes and steps (docs/cycles.md)");
-  r.keys(root, "", {"cycle", "repeat", "axes", "interlocks", "steps", "branches"});
+  r.keys(root, "", {"cycle", "repeat", "axes", "interlocks", "steps", "branches", "faults"});
   Cycle c;
   c.source = source;
   c.name = root["cycle"] ? r.text(root["cycle"], "cycle") : std::string("cycle");
@@ -208,6 +208,14 @@ Cycle parse_cycle(std::string_view yaml_text, const std::string& source) {
       if (name == "abort" || name == "continue") {
         r.fail(kv.first, "branches." + name, "'abort' and 'continue' are not branch names");
       }
+      // A step's path is BRANCH.N (faults: step: no_part.1): a dot would
+      // split it, and a name of digits would read as a step number.
+      if (name.find('.') != std::string::npos ||
+          name.find_first_not_of("0123456789") == std::string::npos) {
+        r.fail(
+            kv.first, "branches." + name,
+            "a branch name has no '.' and is not a number (its steps are BRANCH.1, BRANCH.2, ...)");
+      }
       branch_names.push_back(name);
     }
   }
@@ -219,6 +227,12 @@ Cycle parse_cycle(std::string_view yaml_text, const std::string& source) {
       c.branches[name] = detail::read_steps(r, kv.second, "branches." + name, c, branch_names);
     }
     refuse_recursive_branches(r, branches, c);
+  }
+  if (const auto& f = root["faults"]) {  // last: a fault names steps and branches
+    if (!f.IsSequence()) r.fail(f, "faults", "expected a list of faults (docs/cycles.md)");
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      c.faults.push_back(detail::read_fault(r, f[i], fmt::format("faults[{}]", i), c));
+    }
   }
   return c;
 }

@@ -26,6 +26,7 @@ constexpr std::array<std::pair<Outcome, std::string_view>, 9> kOutcomes{{
 }  // namespace
 
 std::string_view outcome_name(Outcome o) noexcept {
+  if (o == Outcome::LineFault) return "line_fault";
   for (const auto& [k, n] : kOutcomes) {
     if (k == o) return n;
   }

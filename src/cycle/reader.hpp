@@ -41,6 +41,10 @@ class Reader {
   std::string source_;
 };
 
+// One fault of the file's `faults:` list, or of --fault (cycle_faults.cpp).
+Fault read_fault(const Reader& r, const YAML::Node& n, const std::string& field,
+                 const Cycle& cycle);
+
 // The cycle's steps (cycle_steps.cpp): a list of steps at `field`.
 std::vector<Step> read_steps(const Reader& r, const YAML::Node& list, const std::string& field,
                              const Cycle& cycle, const std::vector<std::string>& branch_names);

@@ -7,6 +7,7 @@
 #include "lec6/client/actuator.hpp"
 #include "lec6/cycle/watch.hpp"
 #include "lec6/lec/units.hpp"
+#include "line_tally.hpp"
 
 namespace lec6::cycle {
 
@@ -80,7 +81,7 @@ struct Runner::Impl {
     for (const auto& a : cycle.axes) {
       const client::StopReport r =
           axes.at(a.name).actuator->stop(client::StopKind::Stop, options.stop_policy);
-      stood.push_back({a.name, r.stopped, r.state.position_001mm, r.describe()});
+      stood.push_back({a.name, r.stopped, r.answered, r.state.position_001mm, r.describe()});
       states[a.name].state = r.state;
     }
     return stood;
@@ -169,13 +170,27 @@ struct Runner::Impl {
     }
   }
 
-  // Ends every unresolved activity as stopped, stops every axis.
+  void moment(const Batch& b, StepMoment m) {
+    if (options.at_step) options.at_step(*b.step, b.path, m);
+  }
+
+  // Where the controller's BUSY fell, from the move's own timeline.
+  void note_busy_fall(Live& l) const {
+    if (!l.watch || !l.watch->move_result()) return;
+    const client::MoveResult& m = *l.watch->move_result();
+    const Duration started = m.started_at - t0;
+    if (m.timeline.busy_down_after) l.span.busy_fell_after = started + *m.timeline.busy_down_after;
+    if (m.timeline.busy_down) l.span.busy_fell_by = started + *m.timeline.busy_down;
+  }
+
+  // Their end is when the cut came: the stops after it are the step's, not theirs.
   std::vector<AxisStand> cut(std::vector<Live>& live, const std::string& why) {
+    const Duration at = since_start();
     auto stood = stop_all();
     for (auto& l : live) {
       if (l.result) continue;
       l.result = ActivityResult{Outcome::Stopped, why};
-      l.span.end = since_start();
+      l.span.end = at;
       l.span.outcome = Outcome::Stopped;
       l.span.detail = why;
       if (!l.step->axis.empty()) l.span.position_001mm = states[l.step->axis].state.position_001mm;
@@ -204,14 +219,39 @@ struct Runner::Impl {
       l.step = a.step;
       l.span.axis = a.step->axis;
       l.span.what = a.step->text;
+      l.span.motion = a.step->moves();
       if (!l.step->axis.empty()) l.span.position_001mm = states[l.step->axis].state.position_001mm;
       live.push_back(std::move(l));
     }
+    try {
+      BatchEnd end = run_live(b, live, stood);
+      for (auto& l : live) {
+        end.results.push_back(*l.result);
+        report.axes.push_back(l.span);
+      }
+      return end;
+    } catch (const client::TransportError& e) {  // the step's members stay in its report
+      for (auto& l : live) {
+        if (!l.result) {
+          l.span.end = since_start();
+          l.span.outcome = Outcome::LineFault;
+          l.span.detail = e.what();
+        }
+        report.axes.push_back(l.span);
+      }
+      throw;
+    }
+  }
+
+  // Starts a batch's members and polls them until each has ended.
+  BatchEnd run_live(const Batch& b, std::vector<Live>& live, std::vector<AxisStand>& stood) {
     BatchEnd end;
+    moment(b, StepMoment::Before);
     auto settle = [&](Live& l) -> bool {  // true: the cycle ends now
       l.span.end = since_start();
       l.span.outcome = l.result->outcome;
       l.span.detail = l.result->detail;
+      note_busy_fall(l);
       if (target_of(*l.step, l.result->outcome).kind != Target::Abort) return false;
       end.cut = fmt::format("aborted at step {} ({}): {}: {}", b.path, l.step->text,
                             outcome_name(l.result->outcome), l.result->detail);
@@ -236,6 +276,7 @@ struct Runner::Impl {
       start(l);
       if (l.result && settle(l)) break;
     }
+    if (!end.cut) moment(b, StepMoment::Started);
     while (!end.cut &&
            std::any_of(live.begin(), live.end(), [](const Live& l) { return !l.result; })) {
       if (stop_requested()) {
@@ -257,16 +298,13 @@ struct Runner::Impl {
       if (!end.cut) check_interlocks_during(b, live, end, stood);
       if (!polled && wake && !end.cut) axes.begin()->second.client->idle_until(*wake);
     }
-    for (auto& l : live) {
-      end.results.push_back(*l.result);
-      report.axes.push_back(l.span);
-    }
     return end;
   }
 
   CycleReport run() {
     CycleReport report;
     t0 = clock().now();
+    for (const auto& a : cycle.axes) lines.add(a.name, axes.at(a.name).client->master());
     Engine engine(cycle);
     std::optional<StepReport> running;  // the step under way, for a line fault
     try {
@@ -292,6 +330,7 @@ struct Runner::Impl {
         }
         report.steps.push_back(step);
         running.reset();
+        moment(b, StepMoment::Ended);
         if (options.on_step) options.on_step(report.steps.back());
         if (engine.result()) break;
       }
@@ -312,6 +351,7 @@ struct Runner::Impl {
     report.ended = engine.result() ? engine.result()->reason : "completed";
     report.cycle_time = since_start();
     report.iterations = engine.iteration();
+    report.lines = lines.since_added();
     return report;
   }
 
@@ -320,6 +360,7 @@ struct Runner::Impl {
   std::map<std::string, AxisIo> axes;
   AxisStates states;
   TimePoint t0{};
+  detail::LineTally lines;
 };
 
 Runner::Runner(const Cycle& cycle, std::map<std::string, client::Client*> clients,

@@ -66,6 +66,17 @@ uint64_t Bus::eeprom_generation() const {
   return sum;
 }
 
+void Bus::set_cut_off(uint8_t id, bool cut_off) {
+  if (cut_off)
+    cut_off_.insert(id);
+  else
+    cut_off_.erase(id);
+}
+
+Controller* Bus::listening(uint8_t id) {
+  return cut_off_.count(id) ? nullptr : find(id);
+}
+
 std::vector<uint8_t> Bus::ids() const {
   std::vector<uint8_t> out;
   for (const auto& [id, c] : controllers_) out.push_back(id);
@@ -158,7 +169,7 @@ void Bus::act_on(const modbus::DeviceFramer::Frame& frame) {
   }
   const uint8_t id = bytes[0];
   const bool broadcast = id == modbus::kBroadcastId;
-  Controller* target = broadcast ? nullptr : find(id);
+  Controller* target = broadcast ? nullptr : listening(id);
   if (!broadcast && !target) {
     ++stats_.other_ids;
     return;
@@ -191,7 +202,9 @@ void Bus::act_on(const modbus::DeviceFramer::Frame& frame) {
     // FC05/0F/10 act on every controller with no reply; reads and echo are ignored.
     if (!modbus::is_write(request)) return;
     ++stats_.broadcasts;
-    for (auto& [cid, c] : controllers_) (void)c->handle(request, act_at);
+    for (auto& [cid, c] : controllers_) {
+      if (!cut_off_.count(cid)) (void)c->handle(request, act_at);
+    }
     return;
   }
   modbus::Response reply = target->handle(request, act_at);
@@ -211,7 +224,7 @@ void Bus::answer_too_long(const modbus::DeviceFramer::Frame& frame, TimePoint re
   const uint8_t id = frame.bytes[0];
   const uint8_t fc = frame.bytes[1];
   if (id == modbus::kBroadcastId) return;
-  Controller* target = find(id);
+  Controller* target = listening(id);
   if (!target) {
     ++stats_.other_ids;
     return;
@@ -241,7 +254,8 @@ void Bus::schedule(uint8_t id, modbus::Bytes bytes, TimePoint start) {
     // the CRC are a mix.
     for (std::size_t i = std::min<std::size_t>(3, bytes.size() - 2); i < bytes.size(); ++i) {
       if (std::bernoulli_distribution(0.5)(rng_))
-        bytes[i] = static_cast<uint8_t>(bytes[i] ^ std::uniform_int_distribution<unsigned>(1, 255)(rng_));
+        bytes[i] =
+            static_cast<uint8_t>(bytes[i] ^ std::uniform_int_distribution<unsigned>(1, 255)(rng_));
     }
     if (modbus::crc_ok(bytes)) bytes.back() = static_cast<uint8_t>(bytes.back() ^ 0x01);
     ++stats_.collisions;

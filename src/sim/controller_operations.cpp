@@ -301,6 +301,11 @@ void Controller::set_estop(bool on, TimePoint t) {
   }
 }
 
+void Controller::inject_alarm(uint8_t code, TimePoint t) {
+  advance(t);
+  raise_alarm(code);
+}
+
 // ---- memory inputs -------------------------------------------------------------
 
 void Controller::write_direct_data(std::size_t index, uint16_t value) {

@@ -34,6 +34,26 @@ if grep -q 'tests="3" failures="0"' "$tmp/junit.xml"; then ok; else bad "junit: 
 
 expect_exit 0 json -- lec --json cycle run "$example" --port sim
 [[ $(json 'd["completed"], d["passes"], len(d["steps"]), d["steps"][5]["axes"][0]["outcome"]') == "(True, 2, 16, 'pushed')" ]] && ok || bad "json: $out"
+# Where the time went (cycle::analyse): the critical path tiles the cycle
+# time, the line's utilisation is a fraction, the group's start skew under
+# 25 ms; the HTML report draws one bar per activity and outlines the path.
+[[ $(json 'round(d["analysis"]["motion_s"] + d["analysis"]["line_s"] + d["analysis"]["program_s"] - d["cycle_time_s"], 6), d["analysis"]["critical_path"][-1]["to_s"] == d["cycle_time_s"], 0 < d["analysis"]["lines"][0]["utilisation"] < 1, d["analysis"]["max_start_skew_s"] < 0.025') == "(0.0, True, True, True)" ]] && ok || bad "analysis: $(json 'd["analysis"]')"
+bars=$(json 'sum(len(s["axes"]) for s in d["steps"])')
+expect_exit 0 report -- lec cycle run "$example" --port sim --report "$tmp/cycle.html"
+contains report "where the time went: motion "
+contains report "line in-process twin"
+[[ $(grep -c '<rect class="bar ' "$tmp/cycle.html") -eq $bars ]] && ok || bad "report: $(grep -c '<rect class="bar ' "$tmp/cycle.html") bars, $bars activities"
+grep -q '<rect class="bar ok critical"' "$tmp/cycle.html" && grep -q 'id="gantt"' "$tmp/cycle.html" && ok || bad "report: no critical path in the Gantt chart"
+# A report that cannot be written is refused before anything moves.
+expect_exit 2 report_dir -- lec cycle run "$example" --port sim --report "$tmp/no/such/dir/r.html"
+contains report_dir "--report $tmp/no/such/dir/r.html: cannot create a file there: No such file or directory"
+expect_exit 2 report_is_dir -- lec cycle run "$example" --port sim --report "$tmp" --junit "$tmp/j.xml"
+contains report_is_dir "--report $tmp: a directory; give a file name"
+expect_exit 2 report_is_cycle -- lec cycle run "$example" --port sim --report "$example"
+contains report_is_cycle "that is the file this command reads"
+expect_exit 2 report_twice -- lec cycle run "$example" --port sim --report "$tmp/same.out" --junit "$tmp/./same.out"
+contains report_twice "--junit $tmp/./same.out: also given to --report: each report needs its own file"
+[[ ! -e $tmp/j.xml && ! -e $tmp/same.out ]] && ok || bad "a refused report path left a file"
 
 # The same on a field profile's twin (a calibrated twin: lec sim --calibrate).
 expect_exit 0 profile -- lec cycle run "$example" --port sim --profile "$here/../../profiles/field-quirks.yaml"
@@ -45,6 +65,48 @@ contains profile_not_sim "--profile sets up the twin: it goes with --port sim"
 # A cycle time over the limit fails the run and its JUnit case.
 expect_exit 1 too_slow -- lec cycle run "$example" --port sim --max-cycle-time 5s --junit "$tmp/slow.xml"
 if grep -q 'failures="1"' "$tmp/slow.xml" && grep -q 'the cycle took' "$tmp/slow.xml"; then ok; else bad "slow junit: $(cat "$tmp/slow.xml")"; fi
+
+# The three-axis example: every part picked and placed, the three axes of
+# its first group started within two start transactions.
+expect_exit 0 gantry -- lec --json cycle run "$here/../../examples/cycles/gantry-3-axis.yaml" --port sim
+[[ $(json 'd["completed"], d["passes"], sum(1 for s in d["steps"] for a in s["axes"] if a["outcome"] == "pushed"), len(d["analysis"]["axes"]), d["analysis"]["max_start_skew_s"] < 0.045') == "(True, 3, 3, 3, True)" ]] && ok || bad "gantry: $out"
+
+# --- faults acted out by the twin: each failure branch runs before the machine exists
+# The 1st part is missing: its push misses and no_part runs; the workpiece
+# is back once z has lifted, so the 2nd part is pushed.
+expect_exit 0 fault_miss -- lec cycle run "$example" --port sim --fault '{step: 6, push_miss: z}'
+contains fault_miss "fault at step 6 (1/2): z's push at step 6 finds no workpiece (injected)"
+contains fault_miss "step no_part.1  move z to up"
+[[ $(grep -c "branch no_part" <<<"$out") -eq 1 && $(grep -c "pushed: workpiece at 78.00 mm" <<<"$out") -eq 1 ]] &&
+  ok || bad "fault_miss: one miss, then the 2nd part pushed: $out"
+expect_exit 1 fault_alarm -- lec cycle run "$example" --port sim --fault '{step: 2, alarm: z}'
+contains fault_alarm "fault at step 2 (1/2): alarm 149 on z at step 2 (injected)"
+contains fault_alarm "aborted at step 2 (1/2)"
+contains fault_alarm "where each axis stood:"
+set +e
+out=$(lec --json cycle run "$example" --port sim --fault '{step: 5, cut_off: x}' 2>"$tmp/cut.err")
+code=$?
+set -e
+[[ $code -eq 1 ]] && ok || bad "fault_cut: exit $code: $(cat "$tmp/cut.err")"
+[[ $(json '"line fault during step 5 (1/2)" in d["ended"], [s["stopped"] for s in d["stood"]], [(f["step"], f["fault"], f["injected"]) for f in d["faults"]], d["stood"][0]["position_mm"], [a["outcome"] for a in d["steps"][-1]["axes"]]') == "(True, [False, True], [('5 (1/2)', 'x cut off the line at step 5', True)], None, ['line_fault', 'line_fault'])" ]] && ok || bad "fault_cut: $out"
+expect_exit 2 fault_line -- lec cycle run "$example" --port /dev/nonexistent --fault '{step: 5, cut_off: x}'
+contains fault_line "--fault makes the twin act out a fault: it goes with --port sim"
+expect_exit 2 fault_bad -- lec cycle run "$example" --port sim --fault '{step: 6, push_miss: x}'
+contains fault_bad "fault.push_miss: step 6 (push z to nest (70.00 mm)) has no push of x: a push_miss needs one"
+
+# A re-press that misses: the part goes back only once z has left the side it
+# pushed past, so the move up does not run into it (alarm 149).
+cat >"$tmp/repress.yaml" <<'YAML'
+axes:
+  z: {id: 1, points: {up: 5, nest: 70}, twin: {workpiece_mm: 78}}
+steps:
+  - push: {axis: z, to: nest, force: 50, trigger: 40, push_speed: 20, distance: 15}
+  - push: {axis: z, to: 78, force: 60, trigger: 40, distance: 10, on: {push_missed: continue}}
+  - move: {axis: z, to: up, timeout: 5s}
+  - push: {axis: z, to: nest, force: 50, trigger: 40, push_speed: 20, distance: 15}
+YAML
+expect_exit 0 repress -- lec --json cycle run "$tmp/repress.yaml" --port sim --fault '{step: 2, push_miss: z}'
+[[ $(json '[a["outcome"] for s in d["steps"] for a in s["axes"]]') == "['pushed', 'push_missed', 'reached', 'pushed']" ]] && ok || bad "repress: $out"
 
 # --- bad files: exit 2, the place and the rule, no port opened --------------
 sed 's/axis: z, to: nest/axis: y, to: nest/' "$example" >"$tmp/bad-axis.yaml"
@@ -64,6 +126,7 @@ contains run_line "push_missed"               # no part in this twin
 contains run_line "branch no_part"
 contains run_line "step no_part.1  move z to up"
 contains run_line "real time), 2 passes"
+contains run_line "exchanges, busy "            # the line's utilisation, from the wire times
 
 # --- Ctrl-C during the parallel group of step 5: every axis stops ----------
 "$LEC" cycle run "$example" --port "$tmp/line" --prepare >"$tmp/stop.out" 2>&1 &

@@ -33,6 +33,10 @@ struct LinkStats {
   uint64_t framing_errors = 0;
   uint64_t exceptions = 0;
   uint64_t bytes_discarded = 0;  // stray bytes dropped: noise, late replies
+  // How long this master held the line: each exchange from its request's
+  // first byte to its reply's last (or until it was given up). 0 where the
+  // master does not see the wire (Modbus TCP): then it is not known.
+  Duration busy{};
 };
 
 // One frame on its way out or in, for `--trace`.

@@ -59,9 +59,10 @@ enum class Outcome {
   NotStarted,  // the controller did not act on the start
   Refused,     // refused before anything was written (not ready, soft limits)
   Done,        // a wait or a dwell ended as asked
+  LineFault,   // its axis stopped answering: the cycle ended (no condition can catch it)
 };
 // "reached", "pushed", "push_missed", "alarm", "timeout", "stopped", "not_started", "refused",
-// "done"
+// "done", "line_fault"; outcome_from_name knows all but line_fault (what `on:` may name).
 std::string_view outcome_name(Outcome o) noexcept;
 std::optional<Outcome> outcome_from_name(std::string_view name) noexcept;
 
@@ -109,6 +110,24 @@ struct Step {
   }
 };
 
+// A fault for the twin to act out (`faults:` in the file, `--fault` on the
+// command line), so that a cycle's failure branches run before the machine
+// exists. Only `--port sim` injects them; on a line they are ignored.
+struct Fault {
+  enum class Kind {
+    PushMiss,  // the axis's workpiece is taken away before the step starts: its push misses
+    Alarm,     // the axis raises `alarm_code` once the step's starts were sent
+    CutOff,    // the axis's controller stops answering once the step's starts were sent
+  };
+  Kind kind = Kind::Alarm;
+  std::string axis;
+  std::string step;   // the step's path without its pass: "6", "4.2", "no_part.1"
+  unsigned pass = 1;  // the Nth time that step runs
+  uint8_t alarm_code = 149;
+  std::string text;  // "alarm 149 on z at step 3"
+  Mark mark;
+};
+
 struct Cycle {
   std::string name;
   std::string source;  // the file it came from
@@ -116,7 +135,8 @@ struct Cycle {
   std::vector<UserInterlock> interlocks;
   std::vector<Step> steps;
   std::map<std::string, std::vector<Step>> branches;
-  unsigned repeat = 1;  // the whole cycle, N times
+  unsigned repeat = 1;        // the whole cycle, N times
+  std::vector<Fault> faults;  // --port sim only
 
   const Axis* axis(std::string_view name) const;
 };

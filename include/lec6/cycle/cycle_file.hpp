@@ -36,5 +36,12 @@ class CycleError : public InvalidArgument {
 Cycle parse_cycle(std::string_view yaml_text, const std::string& source);
 // Reads the file; a file that cannot be read is a CycleError too.
 Cycle load_cycle(const std::string& path);
+// One fault as a YAML flow map, as in the file's `faults:` list (lec cycle
+// run --fault '{step: 6, push_miss: z}'), checked against the cycle;
+// `source` names it in messages ("--fault").
+Fault parse_fault(std::string_view yaml_text, const std::string& source, const Cycle& cycle);
+// The step at `path` ("6", "4.2", "no_part.1": a report's path without its
+// pass), or nullptr. A parallel group's members have no path of their own.
+const Step* find_step(const Cycle& cycle, std::string_view path);
 
 }  // namespace lec6::cycle

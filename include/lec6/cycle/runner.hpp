@@ -21,6 +21,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,12 @@ struct AxisSpan {
   Outcome outcome = Outcome::Done;
   std::string detail;
   int32_t position_001mm = 0;  // at the end
+  // A move's or push's end on the controller's side, from its polls: BUSY
+  // fell after `busy_fell_after` (the last poll that saw it high) and by
+  // `busy_fell_by` (the first that saw it low). Unset when no poll showed it.
+  std::optional<Duration> busy_fell_after;
+  std::optional<Duration> busy_fell_by;
+  bool motion = false;  // a move, push or stored step (not a wait or a dwell)
 };
 
 struct StepReport {
@@ -53,9 +60,19 @@ struct StepReport {
 // Where an axis stood when a cycle was stopped or aborted.
 struct AxisStand {
   std::string axis;
-  bool stopped = false;  // a read showed it at rest after the stop
+  bool stopped = false;   // a read showed it at rest after the stop
+  bool answered = false;  // a read came back: position_001mm is where it stood
   int32_t position_001mm = 0;
   std::string how;  // client::StopReport::describe()
+};
+
+// What one line carried during the cycle (LinkStats over the run).
+struct LineUse {
+  std::string line;  // Master::describe()
+  std::vector<std::string> axes;
+  uint64_t transactions = 0;
+  uint64_t timeouts = 0;
+  Duration busy{};  // the line held by exchanges; 0 where not known (Modbus TCP)
 };
 
 struct CycleReport {
@@ -65,13 +82,23 @@ struct CycleReport {
   unsigned iterations = 0;  // passes of the whole cycle begun
   std::vector<StepReport> steps;
   std::vector<AxisStand> stood;  // every axis, when the cycle was stopped or aborted
+  std::vector<LineUse> lines;    // each line of the cycle, in the order of its first axis
 };
+
+// Moments of a step, for a caller that acts on the twin (fault injection):
+// Before: its interlocks held, nothing written for it yet; Started: its
+// starts were sent, its polls not begun; Ended: it ended (the report made).
+enum class StepMoment { Before, Started, Ended };
 
 struct RunOptions {
   std::function<bool()> stop_requested;  // polled between transactions
   client::StopPolicy stop_policy{};
   // Each step as it ends (a live printout).
   std::function<void(const StepReport&)> on_step;
+  // Each step's moments: `step` the Cycle's step (a group, not its
+  // members), `path` as in StepReport ("6 (2/2)"). Must not throw (what it
+  // does goes on between the runner's transactions).
+  std::function<void(const Step& step, const std::string& path, StepMoment)> at_step;
 };
 
 class Runner {

@@ -38,6 +38,7 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <set>
 #include <span>
 #include <vector>
 
@@ -144,6 +145,12 @@ class Bus {
   // When a controller changes a flag by itself next (for a UI that redraws).
   std::optional<TimePoint> next_model_event() const;
 
+  // Cuts controller `id` off the line (a broken cable, a connector pulled):
+  // it hears nothing and answers nothing until joined again, while its axis
+  // goes on with what it was doing. Fault injection (lec cycle's faults).
+  void set_cut_off(uint8_t id, bool cut_off);
+  bool cut_off(uint8_t id) const { return cut_off_.count(id) > 0; }
+
   const LineConfig& line() const { return line_; }
   const FaultConfig& faults() const { return faults_; }
   void set_faults(const FaultConfig& f);
@@ -160,8 +167,12 @@ class Bus {
   void skip_noise(TimePoint until);
   void draw_noise_after(TimePoint t);
 
+  // The controller `id` when it is on the line and not cut off.
+  Controller* listening(uint8_t id);
+
   LineConfig line_;
   FaultConfig faults_;
+  std::set<uint8_t> cut_off_;
   std::mt19937_64 rng_;
   modbus::DeviceFramer framer_;
   std::map<uint8_t, std::unique_ptr<Controller>> controllers_;

@@ -101,6 +101,11 @@ class Controller {
   // The EMG stop input (digest §6): on = stop at once, SVRE 0, ESTOP 1;
   // off = ESTOP 0, servo stays off until the next SVON ← 1 write.
   void set_estop(bool on, TimePoint t);
+  // The controller raises alarm `code` at `t` as if it had found the fault
+  // itself (fault injection: lec cycle's faults): a motion stops with the
+  // alarm's deceleration, BUSY falls, ALARM rises; RESET clears the codes
+  // RESET clears (alarm_resettable).
+  void inject_alarm(uint8_t code, TimePoint t);
 
   // ---- time ---------------------------------------------------------------
   // Applies every event up to `t` (SVRE delay, move ends, contact, alarms).

@@ -1,0 +1,99 @@
+#include "cli/file_output.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "cli/app.hpp"
+
+namespace lec6::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path temporary_of(const std::string& path) {
+  return fs::path(path).concat(".lec-tmp");
+}
+
+// The same file however it is named ("./a.html", "a.html", a symlink).
+bool same_file(const std::string& a, const std::string& b) {
+  std::error_code ec1, ec2;
+  const fs::path ca = fs::weakly_canonical(a, ec1);
+  const fs::path cb = fs::weakly_canonical(b, ec2);
+  return !ec1 && !ec2 ? ca == cb : a == b;
+}
+
+}  // namespace
+
+void replace_file(const std::string& path, const std::string& text) {
+  const fs::path tmp = temporary_of(path);
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    if (!out.flush()) {
+      const std::string why = std::strerror(errno);
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw CommandFailed(kFailure, fmt::format("cannot write {} ({}): nothing changed in {}",
+                                                tmp.string(), why, path));
+    }
+  }
+  std::error_code ec;
+  if (const auto st = fs::status(path, ec); fs::exists(st)) {  // a new file: the umask's
+    fs::permissions(tmp, st.permissions(), fs::perm_options::replace, ec);
+  }
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw CommandFailed(kFailure, fmt::format("cannot replace {}: {}", path, ec.message()));
+  }
+}
+
+void check_outputs(const std::vector<std::pair<std::string, std::string>>& outputs,
+                   const std::vector<std::string>& inputs) {
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const auto& [option, path] = outputs[i];
+    if (path.empty()) continue;
+    std::error_code ec;
+    if (path.back() == '/' || fs::is_directory(path, ec)) {
+      throw UsageError(fmt::format("{} {}: a directory; give a file name", option, path));
+    }
+    for (const auto& in : inputs) {
+      if (same_file(path, in))
+        throw UsageError(fmt::format("{} {}: that is the file this command reads", option, path));
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if (!outputs[j].second.empty() && same_file(path, outputs[j].second)) {
+        throw UsageError(fmt::format("{} {}: also given to {}: each report needs its own file",
+                                     option, path, outputs[j].first));
+      }
+    }
+    const fs::path tmp = temporary_of(path);
+    const bool existed = fs::exists(tmp, ec);
+    {
+      std::ofstream probe(tmp, std::ios::binary | std::ios::app);
+      if (!probe) {
+        throw UsageError(fmt::format("{} {}: cannot create a file there: {}", option, path,
+                                     std::strerror(errno)));
+      }
+    }
+    if (!existed) fs::remove(tmp, ec);
+  }
+}
+
+std::optional<std::string> write_output(const std::string& option, const std::string& path,
+                                        const std::string& text) {
+  try {
+    replace_file(path, text);
+    return std::nullopt;
+  } catch (const CommandFailed& e) {
+    return fmt::format("{} {}: {}", option, path, e.what());
+  }
+}
+
+}  // namespace lec6::cli
