@@ -33,6 +33,21 @@ doctor_healthy() {
     doctor "$@"
   fi
 }
+# doctor_finds TEXT NAME ARGS...: as doctor, for a case that needs the scan to
+# have found every controller of its twin (TEXT, e.g. "ID 1 and 3 at 57600"):
+# on a loaded host a twin stalled past its window is missed by the scan, and
+# what the case checks (a --fix on that ID) is then not there to check (CI: a
+# clean make test run, the twin's replies late 2-4 times in 80). One more run,
+# only after a verdict (0, 7, 8) that missed it.
+doctor_finds() {
+  local text=$1
+  shift
+  doctor "$@"
+  if ! has "$1" "$text" && [[ $RC -eq 0 || $RC -eq 7 || $RC -eq 8 ]]; then
+    echo "    (the scan missed a controller: a loaded host? once more)"
+    doctor "$@"
+  fi
+}
 # doctor_expect CODE NAME ARGS...: as doctor, for a line whose verdict must be
 # exit CODE: the verdict must hold in one of two runs, for the same reason (CI,
 # stop 40: doctor_test failed once at -j2 beside the other tests; a real
@@ -97,7 +112,7 @@ check "two --fix: the alarm cleared" has two-fix "alarm 62 cleared (RESET)"
 check "two --fix: serial mode left alone (a PLC may drive it)" hasnt two-fix "serial mode on (Y30)"
 check "two --fix: names the command that would" has two-fix "lec doctor --fix --serial-ids 1"
 check "two --fix: nothing moved" has two-fix "nothing was moved"
-doctor two-serial --port "$TMP/two" --baud 57600 doctor --ids 1-3 --fix --serial-ids 1
+doctor_finds "ID 1 and 3 at 57600" two-serial --port "$TMP/two" --baud 57600 doctor --ids 1-3 --fix --serial-ids 1
 check "two --fix --serial-ids 1: serial mode on" has two-serial "serial mode on (Y30)"
 stop_twin "$TWIN_PID"
 
