@@ -4,7 +4,9 @@
 # --junit), refused when bad (exit 2, file:line:column: field: rule, before
 # any port is opened), run unchanged on a twin behind a real pseudo-terminal
 # in real time (its push misses there: the no_part branch), and stopped by
-# Ctrl-C during a parallel group (exit 130, where each axis stood).
+# Ctrl-C during a parallel group (exit 130, where each axis stood); where its
+# time went and its HTML report; faults acted out by the twin; through lec
+# serve beside a SCADA poller, and stopped there by a stop over HTTP.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 source "$here/lib.sh"
@@ -159,5 +161,60 @@ cp "$tmp/cell.yaml" "$tmp/cell.before"
 expect_exit 2 teach_limits -- lec cycle teach "$tmp/cell.yaml" x.pick --at 401
 contains teach_limits "outside the axis's soft limits 0.00 to 400.00 mm; nothing written"
 cmp -s "$tmp/cell.yaml" "$tmp/cell.before" && ok || bad "a refused teach changed the file"
+
+# --- through lec serve: the cycle shares the line with a SCADA poller -------
+# `--port tcp://` to lec serve's Modbus TCP (unit id = controller ID); mbpoll
+# reads both axes all the while. A stop posted over HTTP during a parallel
+# group stops that axis; the cycle sees it stopped, ends, and stops every
+# axis, saying where each stood.
+need --program mbpoll --program curl
+start_twin served --ids 1,2
+"$LEC" serve --port "$tmp/served" --ids 1,2 --modbus-tcp 127.0.0.1:0 --http 127.0.0.1:0 \
+  >"$tmp/serve.out" 2>"$tmp/serve.err" &
+twin_pids+=($!)
+serve_ready() { grep -q "ready on" "$tmp/serve.out"; }
+wait_for 20 "lec serve's ready line" -- serve_ready || bad "lec serve did not start: $(cat "$tmp/serve.err")"
+mb=$(grep -o 'tcp://127.0.0.1:[0-9]*' "$tmp/serve.out" | head -1 || true)
+http=$(grep -o 'http://[0-9.:]*' "$tmp/serve.out" | head -1 || true)
+( while :; do mbpoll -m tcp -a 1:2 -p "${mb##*:}" -t 4 -r 36864 -c 7 -0 -1 127.0.0.1 >/dev/null 2>&1; done ) &
+twin_pids+=($!)
+cat >"$tmp/served.yaml" <<'YAML'
+cycle: served
+axes:
+  x: {id: 1, soft_limits: [0, 400]}
+  z: {id: 2}
+steps:
+  - parallel:
+      - move: {axis: x, to: 40, speed: 300}
+      - move: {axis: z, to: 20, speed: 300}
+  - parallel:
+      - move: {axis: x, to: 300, speed: SPEED}
+      - move: {axis: z, to: 90, speed: SPEED}
+  - move: {axis: x, to: 10, speed: 400}
+YAML
+sed 's/SPEED/300/' "$tmp/served.yaml" >"$tmp/served-fast.yaml"
+sed 's/SPEED/40/' "$tmp/served.yaml" >"$tmp/served-slow.yaml"
+expect_exit 0 via_serve -- lec cycle run "$tmp/served-fast.yaml" --port "$mb" --prepare
+contains via_serve "cycle completed in"
+contains via_serve "exchanges, busy not known (no wire times)" # Modbus TCP: the wire is lec serve's
+"$LEC" cycle run "$tmp/served-slow.yaml" --port "$mb" --prepare >"$tmp/sstop.out" 2>&1 &
+run_pid=$!
+x_on_its_way() {
+  curl -s "$http/api/axes/axis1" | /usr/bin/python3 -c 'import json,sys; d=json.load(sys.stdin); sys.exit(0 if d["position_mm"] > 80 else 1)'
+}
+wait_for 30 "x past 80 mm in step 2" -- x_on_its_way || bad "x never got past 80 mm: $(cat "$tmp/sstop.out")"
+code=$(curl -s -o "$tmp/stop.json" -w '%{http_code}' -XPOST "$http/api/axes/axis1/stop" || true)
+[[ $code == 200 ]] && ok || bad "HTTP stop: $code $(cat "$tmp/stop.json")"
+set +e
+wait "$run_pid"
+code=$?
+set -e
+out=$(cat "$tmp/sstop.out")
+[[ $code -eq 1 ]] && ok || bad "stopped through serve: exit $code: $out"
+contains sstop "aborted at step 2"
+contains sstop "where each axis stood:"
+[[ $(grep -cE '^  (x|z) +[0-9.]+ mm  stopped at' <<<"$out") -eq 2 ]] && ok || bad "sstop: two axes at rest: $out"
+z_at=$(sed -n 's/^  z \+\([0-9.]*\) mm  stopped at.*/\1/p' <<<"$out")
+/usr/bin/python3 -c "import sys; sys.exit(0 if float('${z_at:-0}') < 89 else 1)" && ok || bad "z went on to its target after the stop: $out"
 
 finish
