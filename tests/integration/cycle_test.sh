@@ -130,21 +130,29 @@ contains run_line "step no_part.1  move z to up"
 contains run_line "real time), 2 passes"
 contains run_line "exchanges, busy "            # the line's utilisation, from the wire times
 
+# stopped_run NAME PID CODE: the background cycle PID (its output in
+# $tmp/NAME.out, then in $out) ends with exit CODE, saying where each axis
+# stood: both at rest.
+stopped_run() {
+  local name=$1 pid=$2 want=$3 code
+  set +e
+  wait "$pid"
+  code=$?
+  set -e
+  out=$(cat "$tmp/$name.out")
+  [[ $code -eq $want ]] && ok || bad "$name: exit $code, expected $want: $out"
+  contains "$name" "where each axis stood:"
+  [[ $(grep -cE '^  (x|z) +[0-9.]+ mm  stopped at' <<<"$out") -eq 2 ]] && ok || bad "$name: two axes at rest: $out"
+}
+
 # --- Ctrl-C during the parallel group of step 5: every axis stops ----------
 "$LEC" cycle run "$example" --port "$tmp/line" --prepare >"$tmp/stop.out" 2>&1 &
 run_pid=$!
 step4_ended() { grep -q "^step 4 (1/2)" "$tmp/stop.out"; }
 wait_for 30 "step 4 to end" -- step4_ended || true
 kill -INT "$run_pid"
-set +e
-wait "$run_pid"
-code=$?
-set -e
-out=$(cat "$tmp/stop.out")
-[[ $code -eq 130 ]] && ok || bad "stop: exit $code: $out"
+stopped_run stop "$run_pid" 130
 contains stop "stopped by request"
-contains stop "where each axis stood:"
-[[ $(grep -cE '^  (x|z) +[0-9.]+ mm  stopped at' <<<"$out") -eq 2 ]] && ok || bad "stop: two axes at rest: $out"
 
 # --- teach-in: where x stopped becomes a point, the file otherwise kept -------
 cp "$example" "$tmp/cell.yaml"
@@ -211,15 +219,8 @@ x_on_its_way() {
 wait_for 30 "x past 80 mm in step 2" -- x_on_its_way || bad "x never got past 80 mm: $(cat "$tmp/sstop.out")"
 code=$(curl -s -o "$tmp/stop.json" -w '%{http_code}' -XPOST "$http/api/axes/axis1/stop" || true)
 [[ $code == 200 ]] && ok || bad "HTTP stop: $code $(cat "$tmp/stop.json")"
-set +e
-wait "$run_pid"
-code=$?
-set -e
-out=$(cat "$tmp/sstop.out")
-[[ $code -eq 1 ]] && ok || bad "stopped through serve: exit $code: $out"
+stopped_run sstop "$run_pid" 1
 contains sstop "aborted at step 2"
-contains sstop "where each axis stood:"
-[[ $(grep -cE '^  (x|z) +[0-9.]+ mm  stopped at' <<<"$out") -eq 2 ]] && ok || bad "sstop: two axes at rest: $out"
 z_at=$(sed -n 's/^  z \+\([0-9.]*\) mm  stopped at.*/\1/p' <<<"$out")
 [[ -n $z_at ]] && /usr/bin/python3 -c "import sys; sys.exit(0 if float('$z_at') < 295 else 1)" && ok ||
   bad "z went on to its target (300 mm) after the stop: $out"
