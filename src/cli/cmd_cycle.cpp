@@ -226,10 +226,12 @@ void add_cycle_commands(CLI::App& app, const GlobalOptions& globals) {
   run_cmd->add_option("--report", a->html,
                       "Write an HTML report to FILE: the Gantt chart, the critical path, where "
                       "the time went (motion, line, dwells), each line's utilisation");
-  run_cmd->add_option("--fault", a->faults,
-                      "--port sim: a fault for the twin to act out, as in the file's faults: "
-                      "'{step: 6, push_miss: z}', '{step: 3, alarm: z, code: 149}', "
-                      "'{step: 5, cut_off: x}' (repeatable)");
+  run_cmd
+      ->add_option("--fault", a->faults,
+                   "--port sim: a fault for the twin to act out, as in the file's faults: "
+                   "'{step: 6, push_miss: z}', '{step: 3, alarm: z, code: 149}', "
+                   "'{step: 5, cut_off: x}' (repeatable)")
+      ->allow_extra_args(false);  // one value per --fault: a FILE after it stays the file
   run_cmd->add_flag("--prepare", a->prepare,
                     "Serial mode, servo on and return to origin for every axis first (always "
                     "done with --port sim)");

@@ -81,7 +81,8 @@ contains fault_miss "fault at step 6 (1/2): z's push at step 6 finds no workpiec
 contains fault_miss "step no_part.1  move z to up"
 [[ $(grep -c "branch no_part" <<<"$out") -eq 1 && $(grep -c "pushed: workpiece at 78.00 mm" <<<"$out") -eq 1 ]] &&
   ok || bad "fault_miss: one miss, then the 2nd part pushed: $out"
-expect_exit 1 fault_alarm -- lec cycle run "$example" --port sim --fault '{step: 2, alarm: z}'
+# (--fault before FILE: one value per --fault, the file stays the file)
+expect_exit 1 fault_alarm -- lec cycle run --fault '{step: 2, alarm: z}' "$example" --port sim
 contains fault_alarm "fault at step 2 (1/2): alarm 149 on z at step 2 (injected)"
 contains fault_alarm "aborted at step 2 (1/2)"
 contains fault_alarm "where each axis stood:"
