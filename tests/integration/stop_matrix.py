@@ -196,7 +196,7 @@ class Rig:
         return time.monotonic() - t0, status
 
 
-def run_case(rig, checks, case, channel):
+def run_case(rig, checks, case, channel, retried=False):
     flood = None
     target = rig.start_move()
     time.sleep(0.3)  # travel
@@ -274,8 +274,15 @@ def run_case(rig, checks, case, channel):
                      f"travelled {travelled:.1f} mm in the loss, at most {most:.1f}")
     if case == "flood" and channel == "modbus":
         # Within two transaction times (a D0400×16 read at 38400 baud, 8N1: 21.6 ms).
-        checks.check(wire_ms is not None and wire_ms <= 2 * 21.6,
-                     f"{label}: the RESET on the wire within 2 transaction times",
+        # One wall-clock sample: a host busy with make test's other tests can
+        # hold the daemon's thread past it (a clean run: 66 ms once); in one
+        # of two tries, as the other wall-clock bounds here. A real regression
+        # (a stop queued behind the flood) fails both.
+        within = wire_ms is not None and wire_ms <= 2 * 21.6
+        if not within and not retried:
+            print(f"{label}: {wire_ms} ms, over the bound once: a loaded host? once more", flush=True)
+            return run_case(rig, checks, case, channel, retried=True)
+        checks.check(within, f"{label}: the RESET on the wire within 2 transaction times",
                      f"{wire_ms} ms")
     return after
 
