@@ -20,6 +20,12 @@ const ck = new Checks();
 // times that in the sanitizer tree (every DCMD's look for a stop on the MQTT
 // thread is ~3x slower there: 130 ms behind 2000 DCMDs, 5-8 ms optimised).
 const MARGIN_MS = process.env.LEC6_SANITIZED === '1' ? 300 : 100;
+// The two comparisons above are wall-clock samples, and this test runs beside the
+// others (a -j2 ctest: the burst's run was once starved past the margin, CI stop 39):
+// each gets up to three (lone, behind) pairs, and passes on the first pair within the
+// margin. A stop that really waits behind the burst (the 2000 DCMDs handled first:
+// seconds; the 2 MB DCMD decoded first: 9.8 s) misses every pair.
+const WALL_TRIES = 3;
 const dir = tmpdir();
 process.env.XDG_STATE_HOME = `${dir}/xdg`;
 delete process.env.STATE_DIRECTORY;
@@ -187,13 +193,20 @@ async function floodStop(broker, n) {
     await view.until('axis1', 'Command/Outcome', (v) => v === 'done' || v === 'failed', 5000, 'stop finished');
     return { ms, burstMs: sent - t0, outcome: view.value('axis1', 'Command/Outcome') };
   };
-  const base = await measure(0);
-  const flooded = await measure(n);
+  // A pair (lone, behind the burst) per try, up to WALL_TRIES: see WALL_TRIES.
+  const seen = [];
+  let base, flooded;
+  for (let i = 0; i < WALL_TRIES; i++) {
+    base = await measure(0);
+    flooded = await measure(n);
+    seen.push(`lone ${base.ms} ms, behind the burst ${flooded.ms} ms, outcome ${flooded.outcome}`);
+    if (flooded.ms < base.ms + MARGIN_MS && flooded.outcome === 'done') break;
+  }
   await sleep(1000);
   const refused = view.value('axis2', 'Command/Count');
   console.log(`# stop alone: BUSY = 0 on the broker ${base.ms} ms after the broker handed the DCMD on; behind ${n} refused DCMDs (burst sent in ${flooded.burstMs} ms): ${flooded.ms} ms; axis2 Command/Count ${refused}`);
   ck.check('lec6-one-stop-rule: a stop behind a burst of DCMDs', flooded.ms < base.ms + MARGIN_MS && flooded.outcome === 'done',
-    `a stop sent right after ${n} other DCMDs reaches the line within ${MARGIN_MS} ms of a lone stop's time (lone ${base.ms} ms, behind the burst ${flooded.ms} ms, outcome ${flooded.outcome})`);
+    `a stop sent right after ${n} other DCMDs reaches the line within ${MARGIN_MS} ms of a lone stop's time, in one of ${WALL_TRIES} tries (${seen.join('; ')})`);
   serve.kill('SIGTERM');
   await new Promise((r) => serve.once('exit', r));
 }
@@ -438,11 +451,18 @@ async function bigDcmdStop(broker, mb) {
     await view.until('axis1', 'Flags/BUSY', (v) => v === false, 60000, 'axis1 stopped');
     return Date.now() - echo.t;
   };
-  const lone = await measure(0);
-  const behind = await measure(mb << 20);
+  // A pair (lone, behind the big DCMD) per try, up to WALL_TRIES: see WALL_TRIES.
+  const seen = [];
+  let lone, behind;
+  for (let i = 0; i < WALL_TRIES; i++) {
+    lone = await measure(0);
+    behind = await measure(mb << 20);
+    seen.push(`lone ${lone} ms, behind it ${behind} ms`);
+    if (behind < lone + MARGIN_MS) break;
+  }
   console.log(`# stop alone: BUSY = 0 ${lone} ms after the broker handed it on; behind one ${mb} MB DCMD: ${behind} ms`);
   ck.check('lec6-one-stop-rule: a stop behind one big DCMD', behind < lone + MARGIN_MS,
-    `a stop right after one ${mb} MB DCMD of empty metrics reaches the line within ${MARGIN_MS} ms of a lone stop's time (lone ${lone} ms, behind it ${behind} ms)`);
+    `a stop right after one ${mb} MB DCMD of empty metrics reaches the line within ${MARGIN_MS} ms of a lone stop's time, in one of ${WALL_TRIES} tries (${seen.join('; ')})`);
   serve.kill('SIGTERM');
   await new Promise((r) => serve.once('exit', r));
 }
