@@ -35,7 +35,13 @@ from ._lec6 import (  # noqa: F401  (re-exported)
     AlarmError,
     Axis,
     Bus,
+    AxisStand,
     Cancelled,
+    Cycle,
+    CycleError,
+    CycleReport,
+    CycleSpan,
+    CycleStep,
     MoveNotStarted,
     ControllerException,
     DeadlineError,
@@ -58,7 +64,8 @@ from ._lec6 import (  # noqa: F401  (re-exported)
 )
 
 __all__ = [
-    "Alarm", "AlarmError", "Axis", "Bus", "Cancelled", "ControllerException", "DeadlineError", "MoveNotStarted",
+    "Alarm", "AlarmError", "Axis", "AxisStand", "Bus", "Cancelled", "Cycle", "CycleError",
+    "CycleReport", "CycleSpan", "CycleStep", "ControllerException", "DeadlineError", "MoveNotStarted",
     "Error", "Flags", "InvalidRequest", "MoveResult", "RestoreReport", "State", "Status", "Step",
     "StepDiff", "StepFieldDiff", "StepTable", "TransportError", "Twin", "VerifyError", "connect",
 ]

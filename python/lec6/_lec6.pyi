@@ -45,6 +45,14 @@ class MoveNotStarted(Error):
     """Nothing showed that the controller started the move; a stop was sent. Never success."""
     result: Optional["MoveResult"]
 
+class CycleError(InvalidRequest):
+    """A cycle file that breaks a rule, found before anything moved."""
+    file: str
+    line: int
+    column: int
+    field: str  # 'steps[2].move.axis'
+    rule: str  # "unknown axis 'y' (axes: x, z)"
+
 class VerifyError(Error):
     """A written step read back different."""
     report: "RestoreReport"
@@ -342,10 +350,75 @@ class Twin:
     @property
     def closed(self) -> bool: ...
     def set_estop(self, id: int, on: bool = True) -> None: ...
+    def set_workpiece(self, id: int, mm: Optional[float]) -> None: ...
     def carriage_mm(self, id: int = 1) -> float: ...
     def close(self) -> None: ...
     def __enter__(self) -> "Twin": ...
     def __exit__(self, *exc: object) -> None: ...
+
+# ---- machine cycles (docs/cycles.md) ---------------------------------------------
+
+class CycleSpan:
+    """One axis's part of a step (axis '' for a dwell), in seconds from the cycle's start."""
+    axis: str
+    what: str
+    detail: str
+    @property
+    def start_s(self) -> float: ...
+    @property
+    def end_s(self) -> float: ...
+    @property
+    def outcome(self) -> str: ...  # 'reached', 'pushed', 'push_missed', 'alarm', 'timeout', 'stopped', ...
+    @property
+    def position_mm(self) -> float: ...
+
+class CycleStep:
+    path: str  # '3', '4.2 (2/5)', 'no_part.1'
+    text: str
+    axes: List[CycleSpan]
+    decision: str  # 'continue', 'branch NAME', 'abort', 'stopped'
+    @property
+    def start_s(self) -> float: ...
+    @property
+    def end_s(self) -> float: ...
+
+class AxisStand:
+    axis: str
+    stopped: bool  # a read showed it at rest after the stop
+    how: str
+    @property
+    def position_mm(self) -> Optional[float]: ...  # None: its controller did not answer
+
+class CycleReport:
+    @property
+    def completed(self) -> bool: ...
+    @property
+    def ended(self) -> str: ...
+    @property
+    def cycle_time_s(self) -> float: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def steps(self) -> List[CycleStep]: ...
+    @property
+    def stood(self) -> List[AxisStand]: ...
+    @property
+    def time_split(self) -> Dict[str, float]: ...  # 'line', 'motion', 'program' (seconds)
+    @property
+    def max_start_skew_s(self) -> Optional[float]: ...
+
+class Cycle:
+    def __init__(self, path: _Path) -> None: ...
+    @staticmethod
+    def from_yaml(text: str, source: str = "<string>") -> "Cycle": ...
+    name: str
+    source: str
+    repeat: int
+    @property
+    def axes(self) -> Dict[str, Dict[str, Any]]: ...  # {name: {'line': str, 'id': int}}
+    def run(self, buses: Union[Bus, Mapping[str, Bus]], *,
+            on_step: Optional[Callable[[CycleStep], None]] = None,
+            cancel: Optional[_Cancel] = None) -> CycleReport: ...
 
 def open_bus(port: str, baud: int = 38400, *, retries: int = 2, timeout_margin_ms: float = 50.0,
              silent_interval: int = 1, delay_ms: float = 5.0, silence_wait: bool = True,

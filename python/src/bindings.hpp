@@ -35,6 +35,7 @@ void bind_records(py::module_& m);
 void bind_steps(py::module_& m);
 void bind_bus(py::module_& m);
 void bind_twin(py::module_& m);
+void bind_cycle(py::module_& m);
 
 // ---- errors (errors.cpp) ------------------------------------------------------
 

@@ -7,6 +7,7 @@
 #include "bindings.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
+#include "lec6/cycle/cycle_file.hpp"
 #include "lec6/twin/field_profile.hpp"
 
 namespace lec6::python {
@@ -40,6 +41,9 @@ constexpr ErrorClass kClasses[] = {
      "(its timeline shows what the polls saw). Never taken for success."},
     {"Cancelled", "Error",
      "An operation was cancelled by its `cancel` callback; the axis was stopped first."},
+    {"CycleError", "InvalidRequest",
+     "A cycle file that breaks a rule (docs/cycles.md), found before anything moved: "
+     "`.file`, `.line`, `.column`, `.field` and `.rule` say where and which. Also a ValueError."},
     {"VerifyError", "Error",
      "A step written to the controller read back different from what was written."},
 };
@@ -111,6 +115,11 @@ py::object translate(std::exception_ptr p) {
     return make("DeadlineError", e.what(), py::dict(py::arg("result") = result_of(e)));
   } catch (const client::Cancelled& e) {
     return make("Cancelled", e.what(), py::dict(py::arg("result") = result_of(e)));
+  } catch (const cycle::CycleError& e) {
+    return make("CycleError", e.what(),
+                py::dict(py::arg("file") = e.file(), py::arg("line") = e.at().line,
+                         py::arg("column") = e.at().column, py::arg("field") = e.field(),
+                         py::arg("rule") = e.rule(), py::arg("errors") = py::list()));
   } catch (const lec6::InvalidArgument& e) {  // InvalidRequest, port specs, twin settings, profiles
     return make("InvalidRequest", e.what(), py::dict(py::arg("errors") = py::list()));
   } catch (const std::invalid_argument& e) {

@@ -11,4 +11,5 @@ PYBIND11_MODULE(_lec6, m) {
   bind_steps(m);
   bind_bus(m);
   bind_twin(m);
+  bind_cycle(m);
 }

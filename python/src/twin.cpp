@@ -273,6 +273,16 @@ void bind_twin(py::module_& m) {
           py::arg("id"), py::arg("on") = true,
           "The EMG stop input of controller `id` (in-process twins).")
       .def(
+          "set_workpiece",
+          [](Twin& t, int id, std::optional<double> mm) {
+            t.with_controller(
+                id, [mm](sim::Controller& c, TimePoint now) { c.set_workpiece(mm, now); });
+          },
+          py::arg("id"), py::arg("mm"),
+          "Puts a workpiece under controller `id`'s carriage at `mm` (None takes it away), e.g. "
+          "for one axis of a cycle that pushes (workpiece_mm= puts one under every axis). Only "
+          "while that carriage is at rest (in-process twins).")
+      .def(
           "carriage_mm",
           [](Twin& t, int id) {
             double mm = 0;

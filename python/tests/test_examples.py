@@ -14,6 +14,7 @@ EXPECTED = {
     "example3_read_position.py": "position 0.00 mm, speed 0 mm/s",
     "example4_direct.py": "move: reached at 300.00 mm",
     "backup_restore.py": "1 step written, 63 unchanged",
+    "cycle.py": "cycle 'pick-place': completed in",
 }
 
 

@@ -166,7 +166,7 @@ void search(const transport::PortSpec& spec, const GlobalOptions& g,
               std::ranges::find(bp.garbled, id) != bp.garbled.end())
             continue;
           const auto k = p.exchange(state_query(id), kStateReplyBytes, g.reply_margin).result.kind;
-          if (k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception) {
+          if (dx::answered(k)) {
             bp.answering.insert(std::ranges::upper_bound(bp.answering, id), id);
           } else if (k == dx::ReplyKind::Crc || k == dx::ReplyKind::Framing) {
             bp.garbled.push_back(id);
@@ -187,7 +187,7 @@ void search(const transport::PortSpec& spec, const GlobalOptions& g,
             const auto k =
                 p.exchange(state_query(id), kStateReplyBytes, std::max(kScanMargin, g.reply_margin))
                     .result.kind;
-            ok = k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception;
+            ok = dx::answered(k);
             again = again || k == dx::ReplyKind::Crc || k == dx::ReplyKind::Framing;
           }
           if (ok) {
@@ -235,7 +235,7 @@ void burst(const transport::PortSpec& spec, const GlobalOptions& g, const std::v
     ++b.exchanges;
     ++b.per_id_exchanges[id];
     const auto whole = [](dx::ReplyKind k) {
-      return k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception;
+      return dx::answered(k);
     };
     const bool answered = whole(h.result.kind);
     if (h.result.kind == dx::ReplyKind::None || h.result.kind == dx::ReplyKind::Garbage ||
@@ -311,7 +311,7 @@ void probe_silent_interval(const transport::PortSpec& spec, const GlobalOptions&
     int answered = 0;
     for (int i = 0; i < 3 && answered < 2 && answered + (3 - i) >= 2; ++i) {
       const auto k = p.exchange(state_query(id), kStateReplyBytes, g.reply_margin, gap).result.kind;
-      answered += k == dx::ReplyKind::Good || k == dx::ReplyKind::Exception;
+      answered += dx::answered(k);
     }
     return answered >= 2;
   };

@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "cli/app.hpp"
+#include "lec6/transport/file.hpp"
 
 namespace lec6::cli {
 
@@ -29,7 +30,9 @@ bool same_file(const std::string& a, const std::string& b) {
 
 }  // namespace
 
-void replace_file(const std::string& path, const std::string& text) {
+void replace_file(const std::string& given, const std::string& text) {
+  // A symlink stays; the file it names is replaced.
+  const std::string path = transport::file_behind(given).string();
   const fs::path tmp = temporary_of(path);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);

@@ -160,11 +160,19 @@ struct Runner::Impl {
     l.span.position_001mm = p.state.position_001mm;
     l.result = l.watch->feed(p);
     if (l.result && l.result->outcome == Outcome::Alarm) {
+      // The completion rule judged from the flags alone ("no code in the
+      // history"): the codes, read now, make the sentence `lec move` says.
       try {
         const auto codes = axes.at(l.step->axis).actuator->active_alarms(p.flags);
-        std::string list;
-        for (auto code : codes) list += fmt::format("{}{}", list.empty() ? "" : ", ", code);
-        if (!list.empty()) l.result->detail += " (alarm " + list + ")";
+        if (const auto& m = l.watch->move_result(); m && !codes.empty()) {
+          client::MoveResult with = *m;
+          with.alarm_codes = codes;
+          l.result->detail = with.describe();
+        } else if (!codes.empty()) {
+          std::string list;
+          for (auto code : codes) list += fmt::format("{}{}", list.empty() ? "" : ", ", code);
+          l.result->detail += " (alarm " + list + ")";
+        }
       } catch (const Error&) {
       }
     }

@@ -31,15 +31,20 @@ std::optional<std::string> keep_earlier_capture(const std::string& path) {
   // Only a regular file is an earlier capture (not /dev/full, a FIFO, a tty).
   if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_size == 0)
     return std::nullopt;
+  // A symlink (latest.jsonl -> /data/line-7.jsonl) stays: the file it names
+  // is the capture, moved aside beside itself, and the new one is written
+  // through the link (open follows it). Renaming the link itself left the
+  // user's link gone and a plain file in its place.
+  const std::string file = file_behind(path).string();
   for (unsigned n = 1;; ++n) {
-    const std::string kept = fmt::format("{}.{}", path, n);
+    const std::string kept = fmt::format("{}.{}", file, n);
     struct stat other {};
-    if (::stat(kept.c_str(), &other) == 0) continue;
-    if (::rename(path.c_str(), kept.c_str()) != 0) {
+    if (::lstat(kept.c_str(), &other) == 0) continue;
+    if (::rename(file.c_str(), kept.c_str()) != 0) {
       throw InvalidArgument(fmt::format(
           "cannot keep the earlier capture {} as {}: {}; it is not overwritten: move or remove "
           "it first, or record to another file",
-          path, kept, std::strerror(errno)));
+          file, kept, std::strerror(errno)));
     }
     return kept;
   }

@@ -69,8 +69,16 @@ Expected<std::string, std::string> read_file(const std::filesystem::path& path) 
   return text.str();
 }
 
-Expected<void, std::string> write_file_atomically(const std::filesystem::path& path,
+std::filesystem::path file_behind(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_symlink(path, ec)) return path;
+  const std::filesystem::path real = std::filesystem::canonical(path, ec);
+  return ec ? path : real;
+}
+
+Expected<void, std::string> write_file_atomically(const std::filesystem::path& given,
                                                   std::string_view contents) {
+  const std::filesystem::path path = file_behind(given);
   std::string tmp;
   const int fd = make_temporary(path, tmp);
   if (fd < 0) return unexpected(os_error("write", path, errno));

@@ -17,6 +17,7 @@ namespace {
 
 using testing::Cell;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using namespace std::chrono_literals;
 
 const std::string kFaultCell = R"(cycle: press
@@ -174,6 +175,12 @@ TEST(CycleFaults, AnAlarmOnceTheStepStartedAbortsAndStopsEveryAxis) {
   EXPECT_FALSE(r.completed);
   EXPECT_THAT(r.ended, HasSubstr("aborted at step 1 (1/2)"));
   EXPECT_THAT(r.ended, HasSubstr("alarm"));
+  // The alarm's code and meaning, read after the flags showed it (not "no
+  // code in the history").
+  ASSERT_FALSE(r.steps.empty());
+  ASSERT_FALSE(r.steps.back().axes.empty());
+  EXPECT_THAT(r.steps.back().axes[0].detail, HasSubstr("alarm 149: "));
+  EXPECT_THAT(r.steps.back().axes[0].detail, Not(HasSubstr("no code in the history")));
   // z, cut short, ended when the abort came: the stops after it are the
   // step's ("after", the line's), not z's motion.
   const StepReport& s = r.steps.back();

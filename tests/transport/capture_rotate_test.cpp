@@ -42,5 +42,28 @@ TEST(KeepEarlierCapture, MovesAnEarlierCaptureToTheFirstFreeNumber) {
   fs::remove_all(dir);
 }
 
+// A user's link to the capture (latest.jsonl -> runs/line.jsonl) stays a
+// link: the file it names moves aside beside itself; the new capture, opened
+// through the link, lands where the link points.
+TEST(KeepEarlierCapture, ASymlinkStaysAndItsFileMovesAsideBesideItself) {
+  const fs::path dir =
+      fs::temp_directory_path() / fs::path("lec6-rotate-link-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "runs");
+  const fs::path target = dir / "runs" / "line.jsonl";
+  const fs::path link = dir / "latest.jsonl";
+  std::ofstream(target) << "first\n";
+  fs::create_symlink(fs::path("runs") / "line.jsonl", link);
+  const auto kept = keep_earlier_capture(link.string());
+  ASSERT_TRUE(kept);
+  EXPECT_EQ(fs::path(*kept), fs::canonical(dir / "runs") / "line.jsonl.1");
+  EXPECT_EQ(slurp(*kept), "first\n");
+  EXPECT_TRUE(fs::is_symlink(link)) << "the user's link was renamed away";
+  EXPECT_FALSE(fs::exists(dir / "latest.jsonl.1"));
+  std::ofstream(link) << "second\n";  // as the writer opens it: through the link
+  EXPECT_EQ(slurp(target), "second\n");
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace lec6::transport

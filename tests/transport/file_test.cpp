@@ -84,5 +84,21 @@ TEST_F(FileTest, AFileInTheCurrentDirectory) {
   EXPECT_EQ(*read_file(dir / "plain.txt"), "here");
 }
 
+// A user's link (steps.csv -> backups/press-7.csv) stays a link: the file it
+// names is replaced, in its own directory; a dangling link is replaced itself.
+TEST_F(FileTest, ASymlinkStaysAndTheFileItNamesIsReplaced) {
+  fs::create_directories(dir / "backups");
+  std::ofstream(dir / "backups" / "press-7.csv") << "old";
+  fs::create_symlink(fs::path("backups") / "press-7.csv", dir / "steps.csv");
+  ASSERT_TRUE(write_file_atomically(dir / "steps.csv", "new"));
+  EXPECT_TRUE(fs::is_symlink(dir / "steps.csv"));
+  EXPECT_EQ(*read_file(dir / "backups" / "press-7.csv"), "new");
+  EXPECT_EQ(entries(), 2u) << "no temporary left beside the link";
+  EXPECT_EQ(file_behind(dir / "steps.csv"), fs::canonical(dir / "backups" / "press-7.csv"));
+  fs::create_symlink(dir / "gone.csv", dir / "dangling.csv");
+  EXPECT_EQ(file_behind(dir / "dangling.csv"), dir / "dangling.csv");
+  EXPECT_EQ(file_behind(dir / "backups"), dir / "backups");
+}
+
 }  // namespace
 }  // namespace lec6::transport

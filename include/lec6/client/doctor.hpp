@@ -35,6 +35,11 @@ enum class ReplyKind {
   Garbage,    // bytes, but no reply from the ID asked among them
 };
 
+// A sound reply, data or exception: the controller asked is there and heard us.
+constexpr bool answered(ReplyKind k) noexcept {
+  return k == ReplyKind::Good || k == ReplyKind::Exception;
+}
+
 struct ExchangeResult {
   bool echo = false;  // the query came back first, byte for byte (2-wire adapter)
   ReplyKind kind = ReplyKind::None;

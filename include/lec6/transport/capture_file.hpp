@@ -25,7 +25,9 @@ modbus::Capture read_capture_file(const std::string& path);
 // Keeps an earlier capture at `path` (issue 33: `lec serve --record` never
 // truncates one): a non-empty file there is renamed to the first free
 // `path.1`, `path.2`, …, and that name returned; nothing there (or an empty
-// file): nullopt. Throws lec6::InvalidArgument naming both paths when the
+// file): nullopt. A symlink `path` is left in place: the file it names is
+// renamed beside itself (its own name .1, .2, …) and the new capture is
+// written through the link. Throws lec6::InvalidArgument naming both paths when the
 // rename fails. Tested in tests/transport/capture_rotate_test.cpp.
 std::optional<std::string> keep_earlier_capture(const std::string& path);
 

@@ -18,12 +18,20 @@ namespace lec6::transport {
 // "cannot read steps.csv: No such file or directory".
 Expected<std::string, std::string> read_file(const std::filesystem::path& path);
 
+// The file a write to `path` should replace: for a symlink, the file it
+// names (resolved whole, relative links from the link's directory), so that
+// a rename puts the new file where the link points and the user's link
+// stays; otherwise `path` itself (also for a dangling link: its target
+// cannot be named). Every writer that renames over a path uses it.
+std::filesystem::path file_behind(const std::filesystem::path& path);
+
 // Replaces `path` with `contents` so that a crash or a full disk leaves
 // either the old file or the new one, never a mix: the bytes go to a hidden
 // temporary file in the same directory (".NAME.tmp-XXXXXX"), which is
 // fsync'ed, given the usual permissions (0666 less the umask), and renamed
 // over `path`; then the directory is fsync'ed so the rename itself is on
-// disk. On failure the temporary file is removed and `path` is untouched;
+// disk. A symlink `path` stays: the file it names is replaced (file_behind).
+// On failure the temporary file is removed and `path` is untouched;
 // the error names the path and the cause: "cannot write twin.state: ...".
 Expected<void, std::string> write_file_atomically(const std::filesystem::path& path,
                                                   std::string_view contents);
