@@ -27,8 +27,8 @@ struct CycleRun {
 };
 
 // A bad file: cycle::CycleError, raised as lec6.CycleError (errors.cpp).
-cycle::Cycle load(const std::string& path) {
-  return cycle::load_cycle(path);
+cycle::Cycle load(const py::object& path) {
+  return cycle::load_cycle(py::str(py::module_::import("os").attr("fspath")(path)));
 }
 
 cycle::Cycle parse(const std::string& text, const std::string& source) {
@@ -42,15 +42,14 @@ std::map<std::string, const Bus*> buses_of(const cycle::Cycle& c, py::handle bus
   if (py::isinstance<Bus>(buses)) {
     const Bus* b = buses.cast<const Bus*>();
     for (const auto& a : c.axes) out[a.name] = b;
-    return out;
-  }
-  if (!py::isinstance<py::dict>(buses)) {
+  } else if (!py::isinstance<py::dict>(buses)) {
     throw client::InvalidRequest(
         "buses: expected a lec6.Bus (every axis on it) or a dict of the cycle's lines to "
         "their Bus, e.g. {'/dev/ttyUSB0': bus}");
   }
-  const auto d = buses.cast<py::dict>();
+  const auto d = py::isinstance<py::dict>(buses) ? buses.cast<py::dict>() : py::dict();
   for (const auto& a : c.axes) {
+    if (out.count(a.name)) continue;  // one Bus for every axis
     const py::str key(a.line);
     if (!d.contains(key)) {
       std::vector<std::string> given;
@@ -63,6 +62,17 @@ std::map<std::string, const Bus*> buses_of(const cycle::Cycle& c, py::handle bus
     if (!py::isinstance<Bus>(b))
       throw client::InvalidRequest(fmt::format("buses['{}']: expected a lec6.Bus", a.line));
     out[a.name] = b.cast<const Bus*>();
+  }
+  // Two axes of the file on lines given the same Bus, with one ID, would be
+  // one carriage driven as two axes.
+  std::map<std::pair<const SharedLine*, uint8_t>, std::string> seen;
+  for (const auto& a : c.axes) {
+    const auto key = std::make_pair(out.at(a.name)->line.get(), a.id);
+    if (auto [it, fresh] = seen.emplace(key, a.name); !fresh) {
+      throw client::InvalidRequest(fmt::format(
+          "axes '{}' and '{}' would be one controller: ID {} on the same Bus ({})", it->second,
+          a.name, a.id, out.at(a.name)->line->describe()));
+    }
   }
   return out;
 }
@@ -98,6 +108,9 @@ CycleRun run(const cycle::Cycle& c, py::handle buses, py::object on_step, py::ob
         on_step(s);
       } catch (py::error_already_set& e) {
         step_error = std::make_unique<py::error_already_set>(std::move(e));
+      } catch (const std::exception& e) {
+        PyErr_SetString(PyExc_TypeError, fmt::format("on_step: {}", e.what()).c_str());
+        step_error = std::make_unique<py::error_already_set>();
       }
     };
   }
@@ -112,7 +125,17 @@ CycleRun run(const cycle::Cycle& c, py::handle buses, py::object on_step, py::ob
     step_error->restore();
     throw py::error_already_set();
   }
-  if (wait.has_error()) wait.rethrow("cycle stopped (Ctrl-C): every axis of the cycle was stopped");
+  if (wait.has_error()) {
+    // What the stops found: at rest, or not seen so (the axes and why).
+    std::vector<std::string> moving;
+    for (const auto& s : out.report.stood)
+      if (!s.stopped) moving.push_back(s.axis + ": " + s.how);
+    wait.rethrow(moving.empty()
+                     ? "cycle stopped (Ctrl-C): every axis of the cycle was stopped"
+                     : fmt::format("cycle stopped (Ctrl-C): a stop was sent to every axis of the "
+                                   "cycle; not seen at rest: {}",
+                                   fmt::join(moving, "; ")));
+  }
   return out;
 }
 

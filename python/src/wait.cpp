@@ -5,6 +5,8 @@
 // then stops the axis (decelerating stop, as `lec` does on Ctrl-C) and throws
 // Cancelled, and the binding raises the Python error instead.
 
+#include <fmt/format.h>
+
 #include "bindings.hpp"
 
 namespace lec6::python {
@@ -49,6 +51,12 @@ bool PythonWait::cancel_requested() {
     if (!cancel_.is_none() && cancel_().cast<bool>()) return true;
   } catch (py::error_already_set& e) {
     error_ = std::make_unique<py::error_already_set>(std::move(e));
+  } catch (const std::exception& e) {
+    // Not a Python error: e.g. a cancel() whose result has no truth value
+    // (pybind11's cast_error). It ends the wait like one, so the axis is
+    // stopped; escaping from here it skipped the stop (a reviewer's find).
+    PyErr_SetString(PyExc_TypeError, fmt::format("cancel: {}", e.what()).c_str());
+    error_ = std::make_unique<py::error_already_set>();
   }
   return error_ != nullptr;
 }
@@ -60,6 +68,9 @@ void PythonWait::report(const client::Progress& p) {
     progress_(Status{p.state, p.flags, {}}, to_seconds(p.elapsed));
   } catch (py::error_already_set& e) {
     error_ = std::make_unique<py::error_already_set>(std::move(e));
+  } catch (const std::exception& e) {
+    PyErr_SetString(PyExc_TypeError, fmt::format("progress: {}", e.what()).c_str());
+    error_ = std::make_unique<py::error_already_set>();
   }
 }
 

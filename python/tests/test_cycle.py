@@ -186,3 +186,51 @@ def test_ctrl_c_during_a_cycle_stops_every_axis_and_says_so(cell_twin):
         assert 3.0 <= x < 20 and 0 < z < 5, (x, z)
         # Operable after: no alarm, the next move goes.
         assert bus.axis(1).move(to=10.0, speed=500).in_position
+
+
+def test_two_axes_that_would_be_one_controller_are_refused_before_anything_moves(cell_twin):
+    two_lines = CELL.replace("z: {id: 2,", "z: {line: /dev/ttyUSB1, id: 1,")
+    cycle = lec6.Cycle.from_yaml(two_lines, "cell.yaml")
+    with prepared(cell_twin) as bus:
+        with pytest.raises(lec6.InvalidRequest, match="'x' and 'z' would be one controller: ID 1"):
+            cycle.run(bus)
+        with pytest.raises(lec6.InvalidRequest, match="would be one controller"):
+            cycle.run({"": bus, "/dev/ttyUSB1": bus})
+        assert cell_twin.carriage_mm(1) == pytest.approx(0.0, abs=0.01)
+
+
+def test_a_cancel_during_a_dwell_ends_the_cycle_at_once(cell_twin):
+    dwelling = CELL.replace("  - push: {axis: z", "  - dwell: 4s\n  - push: {axis: z")
+    ended = []  # when step 1 ended: the 4 s dwell begins
+    with prepared(cell_twin) as bus:
+        report = lec6.Cycle.from_yaml(dwelling, "cell.yaml").run(
+            bus, on_step=lambda s: ended.append(time.monotonic()),
+            cancel=lambda: bool(ended) and time.monotonic() - ended[0] > 0.3)
+        took = time.monotonic() - ended[0]
+    assert not report.completed and "stopped" in report.ended, report.ended
+    assert report.steps[-1].text.startswith("dwell"), report.steps[-1]
+    assert took < 2.0, f"the 4 s dwell held the cancel: {took:.2f} s"
+
+
+def test_a_cancel_whose_answer_has_no_truth_value_stops_the_cycle(cell_twin):
+    class NoTruth:
+        def __bool__(self):
+            raise ValueError("the truth value is ambiguous")
+
+    slow = CELL.replace("speed: 500}\n      - move: {axis: z, to: up, speed: 500}",
+                        "speed: 20}\n      - move: {axis: z, to: up, speed: 5}")
+    with prepared(cell_twin) as bus:
+        t0 = time.monotonic()
+        with pytest.raises((ValueError, TypeError)):
+            lec6.Cycle.from_yaml(slow, "cell.yaml").run(
+                bus, cancel=lambda: NoTruth() if time.monotonic() - t0 > 0.3 else False)
+        x = cell_twin.carriage_mm(1)
+        time.sleep(0.3)
+        assert cell_twin.carriage_mm(1) == pytest.approx(x, abs=0.01), "x went on moving"
+        assert x < 20
+
+
+def test_a_cycle_file_given_as_a_path_object(tmp_path):
+    path = tmp_path / "cell.yaml"
+    path.write_text(CELL)
+    assert lec6.Cycle(path).name == "cell"

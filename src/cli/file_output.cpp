@@ -20,12 +20,22 @@ fs::path temporary_of(const std::string& path) {
   return fs::path(path).concat(".lec-tmp");
 }
 
-// The same file however it is named ("./a.html", "a.html", a symlink).
+// The same file however it is named ("./a.html", "a.html", a symlink, one
+// that dangles: the file it would create).
 bool same_file(const std::string& a, const std::string& b) {
   std::error_code ec1, ec2;
-  const fs::path ca = fs::weakly_canonical(a, ec1);
-  const fs::path cb = fs::weakly_canonical(b, ec2);
+  const fs::path ca = fs::weakly_canonical(transport::file_behind(a), ec1);
+  const fs::path cb = fs::weakly_canonical(transport::file_behind(b), ec2);
   return !ec1 && !ec2 ? ca == cb : a == b;
+}
+
+// A file that is there and is not a regular file (through a link too): a
+// report renamed over it would replace a device, a FIFO or a directory.
+std::optional<std::string> not_a_regular_file(const fs::path& target) {
+  std::error_code ec;
+  if (!fs::exists(target, ec) || fs::is_regular_file(target, ec)) return std::nullopt;
+  return fmt::format("{} is not a regular file (a directory, a device or a FIFO): give a file name",
+                     target.string());
 }
 
 }  // namespace
@@ -33,6 +43,7 @@ bool same_file(const std::string& a, const std::string& b) {
 void replace_file(const std::string& given, const std::string& text) {
   // A symlink stays; the file it names is replaced.
   const std::string path = transport::file_behind(given).string();
+  if (auto why = not_a_regular_file(path)) throw CommandFailed(kFailure, *why);
   const fs::path tmp = temporary_of(path);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -66,6 +77,11 @@ void check_outputs(const std::vector<std::pair<std::string, std::string>>& outpu
     if (path.back() == '/' || fs::is_directory(path, ec)) {
       throw UsageError(fmt::format("{} {}: a directory; give a file name", option, path));
     }
+    // Where the write goes: through a link, the file it names.
+    const fs::path target = transport::file_behind(path);
+    if (auto why = not_a_regular_file(target)) {
+      throw UsageError(fmt::format("{} {}: {}", option, path, *why));
+    }
     for (const auto& in : inputs) {
       if (same_file(path, in))
         throw UsageError(fmt::format("{} {}: that is the file this command reads", option, path));
@@ -76,7 +92,7 @@ void check_outputs(const std::vector<std::pair<std::string, std::string>>& outpu
                                      option, path, outputs[j].first));
       }
     }
-    const fs::path tmp = temporary_of(path);
+    const fs::path tmp = temporary_of(target.string());
     const bool existed = fs::exists(tmp, ec);
     {
       std::ofstream probe(tmp, std::ios::binary | std::ios::app);

@@ -13,6 +13,10 @@ namespace lec6::cycle {
 
 namespace {
 
+// How long the line idles at most during a dwell before the stop request is
+// looked at again.
+constexpr Duration kCycleDwellSlice = std::chrono::milliseconds(50);
+
 struct Live {
   const Step* step = nullptr;
   std::optional<client::PreparedMove> prepared;  // a group's move, its start not yet sent
@@ -304,7 +308,10 @@ struct Runner::Impl {
           wake = std::min(wake.value_or(TimePoint::max()), *l.watch->wake_at());
       }
       if (!end.cut) check_interlocks_during(b, live, end, stood);
-      if (!polled && wake && !end.cut) axes.begin()->second.client->idle_until(*wake);
+      // A dwell alone: the line idles until it ends, in slices, so that a
+      // stop request is still seen within one (a 4 s dwell held Ctrl-C 4 s).
+      if (!polled && wake && !end.cut)
+        axes.begin()->second.client->idle_until(std::min(*wake, clock().now() + kCycleDwellSlice));
     }
     return end;
   }
@@ -354,6 +361,15 @@ struct Runner::Impl {
         engine.end(fmt::format("line fault: {}", e.what()));
       }
       report.stood = stop_all();
+    } catch (...) {
+      // Anything else (a caller's stop_requested or on_step that threw, a
+      // controller's exception reply) ends the cycle too, never with its
+      // axes left moving: every axis is stopped, then the error goes on.
+      try {
+        stop_all();
+      } catch (...) {
+      }
+      throw;
     }
     report.completed = engine.result() && engine.result()->completed;
     report.ended = engine.result() ? engine.result()->reason : "completed";

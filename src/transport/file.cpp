@@ -70,15 +70,28 @@ Expected<std::string, std::string> read_file(const std::filesystem::path& path) 
 }
 
 std::filesystem::path file_behind(const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
   std::error_code ec;
-  if (!std::filesystem::is_symlink(path, ec)) return path;
-  const std::filesystem::path real = std::filesystem::canonical(path, ec);
-  return ec ? path : real;
+  fs::path p = path;
+  // Link by link, so that a dangling link names the file it will create
+  // (as open(2) does), and a relative target counts from its link's directory.
+  for (int hops = 0; hops < 40 && fs::is_symlink(p, ec); ++hops) {
+    const fs::path target = fs::read_symlink(p, ec);
+    if (ec) return path;
+    p = target.is_absolute() ? target : p.parent_path() / target;
+  }
+  return fs::is_symlink(p, ec) ? path : p;  // a loop: the path as given (its write fails)
 }
 
 Expected<void, std::string> write_file_atomically(const std::filesystem::path& given,
                                                   std::string_view contents) {
   const std::filesystem::path path = file_behind(given);
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    return unexpected(fmt::format("cannot write {}: {} is not a regular file (a directory, a "
+                                  "device or a FIFO): give a file name",
+                                  given.string(), path.string()));
+  }
   std::string tmp;
   const int fd = make_temporary(path, tmp);
   if (fd < 0) return unexpected(os_error("write", path, errno));

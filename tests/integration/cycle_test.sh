@@ -56,6 +56,18 @@ contains report_is_cycle "that is the file this command reads"
 expect_exit 2 report_twice -- lec cycle run "$example" --port sim --report "$tmp/same.out" --junit "$tmp/./same.out"
 contains report_twice "--junit $tmp/./same.out: also given to --report: each report needs its own file"
 [[ ! -e $tmp/j.xml && ! -e $tmp/same.out ]] && ok || bad "a refused report path left a file"
+# Symlinks: one to the other report (dangling yet) is the same file; one to a
+# device is refused, and the device stays; one to a file keeps the link.
+ln -s r1.html "$tmp/j1.xml"
+expect_exit 2 report_link_twice -- lec cycle run "$example" --port sim --report "$tmp/r1.html" --junit "$tmp/j1.xml"
+contains report_link_twice "also given to --report: each report needs its own file"
+ln -s /dev/null "$tmp/devnull.html"
+expect_exit 2 report_to_device -- lec cycle run "$example" --port sim --report "$tmp/devnull.html"
+contains report_to_device "/dev/null is not a regular file"
+[[ -c /dev/null && -L $tmp/devnull.html && ! -e $tmp/r1.html ]] && ok || bad "a refused link changed a file"
+mkdir -p "$tmp/reports" && ln -s reports/latest.html "$tmp/latest.html"
+expect_exit 0 report_link -- lec cycle run "$example" --port sim --report "$tmp/latest.html"
+[[ -L $tmp/latest.html && -s $tmp/reports/latest.html ]] && ok || bad "--report through a link: $(ls -l "$tmp" "$tmp/reports")"
 
 # The same on a field profile's twin (a calibrated twin: lec sim --calibrate).
 expect_exit 0 profile -- lec cycle run "$example" --port sim --profile "$here/../../profiles/field-quirks.yaml"

@@ -397,7 +397,12 @@ def run_queue(files, build, src, prio, python_text=None):
     for label, path, doc in files:
         with Output() as out:
             print(f"== {label}", file=out, flush=True)
-            rc, _ = run_session(label, blocks(open(path).read(), "sh"), build, src, doc, out, prio)
+            try:
+                rc, _ = run_session(label, blocks(open(path).read(), "sh"), build, src, doc, out,
+                                    prio)
+            except BaseException as e:  # noqa: BLE001 -- a file's setup that failed fails it, shown
+                print(f"FAIL: {label}: the test's own setup failed: {e!r}", file=out, flush=True)
+                rc = 1
             show(label, rc, out, results)
     if python_text is not None:
         with Output() as out:

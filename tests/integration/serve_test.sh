@@ -166,17 +166,30 @@ check "50 clients: $to_line of their $answered reads reached the line (at most 1
   test $((to_line * 100)) -le "$answered"
 
 # ---- a dead controller is backed off and costs the others nothing much -------------
-declare -A before
-for id in 1 2 3 4; do before[$id]=$(answers $id); done
-t_start=$(date +%s%N)
-$CLIENTS poll "$MB" 1 3 >/dev/null  # three seconds of ordinary traffic
-t_end=$(date +%s%N)
-secs=$(( (t_end - t_start) / 1000000 ))
+# Three seconds of ordinary traffic, then each live ID's telemetry counted. A
+# wall-clock window: a host loaded by the tests beside it once held the daemon
+# and its real-time twin past it (27 of 31 exchanges, every ID alike, make test
+# 2026-11-28), so a second window is taken when the first falls short; a dead
+# ID that really costs the others fails both.
+declare -A before got
+for window in 1 2; do
+  for id in 1 2 3 4; do before[$id]=$(answers $id); done
+  t_start=$(date +%s%N)
+  $CLIENTS poll "$MB" 1 3 >/dev/null
+  t_end=$(date +%s%N)
+  secs=$(( (t_end - t_start) / 1000000 ))
+  short=0
+  for id in 1 2 3 4; do
+    got[$id]=$(( $(answers $id) - before[$id] ))
+    # 5 Hz of flags + state (10 exchanges/s) at least, 90 % of it.
+    (( got[$id] * 1000 >= secs * 9 )) || short=1
+  done
+  [[ $short -eq 0 ]] && break
+  [[ $window -eq 1 ]] && echo "    (window 1: ${got[1]}, ${got[2]}, ${got[3]}, ${got[4]} exchanges in $secs ms: a loaded host? once more)"
+done
 for id in 1 2 3 4; do
-  got=$(( $(answers $id) - before[$id] ))
-  # 5 Hz of flags + state (10 exchanges/s) at least, 90 % of it.
-  check "ID $id kept its telemetry next to a dead ID 5: $got exchanges in $secs ms" \
-    test $((got * 1000)) -ge $((secs * 9))
+  check "ID $id kept its telemetry next to a dead ID 5: ${got[$id]} exchanges in $secs ms (window $window)" \
+    test $((got[$id] * 1000)) -ge $((secs * 9))
 done
 axis5=$(curl -s "$HTTP/api/axes/axis5")
 check "ID 5 is reported offline, with the reason" \

@@ -56,7 +56,7 @@ TEST(KeepEarlierCapture, ASymlinkStaysAndItsFileMovesAsideBesideItself) {
   fs::create_symlink(fs::path("runs") / "line.jsonl", link);
   const auto kept = keep_earlier_capture(link.string());
   ASSERT_TRUE(kept);
-  EXPECT_EQ(fs::path(*kept), fs::canonical(dir / "runs") / "line.jsonl.1");
+  EXPECT_EQ(fs::path(*kept), dir / "runs" / "line.jsonl.1");
   EXPECT_EQ(slurp(*kept), "first\n");
   EXPECT_TRUE(fs::is_symlink(link)) << "the user's link was renamed away";
   EXPECT_FALSE(fs::exists(dir / "latest.jsonl.1"));

@@ -94,10 +94,28 @@ TEST_F(FileTest, ASymlinkStaysAndTheFileItNamesIsReplaced) {
   EXPECT_TRUE(fs::is_symlink(dir / "steps.csv"));
   EXPECT_EQ(*read_file(dir / "backups" / "press-7.csv"), "new");
   EXPECT_EQ(entries(), 2u) << "no temporary left beside the link";
-  EXPECT_EQ(file_behind(dir / "steps.csv"), fs::canonical(dir / "backups" / "press-7.csv"));
-  fs::create_symlink(dir / "gone.csv", dir / "dangling.csv");
-  EXPECT_EQ(file_behind(dir / "dangling.csv"), dir / "dangling.csv");
+  EXPECT_TRUE(fs::equivalent(file_behind(dir / "steps.csv"), dir / "backups" / "press-7.csv"));
   EXPECT_EQ(file_behind(dir / "backups"), dir / "backups");
+  // A dangling link: the file it names is created, the link stays.
+  fs::create_symlink(fs::path("backups") / "new.csv", dir / "dangling.csv");
+  EXPECT_EQ(file_behind(dir / "dangling.csv"), dir / "backups" / "new.csv");
+  ASSERT_TRUE(write_file_atomically(dir / "dangling.csv", "made"));
+  EXPECT_TRUE(fs::is_symlink(dir / "dangling.csv"));
+  EXPECT_EQ(*read_file(dir / "backups" / "new.csv"), "made");
+  // A loop of links: the path as given.
+  fs::create_symlink(dir / "loop-b", dir / "loop-a");
+  fs::create_symlink(dir / "loop-a", dir / "loop-b");
+  EXPECT_EQ(file_behind(dir / "loop-a"), dir / "loop-a");
+}
+
+// A link to a device (report.csv -> /dev/null) is refused, never replaced.
+TEST_F(FileTest, ALinkToADeviceIsRefusedAndTheDeviceStays) {
+  fs::create_symlink("/dev/null", dir / "report.csv");
+  const auto w = write_file_atomically(dir / "report.csv", "x");
+  ASSERT_FALSE(w);
+  EXPECT_THAT(w.error(), HasSubstr("/dev/null is not a regular file"));
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+  EXPECT_TRUE(fs::is_symlink(dir / "report.csv"));
 }
 
 }  // namespace

@@ -19,10 +19,12 @@ namespace lec6::transport {
 Expected<std::string, std::string> read_file(const std::filesystem::path& path);
 
 // The file a write to `path` should replace: for a symlink, the file it
-// names (resolved whole, relative links from the link's directory), so that
-// a rename puts the new file where the link points and the user's link
-// stays; otherwise `path` itself (also for a dangling link: its target
-// cannot be named). Every writer that renames over a path uses it.
+// names (link by link, a relative target from its link's directory; a
+// dangling link: the file it would create), so that a rename puts the new
+// file where the link points and the user's link stays; otherwise, and for
+// a loop of links, `path` itself. Every writer that renames over a path uses
+// it, and refuses a target that is not a regular file (a link to a device
+// would otherwise replace the device).
 std::filesystem::path file_behind(const std::filesystem::path& path);
 
 // Replaces `path` with `contents` so that a crash or a full disk leaves
