@@ -50,6 +50,8 @@ function twinSection(ctx: Ctx, line: string): HTMLElement {
     gate(workpiece, refused ?? (offersWorkpiece ? null : "this lec serve does not offer workpiece_mm yet"));
     setText(workpieceNote, offersWorkpiece ? "empty: no workpiece (a push misses)" : "this lec serve does not offer workpiece_mm yet");
     setText(ids, `controllers ${t.ids.join(", ")}`);
+    gate(apply, refused);
+    inputs.forEach((i) => gate(i, refused));
   };
   const ids = h("span", { class: "muted" });
 
@@ -78,8 +80,14 @@ function twinSection(ctx: Ctx, line: string): HTMLElement {
     h("div", { class: "row" }, apply),
     result,
   );
-  gate(apply, refused);
-  inputs.forEach((i) => gate(i, refused));
+  // Nothing to apply until the twin's settings are shown: an Apply before
+  // that sent empty rates (0 %) and no workpiece, undoing what was set, and
+  // the load overwrote what was typed meanwhile (a browser test on a loaded
+  // host: the workpiece typed came back null).
+  const loading = "reading the twin's settings…";
+  gate(apply, refused ?? loading);
+  inputs.forEach((i) => gate(i, refused ?? loading));
+  gate(workpiece, refused ?? loading);
   void get<Twin>(url)
     .then(show)
     .catch((e: Error) => setText(result, `could not read the twin: ${e.message}`));
