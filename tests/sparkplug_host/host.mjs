@@ -75,6 +75,15 @@ async function waitValue(host, view, device, name, pred, ms, what) {
   }
 }
 
+// How many times serve's log says the node connected and waits for the primary host.
+function reconnectsWaiting(name = 'serve') {
+  try {
+    return fs.readFileSync(path.join(dir, `${name}.err`), 'utf8').split('waiting for host').length - 1;
+  } catch {
+    return 0;
+  }
+}
+
 function writes(view, device, values) {
   return Object.entries(values).map(([name, [type, value]]) => ({ alias: view.alias(device, name), type, value }));
 }
@@ -259,10 +268,19 @@ async function main() {
   await sleep(700);
   ck.check('tck-id-operational-behavior-edge-node-termination-host-offline-timestamp', host.since(mark, is('NDEATH')).length === 0,
     'an offline STATE older than the last one is ignored');
+  const waitingBefore = reconnectsWaiting();
   await host.state(false);
   const nd = await host.waitFor(is('NDEATH'), 5000, 'NDEATH on host offline', mark);
   ck.check('tck-id-operational-behavior-edge-node-termination-host-offline', metric(nd, 'bdSeq')?.value === 0,
     'NDEATH (bdSeq 0) when the primary host goes offline');
+  // The node disconnects after its NDEATH and connects again (a clean session, as Sparkplug
+  // requires): a DCMD published before it has subscribed again reaches nobody. Under the
+  // sanitizer the reconnect took long enough for the DCMD below to be lost that way, so the
+  // refusal was never said; the test waits for the node to be back on the broker first.
+  const t1 = Date.now();
+  while (reconnectsWaiting() <= waitingBefore && Date.now() - t1 < 10000) await sleep(50);
+  ck.check('lec6-reconnects-after-host-offline', reconnectsWaiting() > waitingBefore,
+    `after its NDEATH the node connected again and waits for host ${HOST_ID} (${Date.now() - t1} ms)`);
   // While the node is not born, a DCMD other than a stop is refused (and said so in the next DBIRTH).
   await host.command('DCMD', NODE, 'axis1', writes(view, 'axis1', { 'Command/Servo': ['Boolean', false] }));
   await sleep(1500);
