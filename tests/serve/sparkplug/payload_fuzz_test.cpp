@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <random>
@@ -164,12 +165,27 @@ TEST(SparkplugPayloadFuzz, ABigDcmdDoesNotHoldTheStopBehindIt) {
   const std::string topic = "spBv1.0/plant/DCMD/box7/axis1";
   // 1 MB: refused unread, at once, whatever it holds.
   const std::string big = empty_metrics(1u << 20);
-  auto t0 = std::chrono::steady_clock::now();
+  // Each time is the least of five runs: the work, not a loaded host's worst
+  // moment (one run under the sanitizers beside three other tests took 59 ms
+  // where it takes 20). The slow walk this replaced took seconds every run.
+  auto least_s = [](auto&& run) {
+    double least = 1e9;
+    for (int i = 0; i < 5; ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      run();
+      least = std::min(
+          least, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    return least;
+  };
   EXPECT_FALSE(s.stop_request(topic, big, false));
   const auto r = s.received(topic, big, false, 0);
-  const double big_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_TRUE(r.refused);
   EXPECT_NE(r.refused->why.find("bytes is refused unread"), std::string::npos) << r.refused->why;
+  const double big_s = least_s([&] {
+    EXPECT_FALSE(s.stop_request(topic, big, false));
+    EXPECT_TRUE(s.received(topic, big, false, 0).refused);
+  });
   EXPECT_LT(big_s, 0.05) << "a stop behind this one DCMD waits as long";
   // The largest a command may be, its stop last: found, and quickly.
   Payload stop;
@@ -181,10 +197,8 @@ TEST(SparkplugPayloadFuzz, ABigDcmdDoesNotHoldTheStopBehindIt) {
   const std::string tail = encode(stop);
   const std::string most = empty_metrics(kMaxCommandBytes - tail.size()) + tail;
   ASSERT_LE(most.size(), kMaxCommandBytes);
-  t0 = std::chrono::steady_clock::now();
-  EXPECT_EQ(s.stop_request(topic, most, false), std::optional<std::size_t>(0));
-  const double most_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double most_s = least_s(
+      [&] { EXPECT_EQ(s.stop_request(topic, most, false), std::optional<std::size_t>(0)); });
   std::printf("# a %zu-byte DCMD with its stop last: found in %.2f ms\n", most.size(),
               most_s * 1e3);
   EXPECT_LT(most_s, 0.05);
