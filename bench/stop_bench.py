@@ -19,9 +19,10 @@ each of three loads:
   controller in flight, as a PLC's client block; the dead one's writes are
   answered 0B and counted. Beside it the mixed load's SCADA flood and a move
   under way on axis1 at each stop: each stop waits until the daemon sees the
-  move's start carried out (behind the flood's reads, first in first out, that
-  takes seconds: about 8 s a stop, sometimes 15, so --stops 40 runs ~20 min),
-  and the stops that found the axis moving are counted.
+  move's start carried out (its commands take turns with the flood's
+  connections: about 2 s; 8-15 s when the queue was first in first out across
+  clients, bench/results/2026-11-29T0250Z-plant.md), and the stops that found
+  the axis moving are counted.
 
 The figure is the line's own: the scheduler's wait of each stop's RESET from
 its submit to its frame on the wire (`priorities.emergency.recent_waits_ms` of

@@ -14,9 +14,16 @@ namespace lec6::serve {
 
 struct JobResult;
 using JobId = uint64_t;
+// Who sent a job: a Modbus TCP connection, one operation (HTTP, MQTT, CLI,
+// Python through the daemon). Client commands take turns by source
+// (command_turns.hpp); 0: the daemon's own, one source.
+using JobSource = uint64_t;
+// A source no job had before (thread-safe).
+JobSource new_job_source();
 
 struct Job {
   Priority priority = Priority::Command;
+  JobSource source = 0;
   modbus::RequestFrame frame;
   std::function<void(const JobResult&)> done;  // called once, by the driver, outside its lock
   // > 0: a read of a telemetry block may be answered from the cache if no

@@ -30,6 +30,7 @@ modbus::ResponseFrame LineMaster::exchange(const modbus::RequestFrame& frame) {
   auto result = promise->get_future();
   Job job;
   job.priority = priority_of(frame, reads_, writes_);
+  job.source = source_;
   job.frame = frame;
   const bool resend = lost_write_ && lost_write_->first == frame;
   if (resend) job.first_submitted = lost_write_->second;

@@ -51,6 +51,9 @@ class LineMaster final : public client::Master {
   Line& line_;
   Priority reads_;
   Priority writes_;
+  // One operation's commands keep their order and take turns with other
+  // clients' (command_turns.hpp).
+  JobSource source_ = new_job_source();
   client::LinkStats stats_;
   Duration last_round_trip_{};
   std::optional<client::WireTimes> last_wire_times_;

@@ -199,6 +199,13 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     return id;
   }
   if (answer_from_cache(job, now, now)) return id;
+  if (job.priority == Priority::Command) {
+    auto& commands = queues_[index(Priority::Command)];
+    // Sources whose jobs were cancelled, failed or superseded are forgotten
+    // once there are more than the queue could hold (command_turns.hpp).
+    if (turns_.known() > commands.size() + 64) turns_.forget_idle(commands);
+    turns_.queued(job.source);
+  }
   queues_[index(job.priority)].push_back(Queued{id, std::move(job), now});
   return id;
 }

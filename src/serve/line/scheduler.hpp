@@ -2,7 +2,8 @@
 // The heart of lec serve: who gets the RS485 line next (sans-I/O).
 //
 // One transaction at a time per line. Requests queue by priority (priority.hpp):
-// stop/hold writes first, then client commands, move-completion polling,
+// stop/hold writes first, then client commands (taking turns by who sent
+// them: command_turns.hpp), move-completion polling,
 // telemetry (round-robin over IDs at their rates, earliest due first) and
 // background reads. A request never splits: a write of several registers is
 // one FC10, one transaction.
@@ -61,6 +62,7 @@
 #include "lec6/clock.hpp"
 #include "lec6/modbus/pdu.hpp"
 #include "lec6/modbus/timing.hpp"
+#include "line/command_turns.hpp"
 #include "line/emergency_lane.hpp"
 #include "line/job.hpp"
 #include "line/line_stats.hpp"
@@ -262,6 +264,7 @@ class Scheduler {
 
   SchedulerConfig config_;
   std::array<std::deque<Queued>, kPriorities> queues_;  // Emergency: lane_
+  CommandTurns turns_;                                  // whose command goes next
   EmergencyLane lane_;
   std::optional<Flight> flight_;
   std::map<uint8_t, Telemetry> telemetry_;

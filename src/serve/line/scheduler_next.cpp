@@ -18,12 +18,21 @@ std::optional<Dispatch> Scheduler::dispatch(Queued q, bool internal, TimePoint n
 
 std::optional<Dispatch> Scheduler::pop(Priority p, TimePoint now) {
   auto& q = queues_[index(p)];
+  const bool command = p == Priority::Command;
   while (!q.empty()) {
-    Queued front = std::move(q.front());
-    q.pop_front();
-    // The block it reads may have come in while it waited.
-    if (answer_from_cache(front.job, front.submitted, now)) continue;
-    return dispatch(std::move(front), false, now);
+    // Client commands take turns by source (command_turns.hpp); the rest: first in, first out.
+    const auto it = command ? turns_.pick(q) : q.begin();
+    Queued taken = std::move(*it);
+    q.erase(it);
+    // The block it reads may have come in while it waited: no line time, no turn.
+    if (answer_from_cache(taken.job, taken.submitted, now)) continue;
+    if (command) {
+      const JobSource source = taken.job.source;
+      turns_.served(source, std::any_of(q.begin(), q.end(), [source](const Queued& x) {
+                      return x.job.source == source;
+                    }));
+    }
+    return dispatch(std::move(taken), false, now);
   }
   return std::nullopt;
 }

@@ -225,6 +225,7 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
     const uint64_t key = next_key_++;
     Job job;
     job.priority = request.priority;
+    job.source = source_;
     job.frame = request.frame;
     job.max_cache_age = request.max_cache_age;
     job.not_before = seen_[unit];
@@ -316,6 +317,8 @@ class ModbusTcpServer::Session : public std::enable_shared_from_this<Session> {
   std::map<uint64_t, JobId> outstanding_;
   std::map<uint8_t, TimePoint> seen_;  // per unit: the newest data this master was shown
   uint64_t next_key_ = 1;
+  // This connection's commands take turns with other clients' (command_turns.hpp).
+  const JobSource source_ = new_job_source();
   asio::steady_timer idle_;
   bool reading_ = false;
   bool closing_ = false;

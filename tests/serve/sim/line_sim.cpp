@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -64,6 +65,8 @@ struct Tracked {
   bool resending = false;                  // its last exchange was lost; a resend may follow
   std::optional<modbus::Request> request;  // a write's (invariant 7)
   Priority priority = Priority::Command;
+  JobSource source = 0;            // its connection (invariant 4: commands take turns by it)
+  std::size_t submit_command = 0;  // client commands on the wire before its submit
 };
 
 // The coils (Y10-Y1F, Y30-Y3F) a write sets, and to what: FC05, FC0F, and
@@ -97,6 +100,7 @@ struct Actor {
   bool hangs_up = false;
   std::size_t depth = 0;        // Scada: reads kept queued
   std::size_t outstanding = 0;  // Plc: as lec serve's Modbus TCP session, at most kMaxQueued
+  JobSource source = 0;         // its connection: client commands take turns by it
 };
 
 class World {
@@ -234,6 +238,8 @@ class World {
                        chance(0.3),
                        0});
     actors_.push_back({Actor::Type::Jogger, 400ms, clock_, {}, 0, false, 0});
+    // Each its own connection (the jogger's writes: the daemon's own source, 0).
+    for (std::size_t i = 0; i + 1 < actors_.size(); ++i) actors_[i].source = i + 1;
     if (chance(0.2)) {
       shutdown_at_ = clock_ + std::chrono::milliseconds(pick(300, 2700));
       words += "; shutdown";
@@ -258,7 +264,8 @@ class World {
             for (std::size_t n = 0;
                  n < a.depth && s_->queue_depth()[index(Priority::Command)] < a.depth; ++n) {
               const uint8_t id = a.ids[static_cast<std::size_t>(pick(0, int(a.ids.size()) - 1))];
-              submit_tcp(id, modbus::ReadRegistersRequest{lec::kStateData, 7}, a.hangs_up);
+              submit_tcp(id, modbus::ReadRegistersRequest{lec::kStateData, 7}, a.hangs_up, nullptr,
+                         false, a.source);
             }
             break;
           case Actor::Type::Operator:
@@ -294,19 +301,19 @@ class World {
       const uint16_t words[] = {word};
       r = modbus::WriteRegistersRequest::of(lec::kControlWordY10, words);
     }
-    submit_tcp(id, std::move(r), a.hangs_up, &a);
+    submit_tcp(id, std::move(r), a.hangs_up, &a, false, a.source);
   }
 
   void operator_stop(const Actor& a) {
     const uint8_t id = static_cast<uint8_t>(pick(1, static_cast<int>(devices_.size())));
     if (chance(0.5)) {
       submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::RESET), modbus::kCoilOn},
-                 a.hangs_up, nullptr, true);
+                 a.hangs_up, nullptr, true, a.source);
       submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::RESET), modbus::kCoilOff},
-                 a.hangs_up, nullptr, true);
+                 a.hangs_up, nullptr, true, a.source);
     } else {
       submit_tcp(id, modbus::WriteCoilRequest{lec::address(Coil::HOLD), modbus::kCoilOn},
-                 a.hangs_up, nullptr, true);
+                 a.hangs_up, nullptr, true, a.source);
     }
   }
 
@@ -327,13 +334,14 @@ class World {
   // As the Modbus TCP listener does (modbus_tcp_server.cpp): the gateway
   // rule decides; a master that hangs up cancels what it had queued.
   void submit_tcp(uint8_t id, modbus::Request request, bool hangs_up, Actor* from = nullptr,
-                  bool by_operator = false) {
+                  bool by_operator = false, JobSource source = 0) {
     const auto pdu = modbus::encode_request_pdu(request);
     const auto decision = decide(policy_, id, *pdu);
     const auto* line = std::get_if<LineRequest>(&decision);
     if (!line) return;
     Job job;
     job.priority = line->priority;
+    job.source = source;
     job.frame = line->frame;
     job.max_cache_age = line->max_cache_age;
     job.attempts = line->attempts;
@@ -364,6 +372,8 @@ class World {
     t.by_operator = by_operator;
     if (t.write) t.request = request;
     t.priority = job.priority;
+    t.source = source;
+    t.submit_command = commands_sent_;
     if (from) ++from->outstanding;
     // Ahead of it in its controller's lane: every write queued before it to
     // its controller, moved there in order, but for the starts a hard stop
@@ -478,6 +488,7 @@ class World {
       clock_ = std::max(clock_, quiet_at_);
     if (const auto k = key_of_.find(d.id); k != key_of_.end()) {
       Tracked& t = tracked_[k->second];
+      const bool again = t.resending;  // a further attempt: not a turn of its own
       t.resending = false;
       // Invariant 6: a start queued before a hard stop to its controller
       // never reaches the wire after that stop.
@@ -486,21 +497,40 @@ class World {
             fmt::format("start #{} to ID {} went to the wire after stop #{}, accepted after it",
                         k->second, t.id, on_wire_hard_[t.id]));
       if (t.hard) on_wire_hard_[t.id] = std::max(on_wire_hard_[t.id], k->second);
-      // Invariant 4: clients' commands go in the order they came (a FIFO
-      // with the polls' turns between: no command waits without bound). A
-      // later one never reaches the wire while an earlier one still waits,
-      // unless that one waits out its controller's backoff for a resend.
-      if (t.priority == Priority::Command && !t.in_lane) {
+      // Invariant 4: clients' commands take turns by connection
+      // (line/command_turns.hpp; the polls' turns between): no command waits
+      // without bound. A connection's commands go in the order they came,
+      // and while one waits, no other connection goes twice; only one that
+      // waits out its controller's backoff for a resend may be passed over.
+      if (t.priority == Priority::Command && !t.in_lane && !again) {
+        const std::size_t previous = last_command_of_.contains(t.source)
+                                         ? last_command_of_[t.source]
+                                         : std::numeric_limits<std::size_t>::max();
         for (const auto& [key, x] : tracked_) {
-          if (key >= k->second) break;
-          if (x.answers > 0 || x.in_lane || x.priority != Priority::Command || x.resending)
+          if (key >= k->second && x.source == t.source) continue;
+          if (x.answers > 0 || x.in_lane || x.priority != Priority::Command || x.resending ||
+              key == k->second)
             continue;
-          violation(
-              fmt::format("command #{} to ID {} went to the wire before command #{} to ID "
-                          "{}, queued before it",
-                          k->second, t.id, key, x.id));
-          break;
+          if (x.source == t.source) {
+            violation(
+                fmt::format("command #{} to ID {} went to the wire before command #{} to "
+                            "ID {} of its connection, queued before it",
+                            k->second, t.id, key, x.id));
+            break;
+          }
+          // x has waited since its submit and since its connection's last turn.
+          const std::size_t since =
+              std::max(x.submit_command,
+                       last_command_of_.contains(x.source) ? last_command_of_[x.source] + 1 : 0);
+          if (previous != std::numeric_limits<std::size_t>::max() && previous >= since) {
+            violation(
+                fmt::format("command #{} to ID {}: its connection's second turn while "
+                            "command #{} to ID {} of another one waited",
+                            k->second, t.id, key, x.id));
+            break;
+          }
         }
+        last_command_of_[t.source] = commands_sent_++;
       }
     }
     Device& dev = devices_[d.frame.id];
@@ -607,6 +637,8 @@ class World {
   std::unique_ptr<Scheduler> s_;
   GatewayPolicy policy_;
   std::map<std::size_t, Tracked> tracked_;
+  std::size_t commands_sent_ = 0;                     // client commands on the wire
+  std::map<JobSource, std::size_t> last_command_of_;  // each connection's last, by that count
   std::map<uint8_t, std::size_t> queued_stops_;
   std::map<uint8_t, std::size_t> pending_writes_;
   struct Hold {

@@ -14,9 +14,11 @@
 //   2. an accepted stop is never cancelled, and fails with ShuttingDown only
 //      once the line has closed;
 //   3. every job is answered exactly once (none lost, none twice);
-//   4. no job waits without bound: clients' commands reach the wire in the
-//      order they came (only one whose controller backs off before a resend
-//      may be overtaken); every job is answered by the line's close;
+//   4. no job waits without bound: clients' commands take turns by
+//      connection (line/command_turns.hpp): each connection's in the order
+//      they came, and no connection goes twice while another's command
+//      waits (only one whose controller backs off before a resend may be
+//      passed over); every job is answered by the line's close;
 //   5. a HOLD the line answered as done holds the twin's axis: at rest within
 //      its deceleration time, unless a later write released it;
 //   6. a write that starts motion, queued before a hard stop to its
