@@ -127,13 +127,18 @@ def measure(rig, channel, stops, moving):
         if moving:  # a move under way at each stop: the last stop ended the previous one
             rig.http("POST", "/api/axes/axis1/move?wait=false",
                      {"position_mm": 390 if i % 2 == 0 else 10, "speed_mm_s": 200})
-        count0, _ = rig.emergency()
-        rig.stop_via(channel)
-        count1, recent = rig.emergency()
-        new = count1 - count0
-        if 0 < new <= len(recent):
-            waits.append(recent[-new])  # the stop's first frame: RESET <- 1
+        waits.extend(stop_wait(rig, channel))
     return waits
+
+
+def stop_wait(rig, channel):
+    """Sends one stop by `channel`; the line's wait for its first frame
+    (RESET <- 1), as a list of one (none when the line's record missed it)."""
+    count0, _ = rig.emergency()
+    rig.stop_via(channel)
+    count1, recent = rig.emergency()
+    new = count1 - count0
+    return [recent[-new]] if 0 < new <= len(recent) else []
 
 
 def moving(axis):
@@ -143,10 +148,10 @@ def moving(axis):
 def measure_moving(rig, channel, stops):
     """As measure(), but each stop waits until the move it is meant to stop is
     seen under way (BUSY or a speed in the daemon's telemetry): behind the SCADA
-    flood a move's start is a client command, first in first out behind the
-    flood's 160 reads in flight, and takes 8-15 s to reach the wire; a stop
-    posted 50-250 ms after the POST, as measure() does, finds it still queued
-    and supersedes it (the axis at rest). Returns the waits, the stops that
+    flood a move's start is a client command that takes its turns with the
+    flood's twenty connections (about 2 s; 8-15 s when the queue was first in
+    first out across clients); a stop posted 50-250 ms after the POST, as
+    measure() does, finds it still queued and supersedes it (the axis at rest). Returns the waits, the stops that
     found the axis moving, and how long each start took to be seen (s)."""
     waits, moved, starts = [], 0, []
     rng = random.Random(1)
@@ -169,12 +174,7 @@ def measure_moving(rig, channel, stops):
         # At a random instant of the telemetry cycle, the move under way.
         time.sleep(rng.uniform(0.05, 0.25))
         moved += moving(rig.axis())
-        count0, _ = rig.emergency()
-        rig.stop_via(channel)
-        count1, recent = rig.emergency()
-        new = count1 - count0
-        if 0 < new <= len(recent):
-            waits.append(recent[-new])  # the stop's first frame: RESET <- 1
+        waits.extend(stop_wait(rig, channel))
     return waits, moved, starts
 
 
