@@ -95,7 +95,7 @@ def test_a_bad_file_is_refused_with_where_and_which_rule(tmp_path, cell_twin):
     assert err.file == str(path) and err.line == 14 and err.column > 0
     assert "axis" in err.field and "unknown axis 'y'" in err.rule, (err.field, err.rule)
     assert f"{path}:14:" in str(err)
-    with pytest.raises(lec6.CycleError, match="cannot read"):
+    with pytest.raises(lec6.CycleError, match="cannot read the file: No such file or directory"):
         lec6.Cycle(os.fspath(tmp_path / "missing.yaml"))
 
 

@@ -4,6 +4,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <set>
@@ -238,8 +241,20 @@ Cycle parse_cycle(std::string_view yaml_text, const std::string& source) {
 }
 
 Cycle load_cycle(const std::string& path) {
+  // The OS's reason, in the user's terms: a missing file, a directory and a
+  // file without read permission are three different mistakes.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw CycleError(path, {}, "", "cannot read the file: it is a directory, not a cycle file");
+  }
+  errno = 0;
   std::ifstream in(path);
-  if (!in) throw CycleError(path, {}, "", "cannot read the file");
+  if (!in) {
+    const int err = errno;
+    throw CycleError(
+        path, {}, "",
+        fmt::format("cannot read the file: {}", err ? std::strerror(err) : "not readable"));
+  }
   std::stringstream text;
   text << in.rdbuf();
   return parse_cycle(text.str(), path);

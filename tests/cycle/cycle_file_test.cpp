@@ -217,7 +217,16 @@ TEST(CycleFile, UnreadableFile) {
     load_cycle("/nonexistent/cell.yaml");
     FAIL();
   } catch (const CycleError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("/nonexistent/cell.yaml: cannot read the file"));
+    EXPECT_THAT(
+        e.what(),
+        HasSubstr("/nonexistent/cell.yaml: cannot read the file: No such file or directory"));
+  }
+  // A directory opens as a stream on Linux and reads as nothing: said as what it is.
+  try {
+    load_cycle("/tmp");
+    FAIL();
+  } catch (const CycleError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("/tmp: cannot read the file: it is a directory"));
   }
 }
 
