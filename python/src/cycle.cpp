@@ -54,9 +54,10 @@ std::map<std::string, const Bus*> buses_of(const cycle::Cycle& c, py::handle bus
     if (!d.contains(key)) {
       std::vector<std::string> given;
       for (auto item : d) given.push_back(py::str(item.first).cast<std::string>());
-      throw client::InvalidRequest(fmt::format(
-          "axis '{}' is on line '{}' ({}:{}): no Bus for it in buses (given: {})", a.name, a.line,
-          c.source, a.mark.line, given.empty() ? "none" : fmt::format("{}", fmt::join(given, ", "))));
+      throw client::InvalidRequest(
+          fmt::format("axis '{}' is on line '{}' ({}:{}): no Bus for it in buses (given: {})",
+                      a.name, a.line, c.source, a.mark.line,
+                      given.empty() ? "none" : fmt::format("{}", fmt::join(given, ", "))));
     }
     py::object b = d[key];
     if (!py::isinstance<Bus>(b))
@@ -69,9 +70,9 @@ std::map<std::string, const Bus*> buses_of(const cycle::Cycle& c, py::handle bus
   for (const auto& a : c.axes) {
     const auto key = std::make_pair(out.at(a.name)->line.get(), a.id);
     if (auto [it, fresh] = seen.emplace(key, a.name); !fresh) {
-      throw client::InvalidRequest(fmt::format(
-          "axes '{}' and '{}' would be one controller: ID {} on the same Bus ({})", it->second,
-          a.name, a.id, out.at(a.name)->line->describe()));
+      throw client::InvalidRequest(
+          fmt::format("axes '{}' and '{}' would be one controller: ID {} on the same Bus ({})",
+                      it->second, a.name, a.id, out.at(a.name)->line->describe()));
     }
   }
   return out;
@@ -197,14 +198,16 @@ void bind_reports(py::module_& m) {
                        "What a cycle did: its steps, whether it completed, where each axis stood "
                        "when it was stopped, and where its time went.")
       .def_property_readonly("completed", [](const CycleRun& r) { return r.report.completed; })
-      .def_property_readonly("ended", [](const CycleRun& r) { return r.report.ended; },
-                             "why it ended ('completed', 'stopped', an abort's reason)")
+      .def_property_readonly(
+          "ended", [](const CycleRun& r) { return r.report.ended; },
+          "why it ended ('completed', 'stopped', an abort's reason)")
       .def_property_readonly("cycle_time_s",
                              [](const CycleRun& r) { return secs(r.report.cycle_time); })
       .def_property_readonly("iterations", [](const CycleRun& r) { return r.report.iterations; })
       .def_property_readonly("steps", [](const CycleRun& r) { return r.report.steps; })
-      .def_property_readonly("stood", [](const CycleRun& r) { return r.report.stood; },
-                             "every axis, when the cycle was stopped or aborted")
+      .def_property_readonly(
+          "stood", [](const CycleRun& r) { return r.report.stood; },
+          "every axis, when the cycle was stopped or aborted")
       .def_property_readonly(
           "time_split",
           [](const CycleRun& r) {
@@ -215,7 +218,8 @@ void bind_reports(py::module_& m) {
           "the cycle time along its critical path, in seconds: the line's share (reads, "
           "starts, completion seen), the axes' motion, dwells and waits (docs/cycles.md)")
       .def_property_readonly(
-          "max_start_skew_s", [](const CycleRun& r) { return maybe_secs(r.analysis.max_start_skew); },
+          "max_start_skew_s",
+          [](const CycleRun& r) { return maybe_secs(r.analysis.max_start_skew); },
           "the largest start skew of a parallel group of motions, or None")
       .def("__repr__", [](const CycleRun& r) {
         return fmt::format("CycleReport(completed={}, {:.3f} s, {} steps, '{}')",

@@ -3,8 +3,8 @@
 
 #include <fmt/format.h>
 
-#include "lec6/client/action_words.hpp"
 #include "bindings.hpp"
+#include "lec6/client/action_words.hpp"
 #include "lec6/client/errors.hpp"
 #include "lec6/client/link.hpp"
 #include "lec6/cycle/cycle_file.hpp"

@@ -234,9 +234,7 @@ void burst(const transport::PortSpec& spec, const GlobalOptions& g, const std::v
     auto h = p.exchange(state_query(id), kStateReplyBytes, g.reply_margin);
     ++b.exchanges;
     ++b.per_id_exchanges[id];
-    const auto whole = [](dx::ReplyKind k) {
-      return dx::answered(k);
-    };
+    const auto whole = [](dx::ReplyKind k) { return dx::answered(k); };
     const bool answered = whole(h.result.kind);
     if (h.result.kind == dx::ReplyKind::None || h.result.kind == dx::ReplyKind::Garbage ||
         h.result.kind == dx::ReplyKind::Framing) {

@@ -88,9 +88,10 @@ Expected<void, std::string> write_file_atomically(const std::filesystem::path& g
   const std::filesystem::path path = file_behind(given);
   std::error_code ec;
   if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
-    return unexpected(fmt::format("cannot write {}: {} is not a regular file (a directory, a "
-                                  "device or a FIFO): give a file name",
-                                  given.string(), path.string()));
+    return unexpected(
+        fmt::format("cannot write {}: {} is not a regular file (a directory, a "
+                    "device or a FIFO): give a file name",
+                    given.string(), path.string()));
   }
   std::string tmp;
   const int fd = make_temporary(path, tmp);
