@@ -10,8 +10,12 @@ JobSource new_job_source() {
   return next.fetch_add(1, std::memory_order_relaxed);
 }
 
-void CommandTurns::queued(JobSource source) {
-  turn_of_.try_emplace(source, served_);
+void CommandTurns::queued(JobSource source, bool waiting) {
+  if (waiting) {
+    turn_of_.try_emplace(source, served_);
+  } else {
+    turn_of_[source] = served_;
+  }
 }
 
 std::deque<Queued>::iterator CommandTurns::pick(std::deque<Queued>& q) {

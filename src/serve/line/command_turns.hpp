@@ -25,8 +25,12 @@ namespace lec6::serve {
 
 class CommandTurns {
  public:
-  // A job of `source` was queued (the scheduler's submit).
-  void queued(JobSource source);
+  // A job of `source` was queued (the scheduler's submit); `waiting`: the
+  // source already has a job in the queue. One that had none comes in (or
+  // back) now: whatever turn it held when its last job left the queue
+  // (answered from the cache, cancelled, superseded by a stop, failed) is
+  // not kept, so it never goes ahead of those already waiting.
+  void queued(JobSource source, bool waiting);
   // The job to take next from `q` (not empty): a retry at the front first
   // (it keeps its place), else the oldest job of the source whose turn it is.
   std::deque<Queued>::iterator pick(std::deque<Queued>& q);

@@ -204,7 +204,10 @@ JobId Scheduler::submit(Job job, TimePoint now) {
     // Sources whose jobs were cancelled, failed or superseded are forgotten
     // once there are more than the queue could hold (command_turns.hpp).
     if (turns_.known() > commands.size() + 64) turns_.forget_idle(commands);
-    turns_.queued(job.source);
+    const JobSource source = job.source;
+    turns_.queued(source, std::any_of(commands.begin(), commands.end(), [source](const Queued& x) {
+                    return x.job.source == source;
+                  }));
   }
   queues_[index(job.priority)].push_back(Queued{id, std::move(job), now});
   return id;

@@ -134,10 +134,31 @@ TEST(CommandTurns, NoSourceGoesTwiceBeforeAWaitingOneGoesOnceInRandomPlants) {
   }
 }
 
+// A source whose last job left the queue without its turn (cancelled here;
+// answered from the cache, superseded by a stop or failed alike) comes back
+// behind those already waiting: the turn it held is not kept (a reviewer's
+// finding: it went ahead of them).
+TEST(CommandTurns, ASourceWhoseJobWasCancelledComesBackBehindThoseWaiting) {
+  Harness h;
+  const JobId gone = h.s.submit(read_from(h, 1, 1, 0), h.clock.now());
+  for (uint16_t n = 1; n <= 5; ++n) {
+    h.s.submit(read_from(h, 2, 1, static_cast<uint16_t>(100 + n)), h.clock.now());
+    h.s.submit(read_from(h, 3, 1, static_cast<uint16_t>(200 + n)), h.clock.now());
+  }
+  ASSERT_TRUE(h.s.cancel(gone, h.clock.now()));
+  for (int k = 0; k < 4; ++k) ASSERT_TRUE(h.step());
+  h.s.submit(read_from(h, 1, 1, 1), h.clock.now());
+  std::vector<uint16_t> next;
+  for (int k = 0; k < 3; ++k)
+    next.push_back(std::get<ReadRegistersRequest>(h.step()->frame.pdu).start - 0x9000);
+  // Sources 2 and 3 each once more (they waited), then source 1.
+  EXPECT_EQ(next, (std::vector<uint16_t>{103, 203, 1}));
+}
+
 TEST(CommandTurns, ForgetsSourcesWithNothingQueued) {
   CommandTurns t;
   std::deque<Queued> q;
-  for (JobSource s = 1; s <= 100; ++s) t.queued(s);
+  for (JobSource s = 1; s <= 100; ++s) t.queued(s, false);
   EXPECT_EQ(t.known(), 100u);
   Queued one;
   one.job.source = 42;
