@@ -435,4 +435,11 @@ def runtime_needs():
             if not Path(lib).exists():
                 need.problem = f"{lib} is missing"
             needs.append(need)
+    # A linker the Makefile asks the compilers for (-fuse-ld=lld: ld.lld).
+    for linker in sorted(set(re.findall(r"-fuse-ld=(\w+)", (ROOT / "Makefile").read_text()))):
+        path = shutil.which(f"ld.{linker}", path=DEBIAN_PATH)
+        need = Need(f"program ld.{linker}", f"Makefile: -fuse-ld={linker}", [path] if path else [])
+        if not path:
+            need.problem = "not installed"
+        needs.append(need)
     return needs

@@ -1,8 +1,7 @@
 // `lec sniff`'s framing against the twin's bus on virtual time: 10^5
-// exchanges, delivered per frame, in a USB adapter's 16 ms lumps (at 115200
-// and 9600 baud) and with noise bursts between them. Every frame the bus put
-// on the line comes out, paired, none lost, merged or split; every noise
-// burst comes out as noise.
+// exchanges (10^4 under the sanitizers), delivered per frame, in a USB adapter's 16 ms lumps (at
+// 115200 and 9600 baud) and with noise bursts between them. Every frame the bus put on the line
+// comes out, paired, none lost, merged or split; every noise burst comes out as noise.
 
 #include <random>
 #include <vector>
@@ -13,6 +12,7 @@
 #include "lec6/modbus/sniffer.hpp"
 #include "lec6/sim/bus.hpp"
 #include "lec6/sim/usb_latency.hpp"
+#include "sanitized.hpp"
 
 namespace lec6::sim {
 namespace {
@@ -22,7 +22,8 @@ using modbus::Bytes;
 using modbus::SniffEvent;
 using modbus::SniffKind;
 
-constexpr int kExchanges = 100'000;
+// 10^4 under the sanitizers (sanitized.hpp).
+constexpr int kExchanges = testing::sanitized(100'000, 10'000);
 
 struct Piece {
   Bytes bytes;
@@ -38,11 +39,11 @@ Bytes framed(std::initializer_list<uint8_t> body) {
 
 // The queries a master cycles through: reads of X, Y, D and writes.
 std::vector<Bytes> queries(uint8_t id) {
-  return {framed({id, 0x03, 0x90, 0x00, 0x00, 0x02}),   // D9000 x2 (position)
-          framed({id, 0x02, 0x00, 0x40, 0x00, 0x10}),   // X40.. x16
-          framed({id, 0x01, 0x00, 0x10, 0x00, 0x08}),   // Y10.. x8
-          framed({id, 0x05, 0x00, 0x19, 0xFF, 0x00}),   // SVON ON
-          framed({id, 0x03, 0x90, 0x00, 0x00, 0x0C}),   // D9000 x12
+  return {framed({id, 0x03, 0x90, 0x00, 0x00, 0x02}),  // D9000 x2 (position)
+          framed({id, 0x02, 0x00, 0x40, 0x00, 0x10}),  // X40.. x16
+          framed({id, 0x01, 0x00, 0x10, 0x00, 0x08}),  // Y10.. x8
+          framed({id, 0x05, 0x00, 0x19, 0xFF, 0x00}),  // SVON ON
+          framed({id, 0x03, 0x90, 0x00, 0x00, 0x0C}),  // D9000 x12
           framed({id, 0x10, 0x91, 0x02, 0x00, 0x02, 0x04, 0x00, 0x00, 0x00, 0x64}),
           framed({id, 0x03, 0x00, 0x00, 0x00, 0x01})};  // an address the LEC refuses
 }
@@ -139,8 +140,9 @@ TEST(SniffLine, EveryFrameAt115200PerFrame) {
   const auto events = sniff(pieces, 115200, Duration::zero());
   expect_every_frame(pieces, events);
   for (const auto& e : events) {
-    ASSERT_EQ(e.flags & (modbus::kSniffLate | modbus::kSniffShortSilence |
-                         modbus::kSniffSecondMaster), 0u);
+    ASSERT_EQ(
+        e.flags & (modbus::kSniffLate | modbus::kSniffShortSilence | modbus::kSniffSecondMaster),
+        0u);
     if (e.kind == SniffKind::Reply) {
       ASSERT_TRUE(e.response);
     }

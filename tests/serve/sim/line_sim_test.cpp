@@ -4,22 +4,13 @@
 
 #include <gtest/gtest.h>
 
+#include "sanitized.hpp"
 #include "serve/sim/line_sim.hpp"
 
 namespace lec6::serve::sim_testing {
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr uint64_t kSeeds = 300;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr uint64_t kSeeds = 300;
-#else
-constexpr uint64_t kSeeds = 2000;
-#endif
-#else
-constexpr uint64_t kSeeds = 2000;
-#endif
+constexpr uint64_t kSeeds = testing::sanitized<uint64_t>(2000, 300);
 
 TEST(LineSim, EveryInvariantHoldsInEveryPlant) {
   std::size_t stops = 0;
