@@ -85,55 +85,79 @@ std::string Engine::path_of(const Frame& f) const {
   return p;
 }
 
-std::variant<Batch, Finished> Engine::next(const AxisStates& axes) {
-  if (finished_) return *finished_;
-  while (!stack_.empty()) {
-    Frame& f = stack_.back();
+const Step* Engine::walk(std::vector<Frame>& stack, unsigned& iteration, const AxisStates* axes,
+                         std::optional<Finished>* failed, bool* until) const {
+  while (!stack.empty()) {
+    Frame& f = stack.back();
     if (f.index >= f.steps->size()) {
       // A repeat until: its condition, read after each pass.
       if (f.repeat && f.repeat->until) {
-        const auto a = axes.find(f.repeat->axis);
-        const bool met = a != axes.end() && a->second.answered &&
+        if (!axes) {
+          *until = true;
+          return nullptr;
+        }
+        const auto a = axes->find(f.repeat->axis);
+        const bool met = a != axes->end() && a->second.answered &&
                          f.repeat->condition_met(a->second.flags, a->second.state.position_001mm);
         if (met)
           f.remaining = 1;  // done: popped below
         else if (f.remaining == 1) {
-          finished_ = Finished{false, fmt::format("step {} ({}): not met after {} passes", f.path,
-                                                  f.repeat->text, f.times)};
-          return *finished_;
+          *failed = Finished{false, fmt::format("step {} ({}): not met after {} passes", f.path,
+                                                f.repeat->text, f.times)};
+          return nullptr;
         }
       }
       if (--f.remaining > 0) {
         f.index = 0;
-        if (stack_.size() == 1) ++iteration_;
+        if (stack.size() == 1) ++iteration;
         continue;
       }
-      stack_.pop_back();
-      if (!stack_.empty()) ++stack_.back().index;  // the repeat (or the step that branched) is done
+      stack.pop_back();
+      if (!stack.empty()) ++stack.back().index;  // the repeat (or the step that branched) is done
       continue;
     }
     const Step& s = (*f.steps)[f.index];
     if (s.kind == Step::Kind::Repeat) {
-      stack_.push_back({&s.steps, 0, s.times, s.times, fmt::format("{}{}.", f.prefix, f.index + 1),
-                        &s, path_of(f)});
+      stack.push_back({&s.steps, 0, s.times, s.times, fmt::format("{}{}.", f.prefix, f.index + 1),
+                       &s, path_of(f)});
       continue;
     }
-    Batch b{path_of(f), &s, {}};
-    if (s.kind == Step::Kind::Parallel) {
-      for (const auto& m : s.steps) b.activities.push_back({&m});
-    } else {
-      b.activities.push_back({&s});
-    }
-    if (auto why = interlock_violation(cycle_, s, axes)) {
-      finished_ = Finished{
-          false, fmt::format("refused before step {} ({}): interlock: {}", b.path, s.text, *why)};
-      return *finished_;
-    }
-    current_ = b;
-    return b;
+    return &s;
   }
-  finished_ = Finished{true, "completed"};
-  return *finished_;
+  return nullptr;
+}
+
+std::variant<Batch, Finished> Engine::next(const AxisStates& axes) {
+  if (finished_) return *finished_;
+  const Step* s = walk(stack_, iteration_, &axes, &finished_, nullptr);
+  if (finished_) return *finished_;
+  if (!s) {
+    finished_ = Finished{true, "completed"};
+    return *finished_;
+  }
+  Batch b{path_of(stack_.back()), s, {}};
+  if (s->kind == Step::Kind::Parallel) {
+    for (const auto& m : s->steps) b.activities.push_back({&m});
+  } else {
+    b.activities.push_back({s});
+  }
+  if (auto why = interlock_violation(cycle_, *s, axes)) {
+    finished_ = Finished{
+        false, fmt::format("refused before step {} ({}): interlock: {}", b.path, s->text, *why)};
+    return *finished_;
+  }
+  current_ = b;
+  return b;
+}
+
+bool Engine::next_reads_axes() const {
+  if (finished_) return false;
+  std::vector<Frame> stack = stack_;
+  unsigned iteration = iteration_;
+  bool until = false;
+  const Step* s = walk(stack, iteration, nullptr, nullptr, &until);
+  if (until) return true;
+  return s && s->kind != Step::Kind::Dwell;
 }
 
 std::string Engine::finished(const std::vector<ActivityResult>& results) {

@@ -329,7 +329,10 @@ struct Runner::Impl {
           engine.end("stopped by request between steps");
           break;
         }
-        auto next = engine.next(read_all());
+        // Every axis is read before every step that moves (and the first);
+        // before a dwell or the cycle's end, the states read last do
+        // (Engine::next_reads_axes).
+        auto next = engine.next(states.empty() || engine.next_reads_axes() ? read_all() : states);
         if (std::holds_alternative<Finished>(next)) break;
         const Batch& b = std::get<Batch>(next);
         running = StepReport{b.path, b.step->text, since_start(), {}, {}, {}};

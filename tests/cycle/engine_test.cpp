@@ -107,6 +107,45 @@ steps:
   EXPECT_EQ(end.reason, "step 1 (repeat until z INP = 1, at most 4 times): not met after 4 passes");
 }
 
+// Engine::next_reads_axes (the Runner reads every axis only when it is
+// true): before every step that moves and every repeat's `until`, never
+// before a dwell (alone, in a repeat or its first step) or the cycle's end.
+TEST(Engine, ReadsTheAxesBeforeEveryStepThatMovesAndEveryUntilOnly) {
+  const Cycle c = parse_cycle(R"(axes:
+  x: {id: 1}
+  z: {id: 2}
+steps:
+  - dwell: 100ms
+  - move: {axis: x, to: 10}
+  - repeat: {times: 2, steps: [{dwell: 50ms}]}
+  - repeat:
+      times: 2
+      until: {axis: z, flag: INP}
+      steps: [{dwell: 50ms}]
+  - parallel: [{dwell: 50ms}, {move: {axis: z, to: 5}}]
+)",
+                              "cell.yaml");
+  AxisStates axes{{"x", ready_axis(0)}, {"z", ready_axis(0)}};
+  axes["z"].flags.set(lec::StatusFlags::Inp, true);  // the until holds after its first pass
+  Engine e(c);
+  std::vector<std::string> seen;  // "path: reads" before each batch, then the end
+  for (;;) {
+    const bool reads = e.next_reads_axes();
+    auto next = e.next(axes);
+    if (auto* f = std::get_if<Finished>(&next)) {
+      EXPECT_TRUE(f->completed) << f->reason;
+      seen.push_back(std::string("end: ") + (reads ? "reads" : "-"));
+      break;
+    }
+    const Batch& b = std::get<Batch>(next);
+    seen.push_back(b.path + ": " + (reads ? "reads" : "-"));
+    e.finished(std::vector<ActivityResult>(b.activities.size(), ActivityResult{Outcome::Done, ""}));
+  }
+  EXPECT_THAT(seen, ::testing::ElementsAre("1: -", "2: reads", "3.1 (1/2): -", "3.1 (2/2): -",
+                                           "4.1 (1/2): -", "5: reads", "end: -"));
+  EXPECT_FALSE(e.next_reads_axes());  // ended: nothing more to judge
+}
+
 TEST(Engine, PushMissedRunsTheBranchThenGoesOn) {
   const Cycle c = parse_cycle(kEngineCell, "cell.yaml");
   Finished end;

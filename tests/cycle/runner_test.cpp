@@ -169,6 +169,33 @@ steps:
   EXPECT_EQ(cell.master->stats().transactions - sent_before, 5u);
 }
 
+// The reads before a step are for the steps that move (Engine::next_reads_axes):
+// a dwell and the cycle's end read nothing. Two axes: a read of every axis is
+// four transactions (flags and state each).
+TEST(Runner, ADwellAndTheCyclesEndReadNothing) {
+  Cell moves(kRunAxes + "steps:\n  - move: {axis: x, to: 100}\n");
+  Cell with_dwells(kRunAxes + R"(steps:
+  - move: {axis: x, to: 100}
+  - dwell: 200ms
+  - dwell: 100ms
+)");
+  const auto sent = [](Cell& cell) {
+    const auto before = cell.master->stats().transactions;
+    const CycleReport r = cell.run();
+    EXPECT_TRUE(r.completed) << r.ended;
+    return cell.master->stats().transactions - before;
+  };
+  const auto one_move = sent(moves);
+  EXPECT_EQ(sent(with_dwells), one_move);  // the dwells and the end after them: no reads
+  // A move after the dwell is read for again: every axis, then the move itself.
+  Cell move_after(kRunAxes + R"(steps:
+  - move: {axis: x, to: 100}
+  - dwell: 200ms
+  - move: {axis: x, to: 0}
+)");
+  EXPECT_GT(sent(move_after), one_move + 4);
+}
+
 TEST(Runner, AnAxisNotHomedRefusesTheCycle) {
   Cell cell(kRunAxes + "steps:\n  - move: {axis: x, to: pick}\n", /*prepare=*/false);
   const CycleReport r = cell.run();
