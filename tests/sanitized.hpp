@@ -1,9 +1,10 @@
 // How many cases a property walks, in the sanitizer tree and elsewhere.
 //
-// The sanitizer tree (make test's second tree: Debug, -O0, ASan and UBSan)
-// runs the CPU-bound properties 15-50 times slower than the optimised tree
-// (2026-11-29: SniffLine's 10^5 exchanges 1 s against 50 s, the command
-// turns' 300 random plants 3.4 s against 56 s). Its job there is memory and
+// The sanitizer tree (make test's second tree: Debug, ASan and UBSan; the
+// layers between modbus/ and serve/ at -O1, the rest at -O0) runs the
+// CPU-bound properties many times slower than the optimised tree (2026-11-29,
+// all at -O0: SniffLine's 10^5 exchanges 1 s against 50 s, the command turns'
+// 300 random plants 3.4 s against 56 s). Its job there is memory and
 // undefined-behaviour errors on the paths the cases take, which a fraction of
 // the cases reaches; the optimised tree walks every case, and `make soak`
 // more. So a property that walks many cases walks `sanitized(all, fewer)`.

@@ -435,10 +435,13 @@ def runtime_needs():
             if not Path(lib).exists():
                 need.problem = f"{lib} is missing"
             needs.append(need)
-    # A linker the Makefile asks the compilers for (-fuse-ld=lld: ld.lld).
-    for linker in sorted(set(re.findall(r"-fuse-ld=(\w+)", (ROOT / "Makefile").read_text()))):
-        path = shutil.which(f"ld.{linker}", path=DEBIAN_PATH)
-        need = Need(f"program ld.{linker}", f"Makefile: -fuse-ld={linker}", [path] if path else [])
+    # A linker the Makefile asks the compilers for (-fuse-ld=lld: ld.lld; a
+    # path: that file), outside comments.
+    code = "\n".join(line.split("#", 1)[0] for line in (ROOT / "Makefile").read_text().splitlines())
+    for linker in sorted(set(re.findall(r"-fuse-ld=([\w./+-]+)", code))):
+        program = linker if linker.startswith("/") else f"ld.{linker}"
+        path = program if os.access(program, os.X_OK) else shutil.which(program, path=DEBIAN_PATH)
+        need = Need(f"program {program}", f"Makefile: -fuse-ld={linker}", [path] if path else [])
         if not path:
             need.problem = "not installed"
         needs.append(need)

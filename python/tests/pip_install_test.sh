@@ -10,6 +10,7 @@ repo=$1
 python=${2:-/usr/bin/python3}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
+trap 'exit 143' TERM INT  # ended (make test's `tools/idle-build stop`): the EXIT trap cleans up
 
 mkdir "$tmp/src"
 tar -C "$repo" --exclude='./build*' --exclude=.git --exclude=node_modules --exclude='*.egg-info' \
