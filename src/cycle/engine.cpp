@@ -150,14 +150,15 @@ std::variant<Batch, Finished> Engine::next(const AxisStates& axes) {
   return b;
 }
 
-bool Engine::next_reads_axes() const {
-  if (finished_) return false;
+Engine::AxesNeeded Engine::next_needs() const {
+  if (finished_) return AxesNeeded::Nothing;
   std::vector<Frame> stack = stack_;
   unsigned iteration = iteration_;
   bool until = false;
   const Step* s = walk(stack, iteration, nullptr, nullptr, &until);
-  if (until) return true;
-  return s && s->kind != Step::Kind::Dwell;
+  if (until) return AxesNeeded::FlagsAndState;
+  if (!s) return AxesNeeded::Nothing;
+  return s->kind == Step::Kind::Dwell ? AxesNeeded::Flags : AxesNeeded::FlagsAndState;
 }
 
 std::string Engine::finished(const std::vector<ActivityResult>& results) {

@@ -56,13 +56,16 @@ struct Runner::Impl {
   Duration since_start() const { return clock().now() - t0; }
   bool stop_requested() const { return options.stop_requested && options.stop_requested(); }
 
-  AxisStates read_all() {
+  // Reads every axis: its flags, and its state when `need` says so (what the
+  // engine's next decision judges: Engine::next_needs).
+  AxisStates read_all(Engine::AxesNeeded need = Engine::AxesNeeded::FlagsAndState) {
+    if (need == Engine::AxesNeeded::Nothing) return states;
     for (const auto& a : cycle.axes) {
       AxisState& s = states[a.name];
       try {
         auto& c = *axes.at(a.name).client;
         s.flags = c.read_flags();
-        s.state = c.read_state();
+        if (need == Engine::AxesNeeded::FlagsAndState) s.state = c.read_state();
         s.answered = true;
       } catch (const client::TransportError&) {
         s.answered = false;
@@ -321,6 +324,7 @@ struct Runner::Impl {
     t0 = clock().now();
     for (const auto& a : cycle.axes) lines.add(a.name, axes.at(a.name).client->master());
     Engine engine(cycle);
+    bool first = true;  // a Runner may run again: nothing read by the last run counts
     std::optional<StepReport> running;  // the step under way, for a line fault
     try {
       for (;;) {
@@ -329,10 +333,11 @@ struct Runner::Impl {
           engine.end("stopped by request between steps");
           break;
         }
-        // Every axis is read before every step that moves (and the first);
-        // before a dwell or the cycle's end, the states read last do
-        // (Engine::next_reads_axes).
-        auto next = engine.next(states.empty() || engine.next_reads_axes() ? read_all() : states);
+        // Every axis, flags and state, before the first step and every step
+        // that moves; its flags before a dwell; nothing at the end.
+        auto next =
+            engine.next(read_all(first ? Engine::AxesNeeded::FlagsAndState : engine.next_needs()));
+        first = false;
         if (std::holds_alternative<Finished>(next)) break;
         const Batch& b = std::get<Batch>(next);
         running = StepReport{b.path, b.step->text, since_start(), {}, {}, {}};

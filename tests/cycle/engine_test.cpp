@@ -107,10 +107,12 @@ steps:
   EXPECT_EQ(end.reason, "step 1 (repeat until z INP = 1, at most 4 times): not met after 4 passes");
 }
 
-// Engine::next_reads_axes (the Runner reads every axis only when it is
-// true): before every step that moves and every repeat's `until`, never
-// before a dwell (alone, in a repeat or its first step) or the cycle's end.
-TEST(Engine, ReadsTheAxesBeforeEveryStepThatMovesAndEveryUntilOnly) {
+// Engine::next_needs (what the Runner reads before each step): flags and
+// state before every step that moves, wait, group and repeat's `until`; the
+// flags only before a dwell (alone, in a repeat, as a repeat's first step);
+// nothing at the cycle's end. Groups and waits here do not follow an `until`
+// (which asks for a read of its own).
+TEST(Engine, ReadsTheAxesForWhatEachDecisionJudges) {
   const Cycle c = parse_cycle(R"(axes:
   x: {id: 1}
   z: {id: 2}
@@ -118,32 +120,50 @@ steps:
   - dwell: 100ms
   - move: {axis: x, to: 10}
   - repeat: {times: 2, steps: [{dwell: 50ms}]}
+  - parallel: [{dwell: 50ms}, {move: {axis: z, to: 5}}]
+  - dwell: 50ms
+  - wait: {axis: z, flag: INP, timeout: 1s}
+  - dwell: 50ms
+  - parallel: [{dwell: 50ms}, {dwell: 60ms}]
   - repeat:
       times: 2
       until: {axis: z, flag: INP}
       steps: [{dwell: 50ms}]
-  - parallel: [{dwell: 50ms}, {move: {axis: z, to: 5}}]
+  - dwell: 50ms
+  - push: {axis: z, to: 80, force: 40, on_miss: reject}
+branches:
+  reject:
+    - move: {axis: z, to: 0}
 )",
                               "cell.yaml");
   AxisStates axes{{"x", ready_axis(0)}, {"z", ready_axis(0)}};
   axes["z"].flags.set(lec::StatusFlags::Inp, true);  // the until holds after its first pass
   Engine e(c);
-  std::vector<std::string> seen;  // "path: reads" before each batch, then the end
+  std::vector<std::string> seen;  // "path: what" before each batch, then the end
+  const auto what = [](Engine::AxesNeeded n) {
+    return n == Engine::AxesNeeded::Nothing ? "-"
+           : n == Engine::AxesNeeded::Flags ? "flags"
+                                            : "all";
+  };
   for (;;) {
-    const bool reads = e.next_reads_axes();
+    const auto need = e.next_needs();
     auto next = e.next(axes);
     if (auto* f = std::get_if<Finished>(&next)) {
       EXPECT_TRUE(f->completed) << f->reason;
-      seen.push_back(std::string("end: ") + (reads ? "reads" : "-"));
+      seen.push_back(std::string("end: ") + what(need));
       break;
     }
     const Batch& b = std::get<Batch>(next);
-    seen.push_back(b.path + ": " + (reads ? "reads" : "-"));
-    e.finished(std::vector<ActivityResult>(b.activities.size(), ActivityResult{Outcome::Done, ""}));
+    seen.push_back(b.path + ": " + what(need));
+    // The push misses: the branch runs, its first step a move.
+    const Outcome o = b.step->kind == Step::Kind::Push ? Outcome::PushMissed : Outcome::Done;
+    e.finished(std::vector<ActivityResult>(b.activities.size(), ActivityResult{o, ""}));
   }
-  EXPECT_THAT(seen, ::testing::ElementsAre("1: -", "2: reads", "3.1 (1/2): -", "3.1 (2/2): -",
-                                           "4.1 (1/2): -", "5: reads", "end: -"));
-  EXPECT_FALSE(e.next_reads_axes());  // ended: nothing more to judge
+  EXPECT_THAT(seen, ::testing::ElementsAre("1: flags", "2: all", "3.1 (1/2): flags",
+                                           "3.1 (2/2): flags", "4: all", "5: flags", "6: all",
+                                           "7: flags", "8: all", "9.1 (1/2): flags", "10: all",
+                                           "11: all", "reject.1: all", "end: -"));
+  EXPECT_EQ(e.next_needs(), Engine::AxesNeeded::Nothing);  // ended: nothing more to judge
 }
 
 TEST(Engine, PushMissedRunsTheBranchThenGoesOn) {

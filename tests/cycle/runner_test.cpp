@@ -169,10 +169,10 @@ steps:
   EXPECT_EQ(cell.master->stats().transactions - sent_before, 5u);
 }
 
-// The reads before a step are for the steps that move (Engine::next_reads_axes):
-// a dwell and the cycle's end read nothing. Two axes: a read of every axis is
-// four transactions (flags and state each).
-TEST(Runner, ADwellAndTheCyclesEndReadNothing) {
+// The reads before a step are what its decision judges (Engine::next_needs):
+// before a dwell the flags of every axis (one transaction each, not two), at
+// the cycle's end nothing. Two axes.
+TEST(Runner, ADwellReadsTheFlagsAndTheCyclesEndNothing) {
   Cell moves(kRunAxes + "steps:\n  - move: {axis: x, to: 100}\n");
   Cell with_dwells(kRunAxes + R"(steps:
   - move: {axis: x, to: 100}
@@ -186,14 +186,73 @@ TEST(Runner, ADwellAndTheCyclesEndReadNothing) {
     return cell.master->stats().transactions - before;
   };
   const auto one_move = sent(moves);
-  EXPECT_EQ(sent(with_dwells), one_move);  // the dwells and the end after them: no reads
-  // A move after the dwell is read for again: every axis, then the move itself.
+  EXPECT_EQ(sent(with_dwells), one_move + 2 * 2);  // each dwell: the flags of both axes
+  // A move after the dwell is read for in full again: flags and state of both axes.
   Cell move_after(kRunAxes + R"(steps:
   - move: {axis: x, to: 100}
   - dwell: 200ms
   - move: {axis: x, to: 0}
 )");
-  EXPECT_GT(sent(move_after), one_move + 4);
+  EXPECT_GT(sent(move_after), one_move + 2 + 4);
+}
+
+// At a moment of the step at `path`, `f` once.
+RunOptions at_step(const std::string& path, StepMoment moment, std::function<void()> f) {
+  RunOptions o;
+  auto done = std::make_shared<bool>(false);
+  o.at_step = [=](const Step&, const std::string& p, StepMoment m) {
+    if (!*done && p == path && m == moment) {
+      *done = true;
+      f();
+    }
+  };
+  return o;
+}
+
+// A dwell runs only when every axis answers with no alarm and no ESTOP, read
+// afresh: an axis the step before did not poll (z in ESTOP while x moved), an
+// alarm after the moved axis's last poll, an axis that fell silent.
+TEST(Runner, ADwellIsRefusedOnAFreshReadOfEveryAxissFlags) {
+  const std::string cycle = kRunAxes + "steps:\n  - move: {axis: x, to: 300}\n  - dwell: 200ms\n";
+  Cell estop(cycle);
+  CycleReport r = estop.run(at_step(
+      "1", StepMoment::Started, [&] { estop.bus.find(2)->set_estop(true, estop.clock.now()); }));
+  EXPECT_FALSE(r.completed);
+  EXPECT_THAT(r.ended, HasSubstr("refused before step 2 (dwell 0.200 s): interlock: axis z is in "
+                                 "emergency stop"));
+  Cell alarm(cycle);
+  r = alarm.run(at_step("1", StepMoment::Ended,
+                        [&] { alarm.bus.find(1)->inject_alarm(149, alarm.clock.now()); }));
+  EXPECT_FALSE(r.completed);
+  EXPECT_THAT(r.ended, HasSubstr("axis x has an alarm"));
+  Cell silent(cycle);
+  r = silent.run(at_step("1", StepMoment::Started, [&] { silent.bus.set_cut_off(2, true); }));
+  EXPECT_FALSE(r.completed);
+  EXPECT_THAT(r.ended, HasSubstr("axis z does not answer"));
+}
+
+// The interlock before a group after a dwell is judged on a fresh read of
+// the positions: z raised by another master during the dwell refuses x's move.
+TEST(Runner, AGroupAfterADwellIsCheckedOnAFreshRead) {
+  Cell cell(R"(axes:
+  x: {id: 1, soft_limits: [0, 400]}
+  z: {id: 2}
+interlocks:
+  - {before_moving: x, axis: z, below_mm: 45}
+steps:
+  - move: {axis: z, to: 10}
+  - dwell: 200ms
+  - parallel: [{move: {axis: x, to: 300}}, {wait: {axis: z, below_mm: 45, timeout: 1s}}]
+)");
+  const CycleReport r = cell.run(at_step("2", StepMoment::Started, [&] {
+    client::Actuator z(*cell.clients.at("z"));
+    client::DirectMove up;
+    up.position_001mm = 6000;
+    z.move(up, z.deadline_in(5s));
+  }));
+  EXPECT_FALSE(r.completed);
+  EXPECT_THAT(r.ended, HasSubstr("refused before step 3"));
+  EXPECT_EQ(cell.position_001mm("x"), 0) << "x moved with z at 60 mm";
 }
 
 TEST(Runner, AnAxisNotHomedRefusesTheCycle) {

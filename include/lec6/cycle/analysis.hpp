@@ -10,7 +10,7 @@
 // the cycle time splits into segments that tile it exactly, from 0 to the
 // cycle time:
 //   reads   the previous step's end -> this step's start: every axis read
-//           before the step (the interlocks)
+//           before the step (the interlocks; the flags only before a dwell)
 //   start   -> the critical member's start acknowledged: its checks and
 //           direct data, and the group's starts sent before it
 //   motion  -> the last poll that saw its BUSY high: the axis moving (a

@@ -91,13 +91,14 @@ class Engine {
 
   // The next batch, or how the cycle ended (then always that).
   std::variant<Batch, Finished> next(const AxisStates& axes);
-  // Whether next() will judge the axes' state: false when it will give a
-  // dwell (alone, not in a group) or the end of the cycle, reaching it
-  // without a repeat's `until` on the way. The Runner reads every axis only
-  // when true: before a dwell it passes what it read last (the check before
-  // every step that moves stays a fresh read), saving a read of the flags and
-  // the state per axis (0.1 s for three axes at 38400 baud). Pure.
-  bool next_reads_axes() const;
+  // What next() will judge of the axes, so that the Runner reads no more:
+  //  - FlagsAndState before a step that moves, a wait, a group, a repeat's
+  //    `until` (and the Runner reads so before the cycle's first step);
+  //  - Flags before a dwell alone: it runs only when every axis answers with
+  //    no alarm and no ESTOP, which the flags say (one read per axis, not two);
+  //  - Nothing at the cycle's end (no decision is left). Pure.
+  enum class AxesNeeded { Nothing, Flags, FlagsAndState };
+  AxesNeeded next_needs() const;
   // The outcome of every activity of the last batch, in order. Returns the
   // decision in words ("continue", "branch reject", "abort").
   std::string finished(const std::vector<ActivityResult>& results);
@@ -121,7 +122,7 @@ class Engine {
   // The walk of next() (one rule for both): moves `stack` to the step to
   // run next and returns it, or nullptr at the end of the cycle or when a
   // repeat's last pass did not meet its `until` (then `*failed` says so).
-  // `axes` null: a probe (next_reads_axes, on a copy of the frames), where a
+  // `axes` null: a probe (next_needs, on a copy of the frames), where a
   // repeat's `until` on the way sets `*until` and ends the walk.
   const Step* walk(std::vector<Frame>& stack, unsigned& iteration, const AxisStates* axes,
                    std::optional<Finished>* failed, bool* until) const;

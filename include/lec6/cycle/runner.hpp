@@ -7,7 +7,8 @@
 //   cycle::Runner run(cycle, {{"x", &client_x}, {"z", &client_z}});
 //   cycle::CycleReport r = run.run();
 //
-// For every step: read every axis (flags, state) for the interlocks, start
+// For every step: read every axis for the interlocks (flags and state before
+// a step that moves, the flags before a dwell: Engine::next_needs), start
 // every activity of the step back to back (a group's moves one after the
 // other, one write burst each), then poll the unfinished ones round robin
 // (flags, then state) until each has ended. An outcome that aborts ends the
