@@ -205,6 +205,11 @@ class Scheduler {
   DeviceCounters device_counters(uint8_t id) const { return stats_.device(id); }
   std::array<std::size_t, kPriorities> queue_depth() const;
   const SchedulerConfig& config() const noexcept { return config_; }
+  // The sources whose turns it keeps (CommandTurns::known): bounded, however
+  // many come and go (its forget_idle). What a test can see of the forgetting:
+  // a source forgotten had nothing queued, and comes back behind the others
+  // either way.
+  std::size_t command_sources() const noexcept { return turns_.known(); }
 
  private:
   struct Flight {

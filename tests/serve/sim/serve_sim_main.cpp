@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   std::vector<std::pair<double, uint64_t>> worst;  // a seed's longest stop wait
   uint64_t failed = 0;
   std::size_t jobs = 0, stops = 0;
+  std::size_t cache_at_submit = 0, cache_at_turn = 0, forgets = 0, forgetting = 0, jogs = 0;
   for (uint64_t seed = first; seed < last; ++seed) {
     const auto r = run_line_sim(seed, trace);
     if (trace) fmt::print("{}\n{}", r.plant, r.trace);
@@ -56,6 +57,11 @@ int main(int argc, char** argv) {
       worst.emplace_back(*std::max_element(r.stop_wait_ms.begin(), r.stop_wait_ms.end()), seed);
     jobs += r.jobs;
     stops += r.stops;
+    cache_at_submit += r.cache_at_submit;
+    cache_at_turn += r.cache_at_turn;
+    forgets += r.forgets;
+    forgetting += r.forgets > 0;
+    jogs += r.jog_sources;
     if (!r.violations.empty()) {
       ++failed;
       fmt::print("seed {} FAILED ({}): {}\n  replay: serve_sim --seed {} --trace\n", seed, r.plant,
@@ -77,6 +83,10 @@ int main(int argc, char** argv) {
       "{:.1f} ms\n",
       operator_waits.size(), at(operator_waits, 0.5), at(operator_waits, 0.99),
       operator_waits.empty() ? 0.0 : operator_waits.back());
+  fmt::print(
+      "command turns: {} reads answered from the cache at submit, {} when their turn came; idle "
+      "sources forgotten {} times in {} plants; {} jogs on the wire, each its own source\n",
+      cache_at_submit, cache_at_turn, forgets, forgetting, jogs);
   std::sort(worst.rbegin(), worst.rend());
   if (!trace && !worst.empty()) {
     fmt::print("longest waits:");
