@@ -27,6 +27,12 @@ struct Operations::Running {
   std::atomic<int64_t> lease_until{0};  // steady ns; 0: no lease
   std::mutex tie_mutex;
   std::function<bool()> tie;  // the stream a jog is tied to has closed
+  // Set when it has ended (its result known): what waits for it wakes.
+  std::promise<void> ended_promise;
+  std::shared_future<void> ended = ended_promise.get_future().share();
+  // The stops, holds and resets accepted on its axis before it, still
+  // running then: it waits for them before anything goes to the line.
+  std::vector<std::shared_future<void>> after;
 
   bool lease_expired(TimePoint now) const {
     const int64_t until = lease_until.load();
@@ -51,6 +57,8 @@ struct Operations::Unsettled {
 
 struct Operations::Slot {
   std::shared_ptr<Running> motion;
+  // The stops, holds and resets running on the axis (not the ended ones).
+  std::vector<std::weak_ptr<Running>> stops;
   std::optional<Unsettled> unsettled;
   std::optional<nlohmann::json> last;
 };
@@ -144,6 +152,13 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
       run->jog_plus = cmd.jog_plus;
       if (cmd.op == Op::Jog && cmd.jog_lease > Duration{}) renew(run->lease_until, cmd.jog_lease);
       if (is_motion(cmd.op)) slot.motion = run, slot.unsettled.reset();
+      std::erase_if(slot.stops, [](const auto& w) { return w.expired(); });
+      if (stops_motion(cmd)) {
+        slot.stops.push_back(run);
+      } else {
+        for (const auto& w : slot.stops)
+          if (const auto s = w.lock()) run->after.push_back(s->ended);
+      }
       if (stops_motion(cmd) && slot.motion && slot.motion != run)
         slot.motion->stopped_by_other = true;
       if ((cmd.op == Op::Stop || cmd.op == Op::Reset) && slot.motion && slot.motion != run) {
@@ -169,10 +184,15 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
   std::thread([this, axis, cmd = std::move(cmd), run, done = std::move(done)] {
     OpResult result;
     try {
-      result = execute(axis, cmd, *run);
+      if (auto refused = wait_for_stops(cmd, *run)) {
+        result = std::move(*refused);
+      } else {
+        result = execute(axis, cmd, *run);
+      }
     } catch (...) {
       result = result_of(std::current_exception(), run->stopped_by_other);
     }
+    run->ended_promise.set_value();
     // Every result names its op, a failure too (an alarm's came without it,
     // and the dashboard titled it "command"; issue 27).
     if (!result.body.contains("op")) result.body["op"] = op_name(cmd.op);
@@ -181,6 +201,19 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
     std::lock_guard lock(active_mutex_);
     if (--active_ == 0) idle_.notify_all();
   }).detach();
+}
+
+std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, const Running& run) {
+  const auto until = std::chrono::steady_clock::now() + kAfterStopWait;
+  for (const auto& stop : run.after) {
+    if (stop.wait_until(until) == std::future_status::ready) continue;
+    return refusal(
+        503, fmt::format("{} not started: a stop, hold or reset accepted on this axis before it "
+                         "was still running after {:.0f} s (it goes first, so that the "
+                         "controller sees them in the order they came)",
+                         op_name(cmd.op), to_seconds(kAfterStopWait)));
+  }
+  return std::nullopt;
 }
 
 void Operations::run_task(const AxisRef& axis, std::string name, std::string source,

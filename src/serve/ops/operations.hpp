@@ -18,6 +18,16 @@
 //     200 "stopped at X mm" only when a read shows it at rest, else 502
 //     saying what was sent and what the axis did. Attacked by
 //     tests/serve/ops/operations_stop_test.cpp;
+//   - an operation accepted while a stop, hold or reset accepted before it
+//     still runs on the same axis waits for it to end before it writes or
+//     reads anything (bounded: kAfterStopWait), so the wire sees them in the
+//     order they were accepted. A move sent right after a reset otherwise
+//     had its start reach the controller between the reset's RESET <- 0 and
+//     its RESET <- 1, whose edge then cancelled the move (502 "did not
+//     start"); a resume (HOLD <- 0) could likewise land before its hold's
+//     HOLD <- 1 and leave the axis held. Stops never wait. Attacked by
+//     tests/serve/ops/operations_test.cpp (AMoveAcceptedDuringAResetWaitsForItsPulse,
+//     AResumeRightAfterAHoldResumes);
 //   - a hold-to-run jog lives while its lease is renewed (repeating the jog
 //     command), and ends on jog-stop, when its lease runs out, or when the
 //     stream it was tied to closes (the browser went away): the daemon then
@@ -36,6 +46,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <functional>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -110,6 +121,9 @@ class Operations {
   struct Unsettled;
   struct Slot;
   OpResult execute(const AxisRef& axis, const Command& cmd, Running& run);
+  // How long an operation waits for the stops accepted before it.
+  static constexpr Duration kAfterStopWait = std::chrono::seconds(30);
+  static std::optional<OpResult> wait_for_stops(const Command& cmd, const Running& run);
   static client::StopPolicy stop_policy(const AxisRef& axis);
   void start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
                     std::function<void(OpResult)> done);

@@ -185,23 +185,58 @@ TEST(Operations, AStopThatCameWhileAMoveWasReadingSupersedesItsStart) {
 }
 
 // The other way round (a reviewer's finding): a reset accepted just before
-// a move (an alarm-recovery script's two commands), whose RESET <- 1 reaches
-// the line after the move was accepted, does not refuse the move: the reset
-// came first.
-TEST(Operations, AMoveRightAfterAResetGoes) {
+// a move (an alarm-recovery script's two commands) does not refuse the move:
+// the reset came first. And the move waits for it (a CI failure: the move's
+// start reached the controller between the reset's RESET <- 0 and RESET <- 1, whose edge
+// then cancelled it (502 "did not start the move"). A motion accepted while
+// a reset accepted before it still runs waits for it: nothing of the move
+// reaches the line while the reset's pulse is held back, and the move then
+// goes to its target.
+TEST(Operations, AMoveAcceptedDuringAResetWaitsForItsPulse) {
   Rig rig;
   rig.prepare();
   std::promise<void> gate = rig.hold_line();
   auto reset = rig.start("reset", nlohmann::json::object());
   ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
   auto move = rig.start("move", {{"position_mm", 30}, {"speed_mm_s", 500}});
-  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Completion) >= 1; }));
+  // Without the wait the move's first read queues within a millisecond; a
+  // bounded look (it cannot fail wrongly: with the wait nothing ever queues).
+  EXPECT_FALSE(eventually(
+      [&] { return rig.depth(Priority::Completion) + rig.depth(Priority::Command) > 0; }, 300ms))
+      << "the move went to the line before the reset accepted ahead of it";
   gate.set_value();
   ASSERT_EQ(reset.wait_for(30s), std::future_status::ready);
   EXPECT_EQ(reset.get().status, 200);
   ASSERT_EQ(move.wait_for(30s), std::future_status::ready);
   const OpResult m = move.get();
   EXPECT_EQ(m.status, 200) << m.body.dump();
+  EXPECT_EQ(m.body.value("outcome", ""), "reached") << m.body.dump();
+}
+
+// A hold and a resume sent back to back (a pause button pressed twice): the
+// resume's HOLD <- 0 goes after the hold's HOLD <- 1, never before it (the
+// axis would then stay held), and the move reaches its target.
+TEST(Operations, AResumeRightAfterAHoldResumes) {
+  Rig rig;
+  rig.prepare();
+  auto move = rig.start("move", {{"position_mm", 120}, {"speed_mm_s", 200}});
+  ASSERT_TRUE(eventually([&] {
+    const auto s = rig.line->snapshot(1);
+    return s.state && s.state->speed_mm_s > 0;
+  }));
+  std::promise<void> gate = rig.hold_line();
+  auto hold = rig.start("hold", {{"on", true}});
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto resume = rig.start("hold", {{"on", false}});
+  gate.set_value();
+  ASSERT_EQ(hold.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(hold.get().status, 200);
+  ASSERT_EQ(resume.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(resume.get().status, 200);
+  ASSERT_EQ(move.wait_for(30s), std::future_status::ready);
+  const OpResult m = move.get();
+  EXPECT_EQ(m.status, 200) << m.body.dump();
+  EXPECT_EQ(m.body.value("outcome", ""), "reached") << m.body.dump();
 }
 
 // A burst of noise long enough to back the controller off, in the middle of
