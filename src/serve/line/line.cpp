@@ -156,14 +156,21 @@ bool Line::run_once() {
   run_tasks();
   std::optional<Dispatch> d;
   bool reopen = false;
+  // Reads next() answered from the cache when their turn came (two clients
+  // that asked for the same block): delivered now, not behind the exchange
+  // below or, with nothing for the wire, never
+  // (Line.AReadAnsweredFromTheCacheAtItsTurnIsDeliveredAtOnce).
+  std::vector<PendingCompletion> answered;
   {
     std::lock_guard lock(mutex_);
     if (scheduler_.is_line_down()) {
       reopen = !stopping_ && clock_.now() >= next_reopen_;
     } else {
       d = scheduler_.next(clock_.now());
+      answered = scheduler_.take_completions();
     }
   }
+  deliver(std::move(answered), {});
   if (reopen) return try_reopen();
   if (!d) return false;
   // Only this thread touches the wire; the lock is free while it works.

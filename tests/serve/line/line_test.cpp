@@ -84,6 +84,28 @@ TEST(Line, StopAnswersQueuedJobsAndLaterOnes) {
   EXPECT_EQ(got[3], Failure::ShuttingDown);
 }
 
+// Two clients read the same block at once: the first goes to the wire, the
+// second is answered from the cache when its turn comes, and delivered then,
+// even with nothing else on the line (no telemetry) to carry it out. (The
+// line simulation found it: the answer waited for the next exchange, here
+// forever.)
+TEST(Line, AReadAnsweredFromTheCacheAtItsTurnIsDeliveredAtOnce) {
+  Rig rig({1}, Duration{});  // no telemetry
+  std::vector<bool> from_cache;
+  for (JobSource source : {JobSource{100}, JobSource{101}}) {
+    Job j;
+    j.source = source;
+    j.max_cache_age = 1s;
+    j.frame = {1, modbus::ReadRegistersRequest{0x9000, 7}};
+    j.done = [&](const JobResult& r) { from_cache.push_back(r.from_cache); };
+    rig.line->submit(std::move(j));
+  }
+  rig.run_for(5s);
+  ASSERT_EQ(from_cache.size(), 2u);
+  EXPECT_FALSE(from_cache[0]);
+  EXPECT_TRUE(from_cache[1]);
+}
+
 TEST(Line, TelemetryFillsTheCacheTheApiReads) {
   Rig rig({1, 2}, 20ms);  // a full line: background reads still get their turn
   rig.run_for(2s);
