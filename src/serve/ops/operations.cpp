@@ -82,13 +82,22 @@ OpResult judged(Op op, const client::StopReport& r) {
   return result;
 }
 
+// The operations a later one on the same axis waits for, and that never
+// wait themselves: stop, reset, hold on, and servo off (SVON <- 0 is a hard
+// stop too: an operator whose stop did not stop the axis turns the servo off,
+// and that must not wait for the stop's judgement; a reviewer's finding).
+bool stop_like(const Command& cmd) {
+  return stops_motion(cmd) || (cmd.op == Op::Servo && !cmd.on);
+}
+
 void renew(std::atomic<int64_t>& lease_until, Duration lease) {
   lease_until = (kClock.now() + lease).time_since_epoch().count();
 }
 
 }  // namespace
 
-Operations::Operations(Log log) : log_(std::move(log)) {}
+Operations::Operations(Log log, Duration after_stop_wait)
+    : log_(std::move(log)), after_stop_wait_(after_stop_wait) {}
 
 Operations::~Operations() {
   shutdown();
@@ -153,7 +162,7 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
       if (cmd.op == Op::Jog && cmd.jog_lease > Duration{}) renew(run->lease_until, cmd.jog_lease);
       if (is_motion(cmd.op)) slot.motion = run, slot.unsettled.reset();
       std::erase_if(slot.stops, [](const auto& w) { return w.expired(); });
-      if (stops_motion(cmd)) {
+      if (stop_like(cmd)) {
         slot.stops.push_back(run);
       } else {
         for (const auto& w : slot.stops)
@@ -171,22 +180,29 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
   if (at_once) return done(std::move(*at_once));
   nlohmann::json started{{"event", "started"}, {"op", op_name(cmd.op)}, {"source", source}};
   started.update(history::motion_settings(cmd));  // issue 26: the move's settings
-  notify(axis.name, started);
-  start_thread(axis, std::move(cmd), std::move(run), std::move(done));
+  // One that waits for a stop says "started" when its wait is over: the
+  // history dates a motion from it (it must not count the wait).
+  if (run->after.empty()) {
+    notify(axis.name, started);
+    started = nullptr;
+  }
+  start_thread(axis, std::move(cmd), std::move(run), std::move(started), std::move(done));
 }
 
 void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
-                              std::function<void(OpResult)> done) {
+                              nlohmann::json started, std::function<void(OpResult)> done) {
   {
     std::lock_guard lock(active_mutex_);
     ++active_;
   }
-  std::thread([this, axis, cmd = std::move(cmd), run, done = std::move(done)] {
+  std::thread([this, axis, cmd = std::move(cmd), run, started = std::move(started),
+               done = std::move(done)] {
     OpResult result;
     try {
       if (auto refused = wait_for_stops(cmd, *run)) {
         result = std::move(*refused);
       } else {
+        if (!started.is_null()) notify(axis.name, started);
         result = execute(axis, cmd, *run);
       }
     } catch (...) {
@@ -203,15 +219,29 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
   }).detach();
 }
 
-std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, const Running& run) {
-  const auto until = std::chrono::steady_clock::now() + kAfterStopWait;
+std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, Running& run) const {
+  const auto until = std::chrono::steady_clock::now() + after_stop_wait_;
   for (const auto& stop : run.after) {
     if (stop.wait_until(until) == std::future_status::ready) continue;
+    // 409, not 5xx: nothing was sent, the axis is not left unsettled.
     return refusal(
-        503, fmt::format("{} not started: a stop, hold or reset accepted on this axis before it "
-                         "was still running after {:.0f} s (it goes first, so that the "
+        409, fmt::format("{} not started: a stop, hold or reset accepted on this axis before it "
+                         "was still running after {:.1f} s (it goes first, so that the "
                          "controller sees them in the order they came)",
-                         op_name(cmd.op), to_seconds(kAfterStopWait)));
+                         op_name(cmd.op), to_seconds(after_stop_wait_)));
+  }
+  // A jog released (jog-stop, its lease, its stream) while it waited sends
+  // nothing: JOG <- 1 then <- 0 after the button was let go would twitch
+  // the axis (a reviewer's finding).
+  if (cmd.op == Op::Jog && !run.after.empty() &&
+      (run.cancel.load() || run.lease_expired(kClock.now()) || run.tie_closed())) {
+    return OpResult{200,
+                    {{"ok", true},
+                     {"op", "jog"},
+                     {"outcome", "released"},
+                     {"message",
+                      "jog released before it started (it waited for the stop, hold or "
+                      "reset accepted before it): nothing was sent"}}};
   }
   return std::nullopt;
 }

@@ -18,14 +18,18 @@
 //     200 "stopped at X mm" only when a read shows it at rest, else 502
 //     saying what was sent and what the axis did. Attacked by
 //     tests/serve/ops/operations_stop_test.cpp;
-//   - an operation accepted while a stop, hold or reset accepted before it
-//     still runs on the same axis waits for it to end before it writes or
-//     reads anything (bounded: kAfterStopWait), so the wire sees them in the
+//   - an operation accepted while a stop, hold, reset or servo off accepted
+//     before it still runs on the same axis waits for it to end before it
+//     writes or reads anything (bounded: after_stop_wait, 30 s, then 409, nothing
+//     sent; its "started" event comes when the wait ends; a jog released
+//     meanwhile sends nothing), so the wire sees them in the
 //     order they were accepted. A move sent right after a reset otherwise
 //     had its start reach the controller between the reset's RESET <- 0 and
 //     its RESET <- 1, whose edge then cancelled the move (502 "did not
 //     start"); a resume (HOLD <- 0) could likewise land before its hold's
-//     HOLD <- 1 and leave the axis held. Stops never wait. Attacked by
+//     HOLD <- 1, and the hold's judgement then saw the axis move on (502).
+//     Stops and servo off never wait (a Modbus TCP client's start is not
+//     ordered this way: it is not an operation of lec serve). Attacked by
 //     tests/serve/ops/operations_test.cpp (AMoveAcceptedDuringAResetWaitsForItsPulse,
 //     AResumeRightAfterAHoldResumes);
 //   - a hold-to-run jog lives while its lease is renewed (repeating the jog
@@ -84,7 +88,9 @@ using OpObserver = std::function<void(const std::string& axis, const nlohmann::j
 
 class Operations {
  public:
-  explicit Operations(Log log);
+  // `after_stop_wait`: how long an operation waits for the stops accepted
+  // before it on its axis (the rule above), then refused.
+  explicit Operations(Log log, Duration after_stop_wait = std::chrono::seconds(30));
   ~Operations();
   Operations(const Operations&) = delete;
   Operations& operator=(const Operations&) = delete;
@@ -121,18 +127,19 @@ class Operations {
   struct Unsettled;
   struct Slot;
   OpResult execute(const AxisRef& axis, const Command& cmd, Running& run);
-  // How long an operation waits for the stops accepted before it.
-  static constexpr Duration kAfterStopWait = std::chrono::seconds(30);
-  static std::optional<OpResult> wait_for_stops(const Command& cmd, const Running& run);
+  std::optional<OpResult> wait_for_stops(const Command& cmd, Running& run) const;
   static client::StopPolicy stop_policy(const AxisRef& axis);
+  // `started`: the event to notify once the stops it waits for ended (null:
+  // already notified).
   void start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
-                    std::function<void(OpResult)> done);
+                    nlohmann::json started, std::function<void(OpResult)> done);
   void finished(const AxisRef& axis, const std::shared_ptr<Running>& run, const OpResult& result);
   bool settled(const AxisRef& axis, const Unsettled& u) const;
   OpResult unsettled_refusal(const AxisRef& axis, const Unsettled& u) const;
   void notify(const std::string& axis, const nlohmann::json& event);
 
   Log log_;
+  Duration after_stop_wait_;
   mutable std::mutex mutex_;
   std::map<std::string, Slot> slots_;
   std::vector<OpObserver> observers_;

@@ -31,7 +31,8 @@ bool eventually(const std::function<bool()>& done, std::chrono::milliseconds wit
 }
 
 struct Rig {
-  Rig() {
+  explicit Rig(Duration after_stop_wait = 30s)
+      : ops{[](LogLevel, std::string_view) {}, after_stop_wait} {
     lc.name = "line1";
     lc.port = "sim";
     lc.sim.fast = true;
@@ -95,7 +96,7 @@ struct Rig {
   LineConfig lc;
   std::unique_ptr<Line> line;
   AxisRef axis;
-  Operations ops{[](LogLevel, std::string_view) {}};
+  Operations ops;
 };
 
 TEST(Operations, AMoveThatRanPastItsDeadlineKeepsTheAxisUntilItIsSeenStopped) {
@@ -214,8 +215,9 @@ TEST(Operations, AMoveAcceptedDuringAResetWaitsForItsPulse) {
 }
 
 // A hold and a resume sent back to back (a pause button pressed twice): the
-// resume's HOLD <- 0 goes after the hold's HOLD <- 1, never before it (the
-// axis would then stay held), and the move reaches its target.
+// resume's HOLD <- 0 goes after the hold's judgement, not right after its
+// HOLD <- 1 (the judgement then saw the axis move on and said 502: what
+// this test caught before the wait), and the move reaches its target.
 TEST(Operations, AResumeRightAfterAHoldResumes) {
   Rig rig;
   rig.prepare();
@@ -237,6 +239,85 @@ TEST(Operations, AResumeRightAfterAHoldResumes) {
   const OpResult m = move.get();
   EXPECT_EQ(m.status, 200) << m.body.dump();
   EXPECT_EQ(m.body.value("outcome", ""), "reached") << m.body.dump();
+}
+
+// Servo off is a hard stop too: pressed while a stop's judgement runs (the
+// stop did not stop the axis), it goes at once, and never waits for that
+// judgement (a reviewer's finding: it waited up to the stop's 10 s).
+TEST(Operations, AServoOffDuringAStopGoesAtOnce) {
+  Rig rig;
+  rig.prepare();
+  std::promise<void> gate = rig.hold_line();
+  auto stop = rig.start("stop", nlohmann::json::object());
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto off = rig.start("servo", {{"on", false}});
+  EXPECT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 2; }))
+      << "servo off did not reach the line while the stop was pending";
+  gate.set_value();
+  ASSERT_EQ(stop.wait_for(30s), std::future_status::ready);
+  ASSERT_EQ(off.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(off.get().status, 200);
+}
+
+// A jog pressed and released while a stop accepted before it still runs:
+// nothing of it reaches the line (JOG <- 1 then <- 0 after the button was let
+// go would twitch the axis; a reviewer's finding), and it says so.
+TEST(Operations, AJogReleasedWhileItWaitsForAStopSendsNothing) {
+  Rig rig;
+  rig.prepare();
+  std::promise<void> gate = rig.hold_line();
+  auto stop = rig.start("stop", nlohmann::json::object());
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto jog = rig.start("jog", {{"direction", "+"}, {"lease_ms", 5000}});
+  EXPECT_EQ(rig.run("jog-stop").body.value("message", ""), "jog released");
+  const auto commands = [&] {
+    return rig.line->stats().latency[index(Priority::Command)].wait_count;
+  };
+  const auto before = commands();
+  gate.set_value();
+  ASSERT_EQ(stop.wait_for(30s), std::future_status::ready);
+  ASSERT_EQ(jog.wait_for(30s), std::future_status::ready);
+  const OpResult j = jog.get();
+  EXPECT_EQ(j.status, 200) << j.body.dump();
+  EXPECT_EQ(j.body.value("outcome", ""), "released") << j.body.dump();
+  EXPECT_EQ(commands(), before) << "the released jog wrote to the controller";
+}
+
+// A stop that does not end (its line held) within the wait: the move behind
+// it is refused 409, nothing sent, and the axis is not left "may still be
+// moving" (a 5xx did that: a reviewer's finding). A stop accepted while a
+// move waits refuses the move (422) once the wait ends.
+TEST(Operations, AMoveThatWaitedTooLongForAStopIsRefusedAndLeavesTheAxisFree) {
+  Rig rig(300ms);
+  rig.prepare();
+  std::promise<void> gate = rig.hold_line();
+  auto stop = rig.start("stop", nlohmann::json::object());
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  const OpResult m = rig.run("move", {{"position_mm", 30}, {"speed_mm_s", 500}});
+  EXPECT_EQ(m.status, 409) << m.body.dump();
+  EXPECT_THAT(m.body.value("error", ""), HasSubstr("still running after 0.3 s")) << m.body.dump();
+  const auto r = rig.ops.running(rig.axis);
+  EXPECT_FALSE(r) << "a move that sent nothing left the axis taken";
+  gate.set_value();
+  ASSERT_EQ(stop.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(stop.get().status, 200);
+}
+
+TEST(Operations, AStopWhileAMoveWaitsForAResetRefusesTheMove) {
+  Rig rig;
+  rig.prepare();
+  std::promise<void> gate = rig.hold_line();
+  auto reset = rig.start("reset", nlohmann::json::object());
+  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto move = rig.start("move", {{"position_mm", 300}, {"speed_mm_s", 500}});
+  auto stop = rig.start("stop", nlohmann::json::object());
+  gate.set_value();
+  ASSERT_EQ(move.wait_for(30s), std::future_status::ready);
+  const OpResult m = move.get();
+  EXPECT_EQ(m.status, 422) << m.body.dump();
+  ASSERT_EQ(stop.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(stop.get().status, 200);
+  ASSERT_EQ(reset.wait_for(30s), std::future_status::ready);
 }
 
 // A burst of noise long enough to back the controller off, in the middle of
