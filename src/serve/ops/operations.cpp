@@ -30,9 +30,17 @@ struct Operations::Running {
   // Set when it has ended (its result known): what waits for it wakes.
   std::promise<void> ended_promise;
   std::shared_future<void> ended = ended_promise.get_future().share();
-  // The stops, holds and resets accepted on its axis before it, still
-  // running then: it waits for them before anything goes to the line.
-  std::vector<std::shared_future<void>> after;
+  // The stops, holds, resets and servo offs accepted on its axis before it,
+  // still running then: it waits for them before anything goes to the line.
+  struct Awaited {
+    std::shared_future<void> ended;
+    Op op;
+    std::string source;
+  };
+  std::vector<Awaited> after;
+  // It ended while it waited: nothing of it reached the line (a 5xx then
+  // does not leave the axis "may still be moving").
+  std::atomic<bool> nothing_sent{false};
 
   bool lease_expired(TimePoint now) const {
     const int64_t until = lease_until.load();
@@ -166,7 +174,7 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
         slot.stops.push_back(run);
       } else {
         for (const auto& w : slot.stops)
-          if (const auto s = w.lock()) run->after.push_back(s->ended);
+          if (const auto s = w.lock()) run->after.push_back({s->ended, s->op, s->source});
       }
       if (stops_motion(cmd) && slot.motion && slot.motion != run)
         slot.motion->stopped_by_other = true;
@@ -208,11 +216,12 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
     } catch (...) {
       result = result_of(std::current_exception(), run->stopped_by_other);
     }
-    run->ended_promise.set_value();
     // Every result names its op, a failure too (an alarm's came without it,
     // and the dashboard titled it "command"; issue 27).
     if (!result.body.contains("op")) result.body["op"] = op_name(cmd.op);
     finished(axis, run, result);
+    // After its "finished": what waited for it says "started" after that.
+    run->ended_promise.set_value();
     done(result);
     std::lock_guard lock(active_mutex_);
     if (--active_ == 0) idle_.notify_all();
@@ -220,30 +229,66 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
 }
 
 std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, Running& run) const {
-  const auto until = std::chrono::steady_clock::now() + after_stop_wait_;
-  for (const auto& stop : run.after) {
-    if (stop.wait_until(until) == std::future_status::ready) continue;
-    // 409, not 5xx: nothing was sent, the axis is not left unsettled.
-    return refusal(
-        409, fmt::format("{} not started: a stop, hold or reset accepted on this axis before it "
-                         "was still running after {:.1f} s (it goes first, so that the "
-                         "controller sees them in the order they came)",
-                         op_name(cmd.op), to_seconds(after_stop_wait_)));
+  if (run.after.empty()) return std::nullopt;
+  // What ends it while it waits, checked between slices of the wait: a
+  // stop accepted after it, a jog let go, lec serve shutting down. It then
+  // ends with nothing sent (a reviewer's findings: a released jog kept the
+  // axis busy until the stop it waited for ended; a move started while the
+  // daemon went down).
+  const auto ended_meanwhile = [&]() -> std::optional<OpResult> {
+    {
+      std::lock_guard lock(mutex_);
+      if (shutting_down_)
+        return refusal(503, fmt::format("{} not started: lec serve is shutting down (it waited "
+                                        "for a stop accepted before it); nothing was sent",
+                                        op_name(cmd.op)));
+    }
+    if (is_motion(cmd.op) && run.stop_requested.load()) {
+      auto r = refusal(422, fmt::format("{} not started: a stop or reset for this axis came "
+                                        "first (through lec serve)",
+                                        op_name(cmd.op)));
+      r.body["outcome"] = "stopped";
+      return r;
+    }
+    // A jog let go (jog-stop, its lease, its stream): JOG <- 1 then <- 0
+    // after the button was released would twitch the axis.
+    if (cmd.op == Op::Jog &&
+        (run.cancel.load() || run.lease_expired(kClock.now()) || run.tie_closed())) {
+      return OpResult{200,
+                      {{"ok", true},
+                       {"op", "jog"},
+                       {"outcome", "released"},
+                       {"message",
+                        "jog released before it started (it waited for a stop accepted before "
+                        "it): nothing was sent"}}};
+    }
+    return std::nullopt;
+  };
+  const TimePoint until = kClock.now() + after_stop_wait_;
+  std::optional<OpResult> ended;
+  for (const Running::Awaited& stop : run.after) {
+    for (;;) {
+      if ((ended = ended_meanwhile())) break;
+      const TimePoint now = kClock.now();
+      if (now >= until) {
+        ended = refusal(
+            409, fmt::format("{} not started: it waited {:.1f} s for the {} (by {}) accepted "
+                             "before it on this axis, which still runs; nothing was sent: send "
+                             "it again once that has ended (a stop, hold, reset or servo off "
+                             "goes first, so that the controller sees them in the order they "
+                             "came)",
+                             op_name(cmd.op), to_seconds(after_stop_wait_), op_name(stop.op),
+                             stop.source));
+        break;
+      }
+      const Duration slice = std::min<Duration>(until - now, std::chrono::milliseconds(20));
+      if (stop.ended.wait_for(slice) == std::future_status::ready) break;
+    }
+    if (ended) break;
   }
-  // A jog released (jog-stop, its lease, its stream) while it waited sends
-  // nothing: JOG <- 1 then <- 0 after the button was let go would twitch
-  // the axis (a reviewer's finding).
-  if (cmd.op == Op::Jog && !run.after.empty() &&
-      (run.cancel.load() || run.lease_expired(kClock.now()) || run.tie_closed())) {
-    return OpResult{200,
-                    {{"ok", true},
-                     {"op", "jog"},
-                     {"outcome", "released"},
-                     {"message",
-                      "jog released before it started (it waited for the stop, hold or "
-                      "reset accepted before it): nothing was sent"}}};
-  }
-  return std::nullopt;
+  if (!ended) ended = ended_meanwhile();
+  if (ended) run.nothing_sent = true;
+  return ended;
 }
 
 void Operations::run_task(const AxisRef& axis, std::string name, std::string source,
@@ -287,7 +332,7 @@ void Operations::finished(const AxisRef& axis, const std::shared_ptr<Running>& r
     if (slot.motion == run) {
       slot.motion.reset();
       // 5xx: no answer, a deadline, the line down: nothing says the axis stopped.
-      if (result.status >= 500) {
+      if (result.status >= 500 && !run->nothing_sent) {
         slot.unsettled = Unsettled{run->op, run->source, result.body.value("error", "no answer"),
                                    axis.line->clock().now()};
       }

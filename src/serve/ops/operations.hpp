@@ -20,18 +20,25 @@
 //     tests/serve/ops/operations_stop_test.cpp;
 //   - an operation accepted while a stop, hold, reset or servo off accepted
 //     before it still runs on the same axis waits for it to end before it
-//     writes or reads anything (bounded: after_stop_wait, 30 s, then 409, nothing
-//     sent; its "started" event comes when the wait ends; a jog released
-//     meanwhile sends nothing), so the wire sees them in the
-//     order they were accepted. A move sent right after a reset otherwise
-//     had its start reach the controller between the reset's RESET <- 0 and
-//     its RESET <- 1, whose edge then cancelled the move (502 "did not
-//     start"); a resume (HOLD <- 0) could likewise land before its hold's
-//     HOLD <- 1, and the hold's judgement then saw the axis move on (502).
-//     Stops and servo off never wait (a Modbus TCP client's start is not
-//     ordered this way: it is not an operation of lec serve). Attacked by
+//     writes or reads anything, so the wire sees them in the order they were
+//     accepted. A move sent right after a reset otherwise had its start reach
+//     the controller between the reset's RESET <- 0 and its RESET <- 1, whose
+//     edge then cancelled the move (502 "did not start"); a resume
+//     (HOLD <- 0) could likewise land right after its hold's HOLD <- 1, and
+//     the hold's judgement then saw the axis move on (502). While it waits,
+//     a stop accepted after it, a jog let go, or lec serve shutting down end
+//     it at once; after after_stop_wait (30 s) it is refused (409). Ended
+//     so, nothing of it was sent: no "started" event (it comes when the wait
+//     ends, after the awaited op's "finished"), and the axis is not left
+//     "may still be moving". Stops and servo off never wait. Not ordered
+//     this way: run_task's work (step data moves nothing) and a Modbus TCP
+//     client's writes (not an operation of lec serve). Attacked by
 //     tests/serve/ops/operations_test.cpp (AMoveAcceptedDuringAResetWaitsForItsPulse,
-//     AResumeRightAfterAHoldResumes);
+//     AResumeRightAfterAHoldResumes, AServoOffDuringAStopGoesAtOnce,
+//     AJogReleasedWhileItWaitsForAStopSendsNothing,
+//     AWaitingJogLetGoEndsAtOnceAndAWaitingMoveEndsAtShutdown,
+//     AMoveThatWaitedTooLongForAStopIsRefusedAndLeavesTheAxisFree,
+//     AStopWhileAMoveWaitsForAResetRefusesTheMove);
 //   - a hold-to-run jog lives while its lease is renewed (repeating the jog
 //     command), and ends on jog-stop, when its lease runs out, or when the
 //     stream it was tied to closes (the browser went away): the daemon then
