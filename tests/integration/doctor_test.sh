@@ -89,7 +89,11 @@ only_info() { ! grep -qE '^  (WARN|BROKEN) ' "$TMP/$1.doc"; }
 # A clean line: healthy, information only.
 start_twin clean --pty "$TMP/clean" --ids 1 --strict-baud || exit 1
 warm "$TMP/clean"
-doctor_healthy clean --port "$TMP/clean" doctor --ids 1-4
+# A reply the loaded host made late turns "the line is clean" into "garbles
+# nothing; a few replies came late" (a clean make test run, 2026-11-29): that
+# gets another run too.
+doctor_while '[[ $RC -eq 7 || $RC -eq 8 ]] || ! has clean "the line is clean"' \
+  clean --port "$TMP/clean" doctor --ids 1-4
 check "clean: exit 0" test "$RC" -eq 0
 check "clean: healthy" has clean "healthy"
 check "clean: information only" only_info clean
