@@ -88,6 +88,16 @@ struct Rig {
     return gate;
   }
   std::size_t depth(Priority p) const { return line->stats().queue_depth[index(p)]; }
+  // Holds the line and starts `op` (a stop, hold, reset), once its first
+  // write is queued: what is accepted next comes after it. The line goes on
+  // when the returned promise is set.
+  std::pair<std::promise<void>, std::future<OpResult>> held(
+      std::string_view op, nlohmann::json args = nlohmann::json::object()) {
+    std::promise<void> gate = hold_line();
+    auto done = start(op, std::move(args));
+    EXPECT_TRUE(eventually([&] { return depth(Priority::Emergency) >= 1; }));
+    return {std::move(gate), std::move(done)};
+  }
   void prepare() {
     ASSERT_EQ(run("serial", {{"on", true}}).status, 200);
     ASSERT_EQ(run("servo", {{"on", true}}).status, 200);
@@ -204,9 +214,7 @@ TEST(Operations, AMoveAcceptedDuringAResetWaitsForItsPulse) {
     std::lock_guard lock(events_mutex);
     events.push_back(e.value("event", "") + " " + e.value("op", ""));
   });
-  std::promise<void> gate = rig.hold_line();
-  auto reset = rig.start("reset", nlohmann::json::object());
-  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto [gate, reset] = rig.held("reset");
   auto move = rig.start("move", {{"position_mm", 30}, {"speed_mm_s", 500}});
   // Without the wait the move's first read queues within a millisecond; a
   // bounded look (it cannot fail wrongly: with the wait nothing ever queues).
@@ -238,9 +246,7 @@ TEST(Operations, AMoveAcceptedDuringAResetWaitsForItsPulse) {
 TEST(Operations, AWaitingJogLetGoEndsAtOnceAndAWaitingMoveEndsAtShutdown) {
   Rig rig;
   rig.prepare();
-  std::promise<void> gate = rig.hold_line();
-  auto stop = rig.start("stop", nlohmann::json::object());
-  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto [gate, stop] = rig.held("stop");
   auto jog = rig.start("jog", {{"direction", "+"}, {"lease_ms", 5000}});
   EXPECT_EQ(rig.run("jog-stop").body.value("message", ""), "jog released");
   ASSERT_EQ(jog.wait_for(5s), std::future_status::ready) << "the jog waited for the stop";
@@ -270,9 +276,7 @@ TEST(Operations, AResumeRightAfterAHoldResumes) {
     const auto s = rig.line->snapshot(1);
     return s.state && s.state->speed_mm_s > 0;
   }));
-  std::promise<void> gate = rig.hold_line();
-  auto hold = rig.start("hold", {{"on", true}});
-  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto [gate, hold] = rig.held("hold", {{"on", true}});
   auto resume = rig.start("hold", {{"on", false}});
   gate.set_value();
   ASSERT_EQ(hold.wait_for(30s), std::future_status::ready);
@@ -291,9 +295,7 @@ TEST(Operations, AResumeRightAfterAHoldResumes) {
 TEST(Operations, AServoOffDuringAStopGoesAtOnce) {
   Rig rig;
   rig.prepare();
-  std::promise<void> gate = rig.hold_line();
-  auto stop = rig.start("stop", nlohmann::json::object());
-  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto [gate, stop] = rig.held("stop");
   auto off = rig.start("servo", {{"on", false}});
   EXPECT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 2; }))
       << "servo off did not reach the line while the stop was pending";
@@ -309,9 +311,7 @@ TEST(Operations, AServoOffDuringAStopGoesAtOnce) {
 TEST(Operations, AJogReleasedWhileItWaitsForAStopSendsNothing) {
   Rig rig;
   rig.prepare();
-  std::promise<void> gate = rig.hold_line();
-  auto stop = rig.start("stop", nlohmann::json::object());
-  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto [gate, stop] = rig.held("stop");
   auto jog = rig.start("jog", {{"direction", "+"}, {"lease_ms", 5000}});
   EXPECT_EQ(rig.run("jog-stop").body.value("message", ""), "jog released");
   const auto commands = [&] {
@@ -329,14 +329,11 @@ TEST(Operations, AJogReleasedWhileItWaitsForAStopSendsNothing) {
 
 // A stop that does not end (its line held) within the wait: the move behind
 // it is refused 409, nothing sent, and the axis is not left "may still be
-// moving" (a 5xx did that: a reviewer's finding). A stop accepted while a
-// move waits refuses the move (422) once the wait ends.
+// moving" (a 5xx did that: a reviewer's finding).
 TEST(Operations, AMoveThatWaitedTooLongForAStopIsRefusedAndLeavesTheAxisFree) {
   Rig rig(300ms);
   rig.prepare();
-  std::promise<void> gate = rig.hold_line();
-  auto stop = rig.start("stop", nlohmann::json::object());
-  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto [gate, stop] = rig.held("stop");
   const OpResult m = rig.run("move", {{"position_mm", 30}, {"speed_mm_s", 500}});
   EXPECT_EQ(m.status, 409) << m.body.dump();
   EXPECT_THAT(m.body.value("error", ""), HasSubstr("it waited 0.3 s for the stop (by test)"))
@@ -348,12 +345,11 @@ TEST(Operations, AMoveThatWaitedTooLongForAStopIsRefusedAndLeavesTheAxisFree) {
   EXPECT_EQ(stop.get().status, 200);
 }
 
+// A stop accepted while a move waits for a reset refuses the move (422).
 TEST(Operations, AStopWhileAMoveWaitsForAResetRefusesTheMove) {
   Rig rig;
   rig.prepare();
-  std::promise<void> gate = rig.hold_line();
-  auto reset = rig.start("reset", nlohmann::json::object());
-  ASSERT_TRUE(eventually([&] { return rig.depth(Priority::Emergency) >= 1; }));
+  auto [gate, reset] = rig.held("reset");
   auto move = rig.start("move", {{"position_mm", 300}, {"speed_mm_s", 500}});
   auto stop = rig.start("stop", nlohmann::json::object());
   gate.set_value();
