@@ -65,7 +65,8 @@ struct Operations::Unsettled {
 
 struct Operations::Slot {
   std::shared_ptr<Running> motion;
-  // The stops, holds and resets running on the axis (not the ended ones).
+  // The stops, holds, resets and servo offs running on the axis (not the
+  // ended ones).
   std::vector<std::weak_ptr<Running>> stops;
   std::optional<Unsettled> unsettled;
   std::optional<nlohmann::json> last;
@@ -96,6 +97,15 @@ OpResult judged(Op op, const client::StopReport& r) {
 // and that must not wait for the stop's judgement; a reviewer's finding).
 bool stop_like(const Command& cmd) {
   return stops_motion(cmd) || (cmd.op == Op::Servo && !cmd.on);
+}
+
+// A motion a stop or reset for its axis came before: not started (422).
+OpResult stopped_first(Op op) {
+  auto r = refusal(422, fmt::format("{} not started: a stop or reset for this axis came first "
+                                    "(through lec serve)",
+                                    op_name(op)));
+  r.body["outcome"] = "stopped";
+  return r;
 }
 
 void renew(std::atomic<int64_t>& lease_until, Duration lease) {
@@ -243,13 +253,7 @@ std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, Running& 
                                         "for a stop accepted before it); nothing was sent",
                                         op_name(cmd.op)));
     }
-    if (is_motion(cmd.op) && run.stop_requested.load()) {
-      auto r = refusal(422, fmt::format("{} not started: a stop or reset for this axis came "
-                                        "first (through lec serve)",
-                                        op_name(cmd.op)));
-      r.body["outcome"] = "stopped";
-      return r;
-    }
+    if (is_motion(cmd.op) && run.stop_requested.load()) return stopped_first(cmd.op);
     // A jog let go (jog-stop, its lease, its stream): JOG <- 1 then <- 0
     // after the button was released would twitch the axis.
     if (cmd.op == Op::Jog &&
@@ -463,13 +467,7 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
     // has not reached the line yet (the stop goes first, at emergency
     // priority): not started at all, or stopped at the first poll after the
     // start. (A hold suspends it; HOLD off resumes it.)
-    if (run.stop_requested) {
-      auto r = refusal(422, fmt::format("{} not started: a stop or reset for this axis came first "
-                                        "(through lec serve)",
-                                        op_name(cmd.op)));
-      r.body["outcome"] = "stopped";
-      return r;
-    }
+    if (run.stop_requested) return stopped_first(cmd.op);
     wait.cancel = [&run] { return run.stop_requested.load(); };
   }
   switch (cmd.op) {
