@@ -43,7 +43,7 @@ using namespace lec6::serve;
 
 struct Row {
   int axes = 0;
-  std::size_t records = 0, timed = 0, within = 0, judged = 0;
+  std::size_t records = 0, timed = 0, within = 0, judged = 0, by_positions = 0;
   std::vector<double> error_ms, pm_ms, signed_ms, up_ms;
 };
 
@@ -163,6 +163,7 @@ Row measure(int n_axes, int moves, uint32_t baud) {
       ++row.records;
       if (std::isnan(r.duration_s) || !r.duration_pm_s) continue;
       ++row.timed;
+      if (r.timed_by == "positions") ++row.by_positions;
       const double true_s = to_seconds(*t.busy_fell - *t.busy_rose);
       const double err = std::abs(r.duration_s - true_s);
       row.error_ms.push_back(err * 1000);
@@ -170,9 +171,10 @@ Row measure(int n_axes, int moves, uint32_t baud) {
       if (std::getenv("LEC6_BENCH_VERBOSE"))
         fmt::print(
             stderr,
-            "{} axes, axis {}: up {:.1f} down {:.1f} ms, duration {:.1f} ± {:.1f}, true {:.1f}\n",
+            "{} axes, axis {}: up {:.1f} down {:.1f} ms, duration {:.1f} ± {:.1f} ({}), true "
+            "{:.1f}\n",
             n_axes, i + 1, r.busy_up_s.value_or(NAN) * 1000, r.busy_down_s.value_or(NAN) * 1000,
-            r.duration_s * 1000, *r.duration_pm_s * 1000, true_s * 1000);
+            r.duration_s * 1000, *r.duration_pm_s * 1000, r.timed_by, true_s * 1000);
       if (r.busy_up_s) row.up_ms.push_back(*r.busy_up_s * 1000);
       row.pm_ms.push_back(*r.duration_pm_s * 1000);
       if (err <= *r.duration_pm_s + 1e-6) ++row.within;
@@ -195,20 +197,22 @@ int main(int argc, char** argv) {
   app.add_option("--baud", baud, "the line's baud rate");
   CLI11_PARSE(app, argc, argv);
   fmt::print(
-      "| moving axes | moves recorded | with a duration | error p50 / p95 / max | mean signed "
-      "error | "
+      "| moving axes | moves recorded | with a duration | timed by positions | error p50 / p95 / "
+      "max | mean signed error | "
       "within its ± | ± p50 / max | BUSY first seen after the start, p50 | judged by the drift "
-      "detector |\n|---|---|---|---|---|---|---|---|---|\n");
+      "detector |\n|---|---|---|---|---|---|---|---|---|---|\n");
   for (const int n : loads) {
     const Row r = measure(n, moves, baud);
     double bias = 0;
     for (double e : r.signed_ms) bias += e / double(r.signed_ms.size());
     fmt::print(
-        "| {} | {} | {} | {:.1f} / {:.1f} / {:.1f} ms | {:+.1f} ms | {} of {} | {:.1f} / {:.1f} ms "
+        "| {} | {} | {} | {} | {:.1f} / {:.1f} / {:.1f} ms | {:+.1f} ms | {} of {} | {:.1f} / "
+        "{:.1f} ms "
         "| {:.1f} ms | {} of {} |\n",
-        r.axes, r.records, r.timed, percentile(r.error_ms, 0.5), percentile(r.error_ms, 0.95),
-        percentile(r.error_ms, 1.0), bias, r.within, r.timed, percentile(r.pm_ms, 0.5),
-        percentile(r.pm_ms, 1.0), percentile(r.up_ms, 0.5), r.judged, r.timed);
+        r.axes, r.records, r.timed, r.by_positions, percentile(r.error_ms, 0.5),
+        percentile(r.error_ms, 0.95), percentile(r.error_ms, 1.0), bias, r.within, r.timed,
+        percentile(r.pm_ms, 0.5), percentile(r.pm_ms, 1.0), percentile(r.up_ms, 0.5), r.judged,
+        r.timed);
     std::fflush(stdout);
   }
   return 0;

@@ -24,6 +24,9 @@ MoveGoal goal_of(const lec::StepData& d, int32_t target_before, std::optional<un
   const bool relative = d.movement_mode == lec::MovementMode::Incremental;
   g.target_001mm =
       relative ? static_cast<int32_t>(int64_t{target_before} + d.position_001mm) : d.position_001mm;
+  g.speed_mm_s = d.speed_mm_s;
+  g.acceleration_mm_s2 = d.acceleration_mm_s2;
+  g.deceleration_mm_s2 = d.deceleration_mm_s2;
   if (d.is_pushing()) {
     g.operation = Operation::Pushing;
     g.pushing_distance_001mm = d.in_position_001mm;  // a pushing step's "In position"

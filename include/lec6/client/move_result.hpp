@@ -81,6 +81,10 @@ struct MoveGoal {
   // step field, which means this when the step pushes). 0 otherwise.
   int32_t pushing_distance_001mm = 0;
   uint16_t trigger_level_pct = 0;  // pushing
+  // The profile the controller was given (the step's or the direct data's
+  // speed, acceleration and deceleration, digest §6): lec serve's history
+  // times a motion against it (serve/history/profile_fit.hpp). 0: not known.
+  uint16_t speed_mm_s = 0, acceleration_mm_s2 = 0, deceleration_mm_s2 = 0;
   // Direct moves with keep: the values that came from the controller, not
   // from this command ("in position 20.00 mm"); describe() names them.
   std::vector<std::string> kept;

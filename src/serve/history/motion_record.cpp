@@ -64,6 +64,7 @@ json to_json(const MotionRecord& r) {
           {"duration_s",
            std::isnan(r.duration_s) ? nlohmann::json(nullptr) : nlohmann::json(r.duration_s)},
           {"duration_pm_s", opt(r.duration_pm_s)},
+          {"timed_by", r.timed_by.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.timed_by)},
           {"settle_s", opt(r.settle_s)},
           {"peak_thrust_pct", opt(r.peak_thrust_pct)},
           {"mean_thrust_pct", opt(r.mean_thrust_pct)},
@@ -78,15 +79,15 @@ std::string csv_header() {
   return "id,start,axis,source,kind,step,start_mm,target_mm,speed_mm_s,accel_mm_s2,force_pct,"
          "pushing_force_pct,outcome,busy_up_s,busy_down_s,inp_s,duration_s,settle_s,"
          "peak_thrust_pct,mean_thrust_pct,peak_speed_mm_s,overshoot_mm,final_error_mm,"
-         "distance_mm,alarms,duration_pm_s\r\n";
+         "distance_mm,alarms,duration_pm_s,timed_by\r\n";
 }
 
 std::string csv_row(const MotionRecord& r) {
   std::string alarms;
   for (int a : r.alarms) alarms += fmt::format("{}{}", alarms.empty() ? "" : " ", a);
   return fmt::format(
-      "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:g},{},{}\r\n", r.id,
-      iso_time(r.start_ms), csv_text(r.axis), csv_text(r.source), r.kind,
+      "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:g},{},{},{}\r\n",
+      r.id, iso_time(r.start_ms), csv_text(r.axis), csv_text(r.source), r.kind,
       r.step ? std::to_string(*r.step) : "", csv_opt(r.start_mm), csv_opt(r.target_mm),
       csv_opt(r.speed_mm_s), csv_opt(r.accel_mm_s2), csv_opt(r.force_pct),
       csv_opt(r.pushing_force_pct), r.outcome, csv_opt(r.busy_up_s), csv_opt(r.busy_down_s),
@@ -94,7 +95,7 @@ std::string csv_row(const MotionRecord& r) {
       csv_opt(std::isnan(r.duration_s) ? std::nullopt : std::optional<double>(r.duration_s)),
       csv_opt(r.settle_s), csv_opt(r.peak_thrust_pct), csv_opt(r.mean_thrust_pct),
       csv_opt(r.peak_speed_mm_s), csv_opt(r.overshoot_mm), csv_opt(r.final_error_mm), r.distance_mm,
-      alarms, csv_opt(r.duration_pm_s));
+      alarms, csv_opt(r.duration_pm_s), r.timed_by);
 }
 
 int64_t system_ms() {

@@ -40,6 +40,10 @@ struct MotionRecord {
   // duration (JSON null). Records of older versions: start to BUSY down.
   double duration_s = 0;
   std::optional<double> duration_pm_s;
+  // How the duration was dated: "polls" (the BUSY brackets' middles) or
+  // "positions" (the position samples against the move's profile,
+  // profile_fit.hpp: narrower where the line is busy). Empty: no duration.
+  std::string timed_by;
   std::optional<double> settle_s;  // BUSY down to INP
   std::optional<double> peak_thrust_pct, mean_thrust_pct, peak_speed_mm_s;
   std::optional<double> overshoot_mm;    // past the target, in the direction of travel

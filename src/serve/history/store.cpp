@@ -141,11 +141,15 @@ bool Store::open(const std::filesystem::path& file) {
        fmt::format("PRAGMA wal_autocheckpoint = {}", std::max<uint64_t>(tenth / 2 / 4096, 16))
            .c_str());
   exec(writer_, kSchema);
-  {  // a file of an older version: the column issue 32 added
-    bool has_pm = false;
+  {  // a file of an older version: the columns issue 32 added
+    bool has_pm = false, has_timed_by = false;
     Stmt cols(writer_, "PRAGMA table_info(motions)");
-    while (cols.step()) has_pm = has_pm || cols.text(1) == "duration_pm_s";
+    while (cols.step()) {
+      has_pm = has_pm || cols.text(1) == "duration_pm_s";
+      has_timed_by = has_timed_by || cols.text(1) == "timed_by";
+    }
     if (!has_pm) exec(writer_, "ALTER TABLE motions ADD COLUMN duration_pm_s REAL");
+    if (!has_timed_by) exec(writer_, "ALTER TABLE motions ADD COLUMN timed_by TEXT");
   }
   if (sqlite3_open_v2(file.c_str(), &reader_, SQLITE_OPEN_READONLY | SQLITE_OPEN_NOMUTEX,
                       nullptr) != SQLITE_OK) {

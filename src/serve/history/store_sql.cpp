@@ -55,6 +55,7 @@ MotionRecord record_of(const Stmt& s) {
   r.distance_mm = s.f64(23);
   r.alarms = alarms_of(s.text(24));
   r.duration_pm_s = s.opt(25);
+  r.timed_by = s.text(26);
   return r;
 }
 

@@ -101,7 +101,7 @@ CREATE TABLE IF NOT EXISTS motions (
   force_pct REAL, pushing_force_pct REAL, outcome TEXT, busy_up_s REAL, busy_down_s REAL,
   inp_s REAL, duration_s REAL, settle_s REAL, peak_thrust_pct REAL, mean_thrust_pct REAL,
   peak_speed_mm_s REAL, overshoot_mm REAL, final_error_mm REAL, distance_mm REAL, alarms TEXT,
-  duration_pm_s REAL);
+  duration_pm_s REAL, timed_by TEXT);
 CREATE INDEX IF NOT EXISTS motions_axis_start ON motions (axis, start_ms);
 CREATE INDEX IF NOT EXISTS motions_axis_outcome_start ON motions (axis, outcome, start_ms);
 CREATE INDEX IF NOT EXISTS motions_axis_kind_start ON motions (axis, kind, start_ms);
@@ -120,7 +120,7 @@ inline constexpr const char* kColumns =
     "id, start_ms, axis, source, kind, step, start_mm, target_mm, speed_mm_s, accel_mm_s2, "
     "force_pct, pushing_force_pct, outcome, busy_up_s, busy_down_s, inp_s, duration_s, settle_s, "
     "peak_thrust_pct, mean_thrust_pct, peak_speed_mm_s, overshoot_mm, final_error_mm, "
-    "distance_mm, alarms, duration_pm_s";
+    "distance_mm, alarms, duration_pm_s, timed_by";
 
 std::string alarms_text(const std::vector<int>& codes);  // "52 98"
 std::vector<int> alarms_of(const std::string& text);

@@ -19,7 +19,7 @@ bool Store::write_batch(const std::deque<Item>& batch, std::string& why) {
   try {
     exec(writer_, "BEGIN");
     Stmt insert(writer_, fmt::format("INSERT OR REPLACE INTO motions ({}) VALUES ({})", kColumns,
-                                     "?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?"));
+                                     "?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?"));
     Stmt odo(writer_,
              "INSERT OR REPLACE INTO odometer (axis, moves, distance_mm, motion_s, pushes, alarms) "
              "VALUES (?,?,?,?,?,?)");
@@ -82,6 +82,7 @@ bool Store::write_batch(const std::deque<Item>& batch, std::string& why) {
       insert.bind(i++, r.distance_mm);
       insert.bind(i++, alarms_text(r.alarms));
       insert.bind(i++, r.duration_pm_s);
+      insert.bind(i++, r.timed_by);
       insert.step();
       insert.reset();
       last[item.axis] = item.odometer;

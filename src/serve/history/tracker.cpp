@@ -1,5 +1,7 @@
 #include "tracker.hpp"
 
+#include "profile_fit.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -22,6 +24,7 @@ void time_from_brackets(MotionRecord& r, double up_after_s, double down_after_s)
   const double up = (up_after_s + *r.busy_up_s) / 2, down = (down_after_s + *r.busy_down_s) / 2;
   r.duration_s = down - up;
   r.duration_pm_s = ((*r.busy_up_s - up_after_s) + (*r.busy_down_s - down_after_s)) / 2;
+  r.timed_by = "polls";
 }
 
 void settle_from_brackets(MotionRecord& r, double down_after_s, double inp_after_s) {
@@ -113,6 +116,7 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
       if (a.is_object() && a.contains("code")) r.alarms.push_back(a["code"].get<int>());
     }
   }
+  time_from_positions(m, event, r);
   const auto final_mm = number(event, "position_mm");
   if (final_mm) {
     m.samples.push_back({at, *final_mm, number(event, "speed_mm_s").value_or(0),
@@ -128,7 +132,7 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   const std::optional<Sample> before = last_;
   if (state) {
     last_ = Sample{at, state->position_001mm / 100.0, double(state->speed_mm_s),
-                   double(state->thrust_pct)};
+                   double(state->thrust_pct), sent && *sent <= at ? *sent : TimePoint{}};
     if (motion_) keep(*motion_, *last_);
   }
   if (!flags) return std::nullopt;
@@ -214,6 +218,33 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
   Motion done = std::move(m);
   motion_.reset();
   return finish(done, last_ ? std::optional<double>(last_->position_mm) : std::nullopt);
+}
+
+void MotionTracker::time_from_positions(const Motion& m, const nlohmann::json& event,
+                                        MotionRecord& r) {
+  const auto it = event.find("profile");
+  if (it == event.end() || !it->is_object() || r.outcome != "reached" || !r.start_mm ||
+      !r.target_mm || std::isnan(r.duration_s) || !r.duration_pm_s)
+    return;
+  Trapezoid asked;
+  asked.from_mm = *r.start_mm;
+  asked.to_mm = *r.target_mm;
+  asked.speed_mm_s = number(*it, "speed_mm_s").value_or(0);
+  asked.accel_mm_s2 = number(*it, "acceleration_mm_s2").value_or(0);
+  asked.decel_mm_s2 = number(*it, "deceleration_mm_s2").value_or(0);
+  std::vector<ProfileSample> xs;
+  for (const Sample& s : m.samples) {
+    if (s.sent == TimePoint{}) continue;
+    xs.push_back({to_seconds(s.sent - m.started) + to_seconds(s.at - s.sent) / 2,
+                  to_seconds(s.at - s.sent) / 2, s.position_mm});
+  }
+  const auto fit = fit_profile(xs, asked);
+  if (!fit || fit->pm_s >= *r.duration_pm_s) return;
+  // Both are true bounds: a fit outside the brackets is not this motion's.
+  if (std::abs(fit->duration_s - r.duration_s) > *r.duration_pm_s + fit->pm_s + 0.005) return;
+  r.duration_s = fit->duration_s;
+  r.duration_pm_s = fit->pm_s;
+  r.timed_by = "positions";
 }
 
 void MotionTracker::keep(Motion& m, const Sample& s) {

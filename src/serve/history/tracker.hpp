@@ -75,6 +75,7 @@ class MotionTracker {
   struct Sample {
     TimePoint at;
     double position_mm, speed_mm_s, thrust_pct;
+    TimePoint sent{};  // its query's start on the wire; {}: not known (no window)
   };
   struct Motion {
     bool by_telemetry = false;
@@ -87,6 +88,10 @@ class MotionTracker {
     std::vector<Sample> samples;
   };
   MotionRecord finish(Motion& m, std::optional<double> final_mm);
+  // A reached positioning move's duration from its position samples against
+  // the profile it was given (profile_fit.hpp), where that is narrower than
+  // the BUSY brackets and agrees with them.
+  static void time_from_positions(const Motion& m, const nlohmann::json& event, MotionRecord& r);
   static void keep(Motion& m, const Sample& s);  // bounded: pairs merge past kMaxSamples
 
   std::string axis_;

@@ -43,6 +43,12 @@ void add_move_details(nlohmann::json& body, const client::MoveResult& r) {
   body["message"] = client::in_terms_of(r.describe(), client::Interface::Http);
   body["evidence"] = r.evidence;
   if (!r.goal.kept.empty()) body["kept_from_controller"] = r.goal.kept;
+  if (r.goal.operation == client::Operation::Positioning && r.goal.speed_mm_s > 0) {
+    // issue 32: the history times the motion against the profile it was given
+    body["profile"] = {{"speed_mm_s", r.goal.speed_mm_s},
+                       {"acceleration_mm_s2", r.goal.acceleration_mm_s2},
+                       {"deceleration_mm_s2", r.goal.deceleration_mm_s2}};
+  }
   body["timeline"] = {{"busy_up_s", seconds_or_null(r.timeline.busy_up)},
                       {"busy_down_s", seconds_or_null(r.timeline.busy_down)},
                       {"inp_s", seconds_or_null(r.timeline.inp)},

@@ -384,6 +384,7 @@ TEST(HistoryStore, AFileOfTheVersionBeforeDurationUncertaintyOpensAndTakesNewRec
   ASSERT_TRUE(s.ok()) << log.all();
   auto r = rec(2, kT0 + 2);
   r.duration_pm_s = 0.01;
+  r.timed_by = "positions";
   ASSERT_TRUE(s.append(r, Odometer{}));
   s.flush();
   HistoryQuery q;
@@ -393,6 +394,8 @@ TEST(HistoryStore, AFileOfTheVersionBeforeDurationUncertaintyOpensAndTakesNewRec
   EXPECT_EQ(all.back().duration_s, 1.5);
   EXPECT_FALSE(all.back().duration_pm_s);
   EXPECT_EQ(all.front().duration_pm_s, 0.01);
+  EXPECT_EQ(all.front().timed_by, "positions");  // the column added since
+  EXPECT_EQ(all.back().timed_by, "");
 }
 
 }  // namespace

@@ -206,7 +206,10 @@ TEST(Timing, AGrowingSettleTimeRaisesTheSettleWarning) {
 // at high load are skipped, and counted. +10 % wear is flagged within 50
 // moves where durations are judged (1 and 2 moving axes); at 4 and 8 the
 // brackets (100-200 ms) are too wide for a 10 % judgement and the duration
-// is skipped, not misjudged (thrust still is; docs/history.md).
+// is skipped, not misjudged (thrust still is; docs/history.md). These are
+// durations from the brackets alone (a motion without the profile it was
+// given: a PLC's); profile_fit_test.cpp has the same proof for the moves
+// lec serve runs, dated by their positions, where 4 and 8 axes are judged.
 struct LoadRun {
   int first_warning = -1;  // move index of the first duration warning; -1: none
   std::size_t skipped = 0, moves = 0;
