@@ -38,6 +38,17 @@ struct Operations::Running {
     std::string source;
   };
   std::vector<Awaited> after;
+  // Under Operations::mutex_: it still waits for one of them (since: when it
+  // was accepted; once it starts, since is when it started).
+  bool waiting = false;
+  // "reset (by http 127.0.0.1)": the first of `after` still running.
+  std::string waiting_for() const {
+    for (const Awaited& a : after) {
+      if (a.ended.wait_for(Duration::zero()) != std::future_status::ready)
+        return fmt::format("{} (by {})", op_name(a.op), a.source);
+    }
+    return "";
+  }
   // It ended while it waited: nothing of it reached the line (a 5xx then
   // does not leave the axis "may still be moving").
   std::atomic<bool> nothing_sent{false};
@@ -164,11 +175,18 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
         renew(r.lease_until, cmd.jog_lease);
         at_once = OpResult{200, {{"ok", true}, {"op", "jog"}, {"message", "jog lease renewed"}}};
       } else {
-        at_once =
-            refusal(409, fmt::format("axis {} is busy: {} started {:.1f} s ago by {}; stop it "
-                                     "first (stop, or jog-stop for a jog)",
-                                     axis.name, op_name(r.op), to_seconds(kClock.now() - r.since),
-                                     r.source));
+        const std::string waits = r.waiting ? r.waiting_for() : "";
+        at_once = refusal(
+            409, waits.empty()
+                     ? fmt::format("axis {} is busy: {} started {:.1f} s ago by {}; stop it "
+                                   "first (stop, or jog-stop for a jog)",
+                                   axis.name, op_name(r.op), to_seconds(kClock.now() - r.since),
+                                   r.source)
+                     : fmt::format("axis {} is busy: a {} by {}, accepted {:.1f} s ago, waits for "
+                                   "the {} accepted before it, and starts after it; stop it "
+                                   "first (stop, or jog-stop for a jog)",
+                                   axis.name, op_name(r.op), r.source,
+                                   to_seconds(kClock.now() - r.since), waits));
       }
     } else {
       run = std::make_shared<Running>();
@@ -240,6 +258,19 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
 
 std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, Running& run) const {
   if (run.after.empty()) return std::nullopt;
+  {
+    std::lock_guard lock(mutex_);
+    run.waiting = true;
+  }
+  struct Started {  // running() and a 409 count from here once it goes
+    std::mutex& m;
+    Running& r;
+    ~Started() {
+      std::lock_guard lock(m);
+      r.waiting = false;
+      r.since = kClock.now();
+    }
+  } started{mutex_, run};
   // What ends it while it waits, checked between slices of the wait: a
   // stop accepted after it, a jog let go, lec serve shutting down. It then
   // ends with nothing sent (a reviewer's findings: a released jog kept the
@@ -390,10 +421,12 @@ std::optional<OpStatus> Operations::running(const AxisRef& axis) const {
     const auto& u = it->second.unsettled;
     if (!u || settled(axis, *u)) return std::nullopt;
     return OpStatus{std::string(op_name(u->op)), u->source,
-                    to_seconds(axis.line->clock().now() - u->ended), true};
+                    to_seconds(axis.line->clock().now() - u->ended), true, ""};
   }
   const Running& r = *it->second.motion;
-  return OpStatus{std::string(op_name(r.op)), r.source, to_seconds(kClock.now() - r.since)};
+  OpStatus s{std::string(op_name(r.op)), r.source, to_seconds(kClock.now() - r.since), false, ""};
+  if (r.waiting) s.waiting_for = r.waiting_for();
+  return s;
 }
 
 std::optional<nlohmann::json> Operations::last_result(const std::string& axis) const {

@@ -89,6 +89,10 @@ struct OpStatus {
   // The operation ended without the axis seen stopped (deadline, no answer):
   // the axis may still be moving; a new motion waits for BUSY = 0.
   bool unsettled = false;
+  // Accepted, and waiting for the stop, hold, reset or servo off accepted
+  // before it on its axis ("reset (by http 127.0.0.1)"): nothing of it has
+  // reached the line; running_s counts from its acceptance. Empty: it runs.
+  std::string waiting_for;
 };
 
 using OpObserver = std::function<void(const std::string& axis, const nlohmann::json& event)>;

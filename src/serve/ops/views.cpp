@@ -126,11 +126,15 @@ nlohmann::json axis_json(const AxisRef& axis, const Operations* ops) {
   j["telemetry_hz"] = axis.config->telemetry_hz;
   if (ops) {
     const auto running = ops->running(axis);
-    j["operation"] = running ? nlohmann::json{{"op", running->op},
-                                              {"source", running->source},
-                                              {"running_s", running->running_s},
-                                              {"unsettled", running->unsettled}}
-                             : nlohmann::json(nullptr);
+    j["operation"] =
+        running ? nlohmann::json{{"op", running->op},
+                                 {"source", running->source},
+                                 {"running_s", running->running_s},
+                                 {"unsettled", running->unsettled},
+                                 {"waiting_for", running->waiting_for.empty()
+                                                     ? nlohmann::json(nullptr)
+                                                     : nlohmann::json(running->waiting_for)}}
+                : nlohmann::json(nullptr);
     const auto last = ops->last_result(axis.name);
     j["last_result"] = last ? *last : nlohmann::json(nullptr);
   }

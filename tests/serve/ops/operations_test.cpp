@@ -221,6 +221,16 @@ TEST(Operations, AMoveAcceptedDuringAResetWaitsForItsPulse) {
   EXPECT_FALSE(eventually(
       [&] { return rig.depth(Priority::Completion) + rig.depth(Priority::Command) > 0; }, 300ms))
       << "the move went to the line before the reset accepted ahead of it";
+  // Meanwhile it says what it waits for, not "started N s ago".
+  const auto status = rig.ops.running(rig.axis);
+  ASSERT_TRUE(status);
+  EXPECT_EQ(status->op, "move");
+  EXPECT_EQ(status->waiting_for, "reset (by test)");
+  const OpResult second = rig.run("move", {{"position_mm", 40}});
+  EXPECT_EQ(second.status, 409);
+  EXPECT_NE(second.body.value("error", "").find("waits for the reset (by test) accepted before it"),
+            std::string::npos)
+      << second.body.dump();
   gate.set_value();
   ASSERT_EQ(reset.wait_for(30s), std::future_status::ready);
   EXPECT_EQ(reset.get().status, 200);
