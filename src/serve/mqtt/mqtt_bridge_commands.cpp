@@ -50,6 +50,8 @@ void MqttBridge::Core::command(const MqttMessage& m) {
         // retained copy is refused all the same: it would act again at every
         // restart.
         why = check_fresh(c, received);
+        parsed->start_by =
+            kClock.now() + to_duration(FractionalSeconds(seconds_valid(c, received)));
       }
       if (!why) {
         cmd = std::move(*parsed);

@@ -67,6 +67,11 @@ Expected<MqttCommand, EnvelopeError> parse_envelope(const Received& message,
   return c;
 }
 
+double seconds_valid(const MqttCommand& c, const Received& message) {
+  const double age = c.issued_at ? std::max(0.0, message.now_unix - *c.issued_at) : 0.0;
+  return c.valid_for_s - age;
+}
+
 std::optional<EnvelopeError> check_fresh(const MqttCommand& c, const Received& message) {
   if (message.retained) {
     return EnvelopeError{c.id, 400, "retain",

@@ -56,6 +56,11 @@ struct EnvelopeError {
   std::string message;
 };
 
+// How long a fresh command stays valid from now (s): valid_for less its age
+// when it says when it was issued. A command that waits for a stop accepted
+// before it is refused once this has passed (Command::start_by).
+double seconds_valid(const MqttCommand& c, const Received& message);
+
 // Reads the envelope (JSON object, id, op, valid_for, issued_at); the op's
 // own arguments are not checked here.
 Expected<MqttCommand, EnvelopeError> parse_envelope(const Received& message,

@@ -70,6 +70,10 @@ struct Command {
   Duration jog_lease{};                      // jog hold-to-run
   Duration jog_duration{};                   // jog for a while
   std::map<lec::StepField, int64_t> fields;  // step-write: raw values to change
+  // The latest moment it may start (the steady clock): a command whose channel has a
+  // freshness rule (MQTT's valid_for) and that waits for a stop accepted
+  // before it is refused (408) once this passes, nothing sent. nullopt: none.
+  std::optional<TimePoint> start_by;
 };
 
 struct CommandError {

@@ -299,12 +299,25 @@ std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, Running& 
     }
     return std::nullopt;
   };
-  const TimePoint until = kClock.now() + after_stop_wait_;
+  const TimePoint waited_from = kClock.now();
+  const TimePoint until = waited_from + after_stop_wait_;
+  // A command with a freshness rule (MQTT's valid_for) waits no longer than
+  // it is valid: a late command never moves an axis.
+  const TimePoint fresh_until = cmd.start_by.value_or(TimePoint::max());
   std::optional<OpResult> ended;
   for (const Running::Awaited& stop : run.after) {
     for (;;) {
       if ((ended = ended_meanwhile())) break;
       const TimePoint now = kClock.now();
+      if (now >= fresh_until && fresh_until < until) {
+        ended = refusal(
+            408, fmt::format("{} not started: it waited {:.1f} s for the {} (by {}) accepted "
+                             "before it on this axis, and is no longer valid (valid_for); "
+                             "nothing was sent, so that a late command never moves an axis",
+                             op_name(cmd.op), to_seconds(now - waited_from), op_name(stop.op),
+                             stop.source));
+        break;
+      }
       if (now >= until) {
         ended = refusal(
             409, fmt::format("{} not started: it waited {:.1f} s for the {} (by {}) accepted "
@@ -316,7 +329,8 @@ std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, Running& 
                              stop.source));
         break;
       }
-      const Duration slice = std::min<Duration>(until - now, std::chrono::milliseconds(20));
+      const Duration slice = std::min<Duration>(
+          {until - now, std::max(fresh_until, now) - now, Duration(std::chrono::milliseconds(20))});
       if (stop.ended.wait_for(slice) == std::future_status::ready) break;
     }
     if (ended) break;

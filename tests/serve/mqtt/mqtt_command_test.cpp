@@ -119,6 +119,24 @@ TEST(MqttFreshness, WithNeitherTheAgeStartsAtReceipt) {
   EXPECT_FALSE(freshness(R"({"id": 1, "op": "stop"})", at_now("")));
 }
 
+// What is left of a command's validity bounds how long it may wait for a
+// stop accepted before it (Command::start_by, Operations).
+TEST(MqttFreshness, WhatIsLeftOfValidForBoundsTheWaitBeforeItStarts) {
+  const Received now = at_now("");
+  const auto aged = [&](const char* payload) {
+    Received r = now;
+    r.payload = payload;
+    const auto c = parse_envelope(r, 5);
+    EXPECT_TRUE(c) << payload;
+    return c ? seconds_valid(*c, r) : -1.0;
+  };
+  EXPECT_DOUBLE_EQ(aged(R"({"id": 1, "op": "move"})"), 5.0);
+  EXPECT_DOUBLE_EQ(aged(R"({"id": 1, "op": "move", "valid_for": 2})"), 2.0);
+  EXPECT_NEAR(aged(R"({"id": 1, "op": "move", "issued_at": 1767949998.5})"), 3.5, 1e-6);
+  // A sender a little ahead of this box: not more than valid_for.
+  EXPECT_DOUBLE_EQ(aged(R"({"id": 1, "op": "move", "issued_at": 1767950001})"), 5.0);
+}
+
 TEST(MqttFreshness, RetainedCommandsAreRefusedWhateverTheirAge) {
   Received r = at_now("");
   r.retained = true;

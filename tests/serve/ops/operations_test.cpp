@@ -355,6 +355,30 @@ TEST(Operations, AMoveThatWaitedTooLongForAStopIsRefusedAndLeavesTheAxisFree) {
   EXPECT_EQ(stop.get().status, 200);
 }
 
+// An MQTT command waits for a stop no longer than it is valid (valid_for):
+// a late command never moves an axis (408, nothing sent; before, it started
+// up to 30 s after it was checked fresh).
+TEST(Operations, ACommandThatWaitsPastItsValidityIsRefusedWithNothingSent) {
+  Rig rig;
+  rig.prepare();
+  auto [gate, stop] = rig.held("stop");
+  auto cmd = parse_command("move", {{"position_mm", 30}, {"speed_mm_s", 500}});
+  ASSERT_TRUE(cmd);
+  cmd->start_by = rig.clock.now() + 200ms;
+  std::promise<OpResult> done;
+  auto f = done.get_future();
+  rig.ops.run(rig.axis, *cmd, "mqtt id 7", [&done](OpResult r) { done.set_value(std::move(r)); });
+  ASSERT_EQ(f.wait_for(10s), std::future_status::ready) << "it waited past its validity";
+  const OpResult m = f.get();
+  EXPECT_EQ(m.status, 408) << m.body.dump();
+  EXPECT_THAT(m.body.value("error", ""), HasSubstr("no longer valid")) << m.body.dump();
+  EXPECT_FALSE(rig.ops.running(rig.axis)) << "a command that sent nothing left the axis taken";
+  EXPECT_EQ(rig.depth(Priority::Command) + rig.depth(Priority::Completion), 0u);
+  gate.set_value();
+  ASSERT_EQ(stop.wait_for(30s), std::future_status::ready);
+  EXPECT_EQ(stop.get().status, 200);
+}
+
 // A stop accepted while a move waits for a reset refuses the move (422).
 TEST(Operations, AStopWhileAMoveWaitsForAResetRefusesTheMove) {
   Rig rig;
