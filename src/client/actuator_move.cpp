@@ -129,7 +129,8 @@ MoveResult Actuator::run_step(unsigned step, TimePoint deadline, const WaitOptio
     throw InvalidRequest(fmt::format(
         "step {} is ABS and the axis is not homed (SETON = 0): run `lec home` first", step));
   }
-  const MoveGoal goal = goal_of(data, before.state.target_001mm, step);
+  MoveGoal goal = goal_of(data, before.state.target_001mm, step);
+  if (before.state.speed_mm_s == 0) goal.from_001mm = before.state.position_001mm;
   check_soft_limits(goal.target_001mm);
   // DRIVE starts on a rising edge: make sure it is low first.
   if (before.controls.test(Coil::DRIVE)) client_.write_coil(Coil::DRIVE, false);
@@ -163,6 +164,7 @@ PreparedMove Actuator::prepare(const DirectMove& m) {
 
   MoveGoal goal = goal_of(want, before.state.target_001mm, std::nullopt);
   goal.kept = kept_direct_values(current, m);
+  if (before.state.speed_mm_s == 0) goal.from_001mm = before.state.position_001mm;
   check_soft_limits(goal.target_001mm);
 
   // Only the registers that change are written (one contiguous range).

@@ -85,6 +85,9 @@ struct MoveGoal {
   // speed, acceleration and deceleration, digest §6): lec serve's history
   // times a motion against it (serve/history/profile_fit.hpp). 0: not known.
   uint16_t speed_mm_s = 0, acceleration_mm_s2 = 0, deceleration_mm_s2 = 0;
+  // Where the carriage stood, at rest, in the read just before the start
+  // (nullopt: it was moving, or not read): the profile's start.
+  std::optional<int32_t> from_001mm;
   // Direct moves with keep: the values that came from the controller, not
   // from this command ("in position 20.00 mm"); describe() names them.
   std::vector<std::string> kept;

@@ -12,6 +12,12 @@ namespace {
 constexpr double kAtRestMm = 0.05;
 // Slack added to every window: the host's time stamps around the exchange.
 constexpr double kStampSlackS = 0.001;
+// A position read is the carriage's to within half its 0.01 mm step.
+constexpr double kPositionHalfStepMm = 0.005;
+// Samples during the motion a fit needs: two always admit some speed (a
+// hold between them would be read as a slower move: a reviewer's case);
+// a third must agree with them.
+constexpr int kMovingSamples = 3;
 // Cruise speeds tried, as fractions of the speed written: the controller
 // never goes faster than asked (the top allows 1 % for its own scaling), and
 // an axis slower than a quarter of it is not judged by this fit.
@@ -64,9 +70,12 @@ StartRange starts_allowed(const std::vector<Along>& xs, double D, const Trapezoi
       r.hi = std::min(
           r.hi, p.t_s + p.window_s - time_to(s, D, k.accel_mm_s2, k.decel_mm_s2, D - kAtRestMm));
     } else {
-      const double t0 = p.t_s - time_to(s, D, k.accel_mm_s2, k.decel_mm_s2, p.x_mm);
-      r.lo = std::max(r.lo, t0 - p.window_s);
-      r.hi = std::min(r.hi, t0 + p.window_s);
+      // The carriage was within half a step of x: it got there between these.
+      const auto when = [&](double x) {
+        return time_to(s, D, k.accel_mm_s2, k.decel_mm_s2, std::clamp(x, 0.0, D));
+      };
+      r.lo = std::max(r.lo, p.t_s - when(p.x_mm + kPositionHalfStepMm) - p.window_s);
+      r.hi = std::min(r.hi, p.t_s - when(p.x_mm - kPositionHalfStepMm) + p.window_s);
     }
   }
   return r;
@@ -95,7 +104,7 @@ std::optional<ProfileFit> fit_profile(const std::vector<ProfileSample>& samples,
     if (x > kAtRestMm && x < D - kAtRestMm) ++moving;
     xs.push_back({p.t_s, p.window_s + kStampSlackS, x});
   }
-  if (moving < 2) return std::nullopt;
+  if (moving < kMovingSamples) return std::nullopt;
 
   // Every cruise speed the samples allow, and the one they allow best (the
   // widest common start range).
@@ -121,10 +130,13 @@ std::optional<ProfileFit> fit_profile(const std::vector<ProfileSample>& samples,
   ProfileFit fit;
   fit.speed_mm_s = std::min(best_v, asked.speed_mm_s);
   fit.duration_s = trapezoid_duration_s(D, best_v, asked.accel_mm_s2, asked.decel_mm_s2);
-  // The grid's own step counts too: the next speed tried could be the truth.
-  const double step_s = std::abs(
-      trapezoid_duration_s(D, best_v * (1 + 1.0 / kSpeeds), asked.accel_mm_s2, asked.decel_mm_s2) -
-      fit.duration_s);
+  // The grid's own step counts too: the truth may lie between two speeds
+  // tried (a reviewer's case: at slow speeds the step is wider than 1/kSpeeds
+  // of the speed found).
+  const double grid_step = asked.speed_mm_s * (kFastest - kSlowest) / kSpeeds;
+  const double step_s = std::abs(trapezoid_duration_s(D, std::max(best_v - grid_step, 1e-9),
+                                                      asked.accel_mm_s2, asked.decel_mm_s2) -
+                                 fit.duration_s);
   fit.pm_s = std::max(longest - fit.duration_s, fit.duration_s - shortest) + step_s;
   fit.start_s = best_start;
   fit.moving_samples = moving;

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 namespace lec6::serve::history {
 namespace {
 
@@ -69,6 +71,9 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
     motion_ = std::move(m);  // a motion telemetry was following becomes this one
     return std::nullopt;
   }
+  // A stop, hold, reset or servo off of ours during the motion: whatever it
+  // did, the motion is not one trapezoid any more (a hold and resume).
+  if (kind == "started" && motion_ && !is_motion_op(op)) motion_->interrupted = true;
   if (kind != "finished" || !motion_ || motion_->by_telemetry) return std::nullopt;
   // Operations end one at a time per axis: a finished event without a
   // motion op is a stop/reset/hold reply; the motion's own comes later.
@@ -223,11 +228,16 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
 void MotionTracker::time_from_positions(const Motion& m, const nlohmann::json& event,
                                         MotionRecord& r) {
   const auto it = event.find("profile");
-  if (it == event.end() || !it->is_object() || r.outcome != "reached" || !r.start_mm ||
-      !r.target_mm || std::isnan(r.duration_s) || !r.duration_pm_s)
+  if (it == event.end() || !it->is_object() || r.outcome != "reached" || !r.target_mm ||
+      std::isnan(r.duration_s) || !r.duration_pm_s || m.interrupted)
     return;
+  // Where the carriage stood at rest in the operation's own read just before
+  // the start: the telemetry's last sample may be older (a reviewer's case:
+  // a stale start read every fitted duration wrong).
+  const auto from = number(*it, "from_mm");
+  if (!from) return;
   Trapezoid asked;
-  asked.from_mm = *r.start_mm;
+  asked.from_mm = *from;
   asked.to_mm = *r.target_mm;
   asked.speed_mm_s = number(*it, "speed_mm_s").value_or(0);
   asked.accel_mm_s2 = number(*it, "acceleration_mm_s2").value_or(0);
@@ -239,11 +249,20 @@ void MotionTracker::time_from_positions(const Motion& m, const nlohmann::json& e
                   to_seconds(s.at - s.sent) / 2, s.position_mm});
   }
   const auto fit = fit_profile(xs, asked);
-  if (!fit || fit->pm_s >= *r.duration_pm_s) return;
-  // Both are true bounds: a fit outside the brackets is not this motion's.
-  if (std::abs(fit->duration_s - r.duration_s) > *r.duration_pm_s + fit->pm_s + 0.005) return;
-  r.duration_s = fit->duration_s;
-  r.duration_pm_s = fit->pm_s;
+  if (!fit) return;
+  // The brackets bound the true duration; the fit, corrected by the offset
+  // the recent moves of these settings allow, bounds it too: both hold.
+  const double b_lo = r.duration_s - *r.duration_pm_s, b_hi = r.duration_s + *r.duration_pm_s;
+  const std::string key =
+      fmt::format("{}>{} v{} a{} d{}", std::lround(asked.from_mm * 2), std::lround(asked.to_mm * 2),
+                  asked.speed_mm_s, asked.accel_mm_s2, asked.decel_mm_s2);
+  const FitOffsets::Range c =
+      offsets_.add(key, {b_lo - fit->duration_s - fit->pm_s, b_hi - fit->duration_s + fit->pm_s});
+  const double lo = std::max(b_lo, fit->duration_s - fit->pm_s + c.lo);
+  const double hi = std::min(b_hi, fit->duration_s + fit->pm_s + c.hi);
+  if (hi < lo || (hi - lo) / 2 >= *r.duration_pm_s) return;
+  r.duration_s = (lo + hi) / 2;
+  r.duration_pm_s = (hi - lo) / 2;
   r.timed_by = "positions";
 }
 

@@ -25,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "fit_offsets.hpp"
 #include "lec6/clock.hpp"
 #include "lec6/lec/flags.hpp"
 #include "lec6/lec/state_data.hpp"
@@ -85,13 +86,15 @@ class MotionTracker {
     std::optional<double> up_after_s, down_after_s;  // the brackets' early ends (telemetry)
     std::optional<TimePoint> rest_since;             // BUSY on, the carriage still (a hold)
     std::optional<TimePoint> busy_seen;              // the first read with BUSY on
+    bool interrupted = false;  // a stop, hold or reset of ours came during it: not one trapezoid
     std::vector<Sample> samples;
   };
   MotionRecord finish(Motion& m, std::optional<double> final_mm);
   // A reached positioning move's duration from its position samples against
-  // the profile it was given (profile_fit.hpp), where that is narrower than
-  // the BUSY brackets and agrees with them.
-  static void time_from_positions(const Motion& m, const nlohmann::json& event, MotionRecord& r);
+  // the profile it was given (profile_fit.hpp), corrected by what the polls
+  // say the fit cannot see (fit_offsets.hpp), where that is narrower than the
+  // BUSY brackets.
+  void time_from_positions(const Motion& m, const nlohmann::json& event, MotionRecord& r);
   static void keep(Motion& m, const Sample& s);  // bounded: pairs merge past kMaxSamples
 
   std::string axis_;
@@ -100,6 +103,7 @@ class MotionTracker {
   bool last_busy_ = false;
   std::optional<TimePoint> last_flags_at_;  // the last flags read's start
   bool wait_idle_ = false;  // after an operation: BUSY must fall before telemetry starts one
+  FitOffsets offsets_;
 };
 
 }  // namespace lec6::serve::history

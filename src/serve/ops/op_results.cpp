@@ -43,9 +43,11 @@ void add_move_details(nlohmann::json& body, const client::MoveResult& r) {
   body["message"] = client::in_terms_of(r.describe(), client::Interface::Http);
   body["evidence"] = r.evidence;
   if (!r.goal.kept.empty()) body["kept_from_controller"] = r.goal.kept;
-  if (r.goal.operation == client::Operation::Positioning && r.goal.speed_mm_s > 0) {
+  if (r.goal.operation == client::Operation::Positioning && r.goal.speed_mm_s > 0 &&
+      r.goal.from_001mm) {
     // issue 32: the history times the motion against the profile it was given
-    body["profile"] = {{"speed_mm_s", r.goal.speed_mm_s},
+    body["profile"] = {{"from_mm", mm(*r.goal.from_001mm)},
+                       {"speed_mm_s", r.goal.speed_mm_s},
                        {"acceleration_mm_s2", r.goal.acceleration_mm_s2},
                        {"deceleration_mm_s2", r.goal.deceleration_mm_s2}};
   }
