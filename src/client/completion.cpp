@@ -28,6 +28,7 @@ StopCause cause_of(const lec::StatusFlags& f) {
 
 Completion::Completion(MoveStart start, TimePoint deadline, CompletionOptions options)
     : start_(std::move(start)), deadline_(deadline), options_(options) {
+  timeline_.origin = start_.at;
   if (start_.sent_at != TimePoint{} && start_.sent_at < start_.at)
     poll_before_ = start_.sent_at - start_.at;
 }

@@ -65,6 +65,7 @@ struct MoveTimeline {
   std::optional<Duration> busy_up_after;    // the last poll before BUSY was seen (0: the start)
   std::optional<Duration> busy_down_after;  // the last poll that saw BUSY = 1
   std::optional<Duration> inp_after;        // the last poll before INP was seen (settle time)
+  TimePoint origin{};  // the clock time these count from: the start's acknowledgement
 };
 
 // What was asked: the goal a move is judged against.

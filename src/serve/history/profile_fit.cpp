@@ -83,6 +83,31 @@ StartRange starts_allowed(const std::vector<Along>& xs, double D, const Trapezoi
 
 }  // namespace
 
+EdgeBounds busy_edge_bounds(const std::vector<ProfileSample>& samples, const Trapezoid& asked) {
+  EdgeBounds b;
+  const double D = std::abs(asked.to_mm - asked.from_mm);
+  const double a = asked.accel_mm_s2, d = asked.decel_mm_s2, v = asked.speed_mm_s * kFastest;
+  if (!(D > 2 * kAtRestMm) || !(v > 0) || !(a > 0) || !(d > 0)) return b;
+  const double dir = asked.to_mm >= asked.from_mm ? 1.0 : -1.0;
+  // The fastest from rest over x, and the fastest over r to rest.
+  const auto from_rest = [&](double x) {
+    return x <= v * v / (2 * a) ? std::sqrt(2 * x / a) : v / a + (x - v * v / (2 * a)) / v;
+  };
+  const auto to_rest = [&](double r) {
+    return r >= v * v / (2 * d) ? r / v + v / (2 * d) : std::sqrt(2 * r / d);
+  };
+  for (const ProfileSample& p : samples) {
+    const double x = (p.position_mm - asked.from_mm) * dir;
+    if (x <= kAtRestMm || x >= D - kAtRestMm) continue;  // not surely moving
+    const double w = p.window_s + kStampSlackS;
+    const double rise = p.t_s + w - from_rest(std::max(0.0, x - kPositionHalfStepMm));
+    const double fall = p.t_s - w + to_rest(std::max(0.0, D - x - kPositionHalfStepMm));
+    b.rise_before = std::min(b.rise_before.value_or(rise), rise);
+    b.fall_after = std::max(b.fall_after.value_or(fall), fall);
+  }
+  return b;
+}
+
 double trapezoid_duration_s(double distance_mm, double v_mm_s, double accel, double decel) {
   return shape(distance_mm, v_mm_s, accel, decel).length_s;
 }

@@ -53,6 +53,17 @@ struct ProfileFit {
 std::optional<ProfileFit> fit_profile(const std::vector<ProfileSample>& samples,
                                       const Trapezoid& asked);
 
+// What the samples say of BUSY's edges whatever the controller's ramps, as
+// long as it never accelerates or decelerates harder than written nor runs
+// faster than 1 % above the speed written, and BUSY is on while it moves:
+// BUSY rose no later than `rise_before` (the carriage could not have come
+// that far any faster) and fell no earlier than `fall_after` (nor could it
+// have covered what was left and stopped sooner). On the samples' clock.
+struct EdgeBounds {
+  std::optional<double> rise_before, fall_after;
+};
+EdgeBounds busy_edge_bounds(const std::vector<ProfileSample>& samples, const Trapezoid& asked);
+
 // The profile's length: from rest to rest over |to − from| at cruise speed v.
 double trapezoid_duration_s(double distance_mm, double v_mm_s, double accel, double decel);
 

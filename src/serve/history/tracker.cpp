@@ -121,7 +121,7 @@ std::optional<MotionRecord> MotionTracker::op_event(const nlohmann::json& event,
       if (a.is_object() && a.contains("code")) r.alarms.push_back(a["code"].get<int>());
     }
   }
-  time_from_positions(m, event, r);
+  if (up_after && down_after) time_from_positions(m, event, r, *up_after, *down_after);
   const auto final_mm = number(event, "position_mm");
   if (final_mm) {
     m.samples.push_back({at, *final_mm, number(event, "speed_mm_s").value_or(0),
@@ -226,16 +226,19 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
 }
 
 void MotionTracker::time_from_positions(const Motion& m, const nlohmann::json& event,
-                                        MotionRecord& r) {
+                                        MotionRecord& r, double up_after_s, double down_after_s) {
   const auto it = event.find("profile");
-  if (it == event.end() || !it->is_object() || r.outcome != "reached" || !r.target_mm ||
-      std::isnan(r.duration_s) || !r.duration_pm_s || m.interrupted)
+  const auto tl = event.find("timeline");
+  if (it == event.end() || !it->is_object() || tl == event.end() || !tl->is_object() ||
+      r.outcome != "reached" || !r.target_mm || std::isnan(r.duration_s) || !r.duration_pm_s ||
+      !r.busy_up_s || !r.busy_down_s || m.interrupted)
     return;
   // Where the carriage stood at rest in the operation's own read just before
   // the start: the telemetry's last sample may be older (a reviewer's case:
   // a stale start read every fitted duration wrong).
   const auto from = number(*it, "from_mm");
-  if (!from) return;
+  const auto origin = tl->find("origin_ns");
+  if (!from || origin == tl->end() || !origin->is_number_integer()) return;
   Trapezoid asked;
   asked.from_mm = *from;
   asked.to_mm = *r.target_mm;
@@ -248,11 +251,26 @@ void MotionTracker::time_from_positions(const Motion& m, const nlohmann::json& e
     xs.push_back({to_seconds(s.sent - m.started) + to_seconds(s.at - s.sent) / 2,
                   to_seconds(s.at - s.sent) / 2, s.position_mm});
   }
+  // BUSY's brackets on the samples' clock (the timeline counts from its
+  // origin), narrowed by what the positions allow whatever the ramps.
+  const double k =
+      to_seconds(TimePoint{} + std::chrono::nanoseconds(origin->get<int64_t>()) - m.started);
+  double rise_lo = k + up_after_s, rise_hi = k + *r.busy_up_s;
+  double fall_lo = k + down_after_s, fall_hi = k + *r.busy_down_s;
+  const EdgeBounds edges = busy_edge_bounds(xs, asked);
+  if (edges.rise_before) rise_hi = std::min(rise_hi, *edges.rise_before);
+  if (edges.fall_after) fall_lo = std::max(fall_lo, *edges.fall_after);
+  if (rise_hi < rise_lo || fall_hi < fall_lo) return;  // not what the bounds assume
+  const double b_lo = fall_lo - rise_hi, b_hi = fall_hi - rise_lo;
+  if ((b_hi - b_lo) / 2 < *r.duration_pm_s) {
+    r.duration_s = (b_lo + b_hi) / 2;
+    r.duration_pm_s = (b_hi - b_lo) / 2;
+    r.timed_by = "positions";
+  }
   const auto fit = fit_profile(xs, asked);
   if (!fit) return;
   // The brackets bound the true duration; the fit, corrected by the offset
   // the recent moves of these settings allow, bounds it too: both hold.
-  const double b_lo = r.duration_s - *r.duration_pm_s, b_hi = r.duration_s + *r.duration_pm_s;
   const std::string key =
       fmt::format("{}>{} v{} a{} d{}", std::lround(asked.from_mm * 2), std::lround(asked.to_mm * 2),
                   asked.speed_mm_s, asked.accel_mm_s2, asked.decel_mm_s2);

@@ -94,7 +94,8 @@ class MotionTracker {
   // the profile it was given (profile_fit.hpp), corrected by what the polls
   // say the fit cannot see (fit_offsets.hpp), where that is narrower than the
   // BUSY brackets.
-  void time_from_positions(const Motion& m, const nlohmann::json& event, MotionRecord& r);
+  void time_from_positions(const Motion& m, const nlohmann::json& event, MotionRecord& r,
+                           double up_after_s, double down_after_s);
   static void keep(Motion& m, const Sample& s);  // bounded: pairs merge past kMaxSamples
 
   std::string axis_;

@@ -57,7 +57,12 @@ void add_move_details(nlohmann::json& body, const client::MoveResult& r) {
                       // issue 32: each BUSY edge lies between *_after_s and its time
                       {"busy_up_after_s", seconds_or_null(r.timeline.busy_up_after)},
                       {"busy_down_after_s", seconds_or_null(r.timeline.busy_down_after)},
-                      {"inp_after_s", seconds_or_null(r.timeline.inp_after)}};
+                      {"inp_after_s", seconds_or_null(r.timeline.inp_after)},
+                      // the line clock's time they count from (the history's samples
+                      // are on the same clock)
+                      {"origin_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                        r.timeline.origin.time_since_epoch())
+                                        .count()}};
 }
 
 // An error that ended a move: its state and timeline with the refusal.
