@@ -11,7 +11,7 @@
 //     busy or may still be moving, and another motion of them is refused
 //     (409, naming the cycle) until it has ended; one run of a cycle at a
 //     time;
-//   - a stop ends it: a stop, hold or reset of one of its axes accepted
+//   - a stop ends it: a stop, hold, reset or servo off of one of its axes accepted
 //     through lec serve's operations (HTTP, MQTT, Sparkplug, the dashboard),
 //     a hard stop (RESET <- 1, HOLD <- 1, SVON <- 0) to one of its
 //     controllers from any client of the line (Modbus TCP, RTU over TCP),

@@ -117,8 +117,10 @@ class Operations {
   // while lec serve shuts down), then runs `work` on an operation thread.
   // Meanwhile another motion of those axes is refused with 409 naming
   // `what` ("cycle pick-place"). The `stopped` given to `work` turns true,
-  // for good, once a stop, hold or reset of one of them is accepted (any
-  // channel that goes through Operations) or lec serve begins to shut down;
+  // for good, once a stop, hold, reset or servo off of one of them is
+  // accepted (any channel that goes through Operations; seen by the first
+  // look after its acceptance, under the lock it was accepted under) or lec
+  // serve begins to shut down;
   // `accepted` is when the claim was, on the first axis's line's clock. The
   // slots are freed when `work` returns (5xx: left unsettled, as a motion's);
   // `done` gets its result.

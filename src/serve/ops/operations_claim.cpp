@@ -69,12 +69,21 @@ void Operations::run_claimed(const std::vector<AxisRef>& axes, std::string what,
   std::thread([this, axes, runs, work = std::move(work), done = std::move(done)] {
     Claim claim;
     claim.accepted = runs.front()->accepted;
-    claim.stopped = [this, &runs] {
-      for (const auto& r : runs) {
-        if (r->stopped_by_other.load()) return true;
-      }
+    // Looked at under the lock a stop is accepted under: one accepted (and
+    // dated) before this look is seen by it (cycle_service.hpp). A servo off
+    // counts too: it is a stop that does not wait (stop_like).
+    auto seen = std::make_shared<bool>(false);
+    claim.stopped = [this, &axes, &runs, seen, accepted = claim.accepted] {
       std::lock_guard lock(mutex_);
-      return shutting_down_;
+      if (*seen || shutting_down_) return *seen = true;
+      for (std::size_t i = 0; i < axes.size(); ++i) {
+        if (runs[i]->stopped_by_other.load()) return *seen = true;
+        for (const auto& w : slots_[axes[i].name].stops) {
+          const auto s = w.lock();
+          if (s && s->accepted >= accepted) return *seen = true;
+        }
+      }
+      return false;
     };
     OpResult result;
     try {
