@@ -177,14 +177,17 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
   }
   if (a.check) {
     fmt::print(
-        "{}: OK ({} line{}, {} ax{})\n", config.source, config.lines.size(),
+        "{}: OK ({} line{}, {} ax{}{})\n", config.source, config.lines.size(),
         config.lines.size() == 1 ? "" : "s",
         [&] {
           std::size_t n = 0;
           for (const auto& l : config.lines) n += l.axes.size();
           return n;
         }(),
-        "es");
+        "es",
+        config.cycles.empty() ? std::string()
+                              : fmt::format(", {} cycle{}", config.cycles.size(),
+                                            config.cycles.size() == 1 ? "" : "s"));
     return;
   }
   // --record FILE: one capture per line (FILE with one line, FILE-<line>.jsonl with more).
