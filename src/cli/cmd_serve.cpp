@@ -35,6 +35,7 @@ struct ServeArgs {
   std::string sparkplug_group;  // default: the file's, else lec6
   std::string sparkplug_node;   // default: the host name
   std::string sparkplug_host;   // the primary host application to wait for
+  std::string cycles;           // issue 34: a cycle file or a directory of them (docs/cycles.md)
 };
 
 // --sparkplug BROKER: the edge node with its defaults, with or without --config.
@@ -89,6 +90,7 @@ serve::ServeConfig make_config(const GlobalOptions& g, const ServeArgs& a) {
     throw UsageError("give either --state-dir DIR or --no-history, not both");
   }
   auto c = make_config_of(g, a);
+  if (!a.cycles.empty()) serve::add_cycles(c, a.cycles);  // beside the config's cycles:
   if (a.no_history) {
     c.history.reset();
   } else if (!c.history && !c.history_off) {
@@ -175,14 +177,17 @@ void run_serve(const GlobalOptions& g, const ServeArgs& a) {
   }
   if (a.check) {
     fmt::print(
-        "{}: OK ({} line{}, {} ax{})\n", config.source, config.lines.size(),
+        "{}: OK ({} line{}, {} ax{}{})\n", config.source, config.lines.size(),
         config.lines.size() == 1 ? "" : "s",
         [&] {
           std::size_t n = 0;
           for (const auto& l : config.lines) n += l.axes.size();
           return n;
         }(),
-        "es");
+        "es",
+        config.cycles.empty() ? std::string()
+                              : fmt::format(", {} cycle{}", config.cycles.size(),
+                                            config.cycles.size() == 1 ? "" : "s"));
     return;
   }
   // --record FILE: one capture per line (FILE with one line, FILE-<line>.jsonl with more).
@@ -270,6 +275,10 @@ void add_serve_command(CLI::App& app, const GlobalOptions& globals) {
                   "Default: $STATE_DIRECTORY, else $XDG_STATE_HOME/lec6, else "
                   "~/.local/state/lec6")
       ->type_name("DIR");
+  cmd->add_option("--cycles", args->cycles,
+                  "Machine cycles to offer (POST /api/cycles/NAME/run): a cycle file or a "
+                  "directory of them, beside the config's cycles: (docs/cycles.md)")
+      ->type_name("PATH");
   cmd->add_flag("--no-history", args->no_history,
                 "Keep no move history, odometer or drift warnings (they are on by default)");
   cmd->add_flag("--check", args->check, "Check the config and exit");

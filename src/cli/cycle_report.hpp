@@ -9,17 +9,15 @@
 #include <vector>
 
 #include "lec6/cycle/analysis.hpp"
+#include "lec6/cycle/report_json.hpp"
 #include "lec6/cycle/runner.hpp"
 
 namespace lec6::cli {
 
-// What a fault of the file or --fault did on the twin (TwinFaults).
-struct InjectedFault {
-  std::string fault;  // Fault::text
-  std::string step;   // the step's path as reported ("6 (2/2)"); empty: it never came
-  bool injected = false;
-  std::string what;  // "injected", or why not
-};
+// What a fault did (TwinFaults), the report as JSON (--json): the cycle
+// layer's, which lec serve answers with too.
+using cycle::InjectedFault;
+using cycle::report_json;
 
 // Escapes &, <, > and " for XML and HTML text and attributes.
 std::string xml_escape(std::string_view s);
@@ -32,11 +30,6 @@ std::string format_end(const cycle::CycleReport& report, bool simulated);
 // Where the time went: "motion 9.810 s (74 %), the line 3.190 s (24 %: ...)",
 // each line's utilisation, the largest start skew.
 std::string format_analysis(const cycle::CycleAnalysis& analysis);
-// The report as JSON (--json), with the analysis.
-// `faults`: what each fault did (--port sim).
-std::string report_json(const std::string& cycle_name, const cycle::CycleReport& report,
-                        const cycle::CycleAnalysis& analysis, bool simulated,
-                        const std::vector<InjectedFault>& faults = {});
 // "step 6 (2/2): z's push at step 6 finds no workpiece: injected"
 std::string format_fault(const InjectedFault& f);
 // JUnit XML: one test case per assertion (the cycle completes, every push

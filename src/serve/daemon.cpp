@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "cycles/cycle_service.hpp"
 #include "history/history.hpp"
 #include "history/state_dir.hpp"
 #include "http/api/http_api.hpp"
@@ -58,7 +59,9 @@ Daemon::Daemon(ServeConfig config, Log log)
       work_(asio::make_work_guard(io_)) {
   ops_ = std::make_unique<Operations>(log_);
   start_lines();
-  start_history();  // issue 26
+  start_history();              // issue 26
+  if (!config_.cycles.empty())  // issue 34: before the listeners that offer them
+    cycles_ = std::make_unique<CycleService>(*directory_, *ops_, config_.cycles, log_);
   start_listeners();
   if (config_.mqtt) {
     mqtt_ = std::make_unique<MqttBridge>(io_, *directory_, *ops_, *config_.mqtt, log_);
@@ -193,7 +196,7 @@ void Daemon::start_listeners() {
     }
   }
   if (config_.http) {
-    api_ = std::make_unique<HttpApi>(*directory_, *ops_, *config_.http, log_);
+    api_ = std::make_unique<HttpApi>(*directory_, *ops_, *config_.http, log_, cycles_.get());
     HttpServerOptions o;
     o.log = [this](std::string text) { log_(LogLevel::Warning, text); };
     http_ = std::make_unique<HttpServer>(

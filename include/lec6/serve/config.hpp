@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -24,6 +25,9 @@
 #include "lec6/sim/behaviour.hpp"
 
 namespace lec6::serve {
+
+// A machine cycle lec serve runs (serve/cycles/served_cycle.hpp).
+struct ServedCycle;
 
 class ConfigError : public InvalidArgument {
  public:
@@ -205,6 +209,10 @@ struct ServeConfig {
   std::optional<HistoryConfig> history;  // issue 26
   bool history_off = false;  // `history: false`: none, not even in the default directory
   std::optional<SparkplugConfig> sparkplug;  // issue 35
+  // Machine cycles it runs on its axes (issue 34: `cycles:`, `lec serve
+  // --cycles PATH`; docs/cycles.md "Through lec serve"): each file read and
+  // its axes matched to this config's when the config is read.
+  std::vector<std::shared_ptr<const ServedCycle>> cycles;
 
   // The axis called `name`, with its line; nullopt when there is none.
   struct Found {
@@ -236,6 +244,10 @@ struct FlagConfig {
   std::string sim_profile = "default";  // port sim: SimLineConfig::profile (`lec --sim-profile`)
 };
 ServeConfig config_from_flags(const FlagConfig& flags);
+// `lec serve --cycles PATH`: the cycle file, or every *.yaml and *.yml of the
+// directory, added to config.cycles (its axes matched to the config's).
+// Throws ConfigError naming the file, the line and the field.
+void add_cycles(ServeConfig& config, const std::filesystem::path& path);
 
 // "1-4,7" → {1,2,3,4,7}; throws ConfigError naming what is wrong.
 std::vector<uint8_t> parse_ids(const std::string& text);

@@ -37,6 +37,7 @@ class HttpApi;
 class MqttBridge;
 class SparkplugNode;  // issue 35
 class Operations;
+class CycleService;  // issue 34
 namespace history {
 class History;
 }
@@ -90,6 +91,7 @@ class Daemon {
   std::vector<AxisRef> axes_;
   std::vector<std::unique_ptr<ModbusTcpServer>> modbus_;
   std::unique_ptr<Operations> ops_;
+  std::unique_ptr<CycleService> cycles_;  // issue 34: machine cycles (serve/cycles/)
   std::unique_ptr<HttpApi> api_;
   std::unique_ptr<HttpServer> http_;
   std::unique_ptr<MqttBridge> mqtt_;

@@ -13,6 +13,7 @@
 #include <set>
 
 #include "config/config_reader.hpp"
+#include "cycles/cycles_config.hpp"    // issue 34: the cycles: section
 #include "history/config_history.hpp"  // issue 26: the history: section
 #include "lec6/modbus/timing.hpp"
 #include "lec6/serve/mqtt_topics.hpp"
@@ -374,7 +375,7 @@ void check_unique_names(const Reader& r, const YAML::Node& root, const ServeConf
 
 ServeConfig read_root(const Reader& r, const YAML::Node& root) {
   if (!root.IsMap()) r.fail(root, "", "expected a map with lines: (and http:, mqtt:)");
-  r.keys(root, "", {"lines", "http", "mqtt", "history", "sparkplug"});
+  r.keys(root, "", {"lines", "http", "mqtt", "history", "sparkplug", "cycles"});
   ServeConfig c;
   c.source = r.source();
   const auto lines = root["lines"];
@@ -387,6 +388,7 @@ ServeConfig read_root(const Reader& r, const YAML::Node& root) {
     c.lines.push_back(std::move(l));
   }
   check_unique_names(r, root, c);
+  read_cycles(r, root["cycles"], c);  // issue 34: machine cycles (serve/cycles/)
   c.http = read_http(r, root["http"]);
   c.mqtt = read_mqtt(r, root["mqtt"]);
   c.history = history::read_history(r, root["history"]);

@@ -268,6 +268,11 @@ DeviceHealth Line::health(uint8_t id) const {
   return scheduler_.health(id);
 }
 
+std::optional<TimePoint> Line::last_hard_stop(uint8_t id) const {
+  std::lock_guard lock(mutex_);
+  return scheduler_.last_hard_stop(id);
+}
+
 AxisSnapshot Line::snapshot(uint8_t id) const {
   std::lock_guard lock(mutex_);
   return scheduler_.cache().snapshot(id);

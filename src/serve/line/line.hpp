@@ -19,6 +19,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -101,6 +102,8 @@ class Line {
   // line's lock: telemetry views call this per axis and per sample).
   DeviceCounters device_counters(uint8_t id) const;
   DeviceHealth health(uint8_t id) const;
+  // Scheduler::last_hard_stop, under the line's lock.
+  std::optional<TimePoint> last_hard_stop(uint8_t id) const;
   AxisSnapshot snapshot(uint8_t id) const;
   std::optional<Duration> age(uint8_t id, Block block) const;
 

@@ -201,6 +201,18 @@ class Scheduler {
 
   const TelemetryCache& cache() const noexcept { return cache_; }
   DeviceHealth health(uint8_t id) const;
+  // When the last hard stop (RESET <- 1, HOLD <- 1, SVON <- 0) to `id` or to
+  // every controller (a broadcast) was accepted, dated as superseded() dates
+  // it; nullopt: none yet. A machine cycle in lec serve ends on one
+  // (serve/cycles/): a Modbus TCP client's stop goes nowhere else.
+  std::optional<TimePoint> last_hard_stop(uint8_t id) const {
+    std::optional<TimePoint> at;
+    for (const uint8_t to : {id, modbus::kBroadcastId}) {
+      const auto it = hard_stop_.find(to);
+      if (it != hard_stop_.end() && (!at || it->second.accepted > *at)) at = it->second.accepted;
+    }
+    return at;
+  }
   LineStatsSnapshot stats(TimePoint now) const;
   DeviceCounters device_counters(uint8_t id) const { return stats_.device(id); }
   std::array<std::size_t, kPriorities> queue_depth() const;

@@ -114,6 +114,26 @@ class Operations {
   // operation thread, at client priority; not a motion, so never refused as busy.
   void run_task(const AxisRef& axis, std::string name, std::string source,
                 std::function<OpResult(client::Client&)> task, std::function<void(OpResult)> done);
+  // A motion of several axes that lec serve runs itself (a machine cycle:
+  // serve/cycles/): takes the motion slot of every one of `axes`, or of none
+  // (refused as a motion is: 409 when one is busy, may still be moving, or a
+  // stop, hold, reset or servo off accepted before still runs on it; 503
+  // while lec serve shuts down), then runs `work` on an operation thread.
+  // Meanwhile another motion of those axes is refused with 409 naming
+  // `what` ("cycle pick-place"). The `stopped` given to `work` turns true,
+  // for good, once a stop, hold, reset or servo off of one of them is
+  // accepted (any channel that goes through Operations; seen by the first
+  // look after its acceptance, under the lock it was accepted under) or lec
+  // serve begins to shut down;
+  // `accepted` is when the claim was, on the first axis's line's clock. The
+  // slots are freed when `work` returns (5xx: left unsettled, as a motion's);
+  // `done` gets its result.
+  struct Claim {
+    TimePoint accepted{};
+    std::function<bool()> stopped;
+  };
+  void run_claimed(const std::vector<AxisRef>& axes, std::string what, std::string source,
+                   std::function<OpResult(const Claim&)> work, std::function<void(OpResult)> done);
   // Ties a running jog to a stream: when `closed()` turns true (checked as
   // the jog polls), the jog is released.
   void tie_jog(const std::string& axis, std::function<bool()> closed);

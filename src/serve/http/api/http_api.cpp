@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cycles/cycles_http.hpp"    // issue 34
 #include "history/history.hpp"       // issue 26
 #include "history/history_http.hpp"  // issue 26
 #include "http/http_auth.hpp"
@@ -86,8 +87,9 @@ std::filesystem::path default_web_root() {
   return {};
 }
 
-HttpApi::HttpApi(const AxisDirectory& directory, Operations& ops, const HttpConfig& config, Log log)
-    : directory_(directory), ops_(ops), config_(config), log_(std::move(log)) {
+HttpApi::HttpApi(const AxisDirectory& directory, Operations& ops, const HttpConfig& config, Log log,
+                 CycleService* cycles)
+    : directory_(directory), ops_(ops), cycles_(cycles), config_(config), log_(std::move(log)) {
   const auto root = config_.web_root.empty() ? default_web_root() : config_.web_root;
   if (!root.empty()) files_ = std::make_unique<StaticFiles>(root);
   for (const AxisRef& axis : directory_.axes()) {
@@ -170,6 +172,9 @@ void HttpApi::handle(HttpRequest request, Responder responder) {
               {"listener_loopback", loopback},
               {"lines", lines},
               {"axes", directory_.axes().size()}})));
+  }
+  if (parts.size() >= 2 && parts[1] == "cycles") {  // issue 34
+    return handle_cycles_http(cycles_, parts, request, responder, source(request));
   }
   if (parts.size() == 2 && parts[1] == "fields") {
     if (!get) return void(responder.respond(method_not_allowed("GET")));

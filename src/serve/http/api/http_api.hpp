@@ -19,6 +19,8 @@
 //   GET  /api/axes/{name}/health            odometer, drift warnings (history/history_http.hpp)
 //   GET  /api/lines/{line}/twin             the built-in twin's settings (sim lines)
 //   POST /api/lines/{line}/twin             change them: workpiece, fault rates
+//   GET  /api/cycles[/{name}]               machine cycles (issue 34: cycles/cycles_http.hpp)
+//   POST /api/cycles/{name}/run|stop        runs or stops one; answers with its report
 //   GET  /api/fields                        the step fields: ranges, defaults, rules
 //   GET  /api/events                        Server-Sent Events: hello, telemetry, op, stats,
 //                                           history, drift, health
@@ -44,6 +46,8 @@
 
 namespace lec6::serve {
 
+class CycleService;
+
 // The open /api/events streams, fed from any thread.
 class EventHub {
  public:
@@ -61,7 +65,9 @@ class EventHub {
 class HttpApi {
  public:
   // `directory`: the axes and lines it serves (the daemon's, or a test's).
-  HttpApi(const AxisDirectory& directory, Operations& ops, const HttpConfig& config, Log log);
+  // `cycles`: the machine cycles it offers (/api/cycles); null: none.
+  HttpApi(const AxisDirectory& directory, Operations& ops, const HttpConfig& config, Log log,
+          CycleService* cycles = nullptr);
 
   void handle(HttpRequest request, Responder responder);
   EventHub& events() noexcept { return events_; }
@@ -81,6 +87,7 @@ class HttpApi {
 
   const AxisDirectory& directory_;
   Operations& ops_;
+  CycleService* cycles_ = nullptr;
   HttpConfig config_;
   Log log_;
   std::unique_ptr<StaticFiles> files_;

@@ -1,0 +1,74 @@
+#include "cycles/cycle_run.hpp"
+
+#include <memory>
+#include <vector>
+
+#include "lec6/client/client.hpp"
+#include "lec6/cycle/analysis.hpp"
+#include "lec6/cycle/report_json.hpp"
+#include "lec6/cycle/runner.hpp"
+#include "line/line_master.hpp"
+
+namespace lec6::serve {
+
+OpResult run_served_cycle(const ServedCycle& served, const std::map<std::string, AxisRef>& axes,
+                          const Operations::Claim& claim, const std::function<bool()>& asked) {
+  // One master per line: the cycle's axes on a line share it (its commands
+  // keep their order and take turns with other clients'), as they share the
+  // port under `lec cycle run`.
+  std::map<Line*, std::unique_ptr<LineMaster>> masters;
+  std::vector<std::unique_ptr<client::Client>> clients;
+  std::map<std::string, client::Client*> by_name;
+  client::StopPolicy policy;
+  policy.escalate_servo_off = true;  // only when every axis says so
+  for (const cycle::Axis& a : served.cycle.axes) {
+    const AxisRef& ref = axes.at(a.name);
+    auto& master = masters[ref.line];
+    if (!master) {
+      master = std::make_unique<LineMaster>(*ref.line, Priority::Completion, Priority::Command);
+      master->count_from(claim.accepted);
+    }
+    client::ClientOptions co;
+    co.id = ref.id;
+    co.retries = ref.line_config->retries;
+    co.alarm_polarity = ref.config->alarm_polarity;
+    clients.push_back(std::make_unique<client::Client>(*master, co));
+    by_name[a.name] = clients.back().get();
+    policy.escalate_servo_off = policy.escalate_servo_off && ref.config->stop_servo_off;
+  }
+  // A stop seen: asked for, through the operations (or a shutdown), or a
+  // hard stop to one of the cycle's controllers accepted by its line since
+  // the cycle was (a Modbus TCP client's).
+  const auto stop_seen = [&] {
+    if (asked() || claim.stopped()) return true;
+    for (const auto& [name, ref] : axes) {
+      const auto at = ref.line->last_hard_stop(ref.id);
+      if (at && *at >= claim.accepted) return true;
+    }
+    return false;
+  };
+  cycle::RunOptions options;
+  options.stop_policy = policy;
+  options.stop_requested = [&] {
+    // The times first, then the look: a stop accepted after these times
+    // supersedes the starts that follow (their writes carry them); one
+    // accepted before was seen here (the operations and the line date a
+    // stop under the lock this look takes).
+    std::vector<std::pair<LineMaster*, TimePoint>> looked;
+    for (auto& [line, master] : masters) looked.emplace_back(master.get(), line->clock().now());
+    if (stop_seen()) return true;
+    for (auto& [master, at] : looked) master->count_from(at);
+    return false;
+  };
+  cycle::Runner runner(served.cycle, by_name, options);
+  const cycle::CycleReport report = runner.run();
+  OpResult result;
+  result.body = nlohmann::json::parse(
+      cycle::report_json(served.name(), report, cycle::analyse(report), /*simulated=*/false));
+  const bool line_fault = report.ended.rfind("line fault", 0) == 0;
+  result.status = report.completed ? 200 : line_fault ? 502 : 422;
+  if (!report.completed) result.body["error"] = report.ended;
+  return result;
+}
+
+}  // namespace lec6::serve
