@@ -15,7 +15,7 @@
 // the drift detector would judge (± ≤ max_uncertainty_fraction × threshold
 // × duration: DriftConfig's defaults).
 //
-// Usage: lec6_history_timing [--axes 1,4,8] [--moves 12] [--baud 38400]
+// Usage: lec6_history_timing [--axes 1,4,8] [--moves 12] [--baud 38400] [--stagger-ms 0]
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
@@ -25,6 +25,7 @@
 #include <cstdlib>
 #include <future>
 #include <mutex>
+#include <random>
 #include <thread>
 #include <vector>
 
@@ -62,7 +63,7 @@ OpResult run(Operations& ops, const AxisRef& axis, std::string_view op, nlohmann
   return f.get();
 }
 
-Row measure(int n_axes, int moves, uint32_t baud) {
+Row measure(int n_axes, int moves, uint32_t baud, int stagger_ms) {
   LineConfig lc;
   lc.name = "line1";
   lc.port = "sim";
@@ -122,7 +123,12 @@ Row measure(int n_axes, int moves, uint32_t baud) {
   std::vector<std::thread> movers;
   for (const AxisRef& a : axes) {
     movers.emplace_back([&, a] {
+      // --stagger-ms: each move waits a random 0..N ms first, so that the axes
+      // do not move in lockstep (0: all at once, the same move every time).
+      std::mt19937 rng(a.id);
+      std::uniform_int_distribution<int> pause(0, std::max(0, stagger_ms));
       for (int i = 0; i < moves; ++i) {
+        if (stagger_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(pause(rng)));
         const OpResult r =
             run(ops, a, "move", {{"position_mm", i % 2 == 0 ? 250 : 50}, {"speed_mm_s", 100}});
         if (r.status != 200) fmt::print(stderr, "{}: {}\n", a.name, r.body.dump());
@@ -191,9 +197,12 @@ int main(int argc, char** argv) {
   CLI::App app{"The move history's durations against the twin's true BUSY time under load"};
   std::vector<int> loads{1, 4, 8};
   int moves = 12;
+  int stagger_ms = 0;
   uint32_t baud = 38400;
   app.add_option("--axes", loads, "moving axes per run")->delimiter(',');
   app.add_option("--moves", moves, "moves per axis per run")->check(CLI::Range(2, 10000));
+  app.add_option("--stagger-ms", stagger_ms, "each move waits a random 0..N ms first (0: lockstep)")
+      ->check(CLI::Range(0, 10000));
   app.add_option("--baud", baud, "the line's baud rate");
   CLI11_PARSE(app, argc, argv);
   fmt::print(
@@ -202,7 +211,7 @@ int main(int argc, char** argv) {
       "within its ± | ± p50 / max | BUSY first seen after the start, p50 | judged by the drift "
       "detector |\n|---|---|---|---|---|---|---|---|---|---|\n");
   for (const int n : loads) {
-    const Row r = measure(n, moves, baud);
+    const Row r = measure(n, moves, baud, stagger_ms);
     double bias = 0;
     for (double e : r.signed_ms) bias += e / double(r.signed_ms.size());
     fmt::print(
