@@ -47,34 +47,45 @@ struct Polled {
   double true_s = 0;
 };
 
-Polled poll_motion(MotionTracker& tracker, const Motion& mo, double gap_ms, double phase_ms,
-                   bool with_profile = true) {
-  const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
-  const sim::MotionProfile p = mo.profile(t0);
-  const TimePoint rise = p.start_time(), fall = p.end_time();
+// Any motion: position(t) and BUSY [rise, fall), polled every `gap_ms`
+// from `phase_ms`, fed to `tracker` and to the completion rule as lec serve does; the
+// finished event as ops/op_results.cpp writes it. `start_sample_mm`: the
+// telemetry's last sample before the start (NaN: where it stood).
+struct Truth {
+  std::function<double(TimePoint)> pos;
+  TimePoint rise, fall;
+  double from_mm, to_mm;
+};
+struct Asked {
+  double speed, accel, decel;
+};
+
+Polled poll_truth(MotionTracker& tracker, const Truth& tr, TimePoint t0, const Asked& asked,
+                  double gap_ms, double phase_ms, double start_sample_mm = NAN,
+                  bool with_profile = true) {
   client::MoveGoal goal;
-  goal.target_001mm = static_cast<int32_t>(std::lround(mo.to_mm * 100));
+  goal.target_001mm = static_cast<int32_t>(std::lround(tr.to_mm * 100));
   goal.in_position_001mm = 50;
   lec::StateData before;
-  before.position_001mm = static_cast<int32_t>(std::lround(mo.from_mm * 100));
+  before.position_001mm = static_cast<int32_t>(
+      std::lround((std::isnan(start_sample_mm) ? tr.from_mm : start_sample_mm) * 100));
   before.target_001mm = before.position_001mm;
   StatusFlags idle;
   idle.set(StatusFlags::Svre, true);
   idle.set(StatusFlags::Seton, true);
   idle.set(StatusFlags::Inp, true);
-  client::Completion c({goal, idle, before, false, t0}, t0 + std::chrono::seconds(30));
+  client::Completion c({goal, idle, before, false, t0}, t0 + std::chrono::seconds(60));
   tracker.telemetry(before, idle, t0 - msecs(50), 0, t0 - msecs(58));
   tracker.op_event({{"event", "started"}, {"op", "move"}, {"source", "test"}}, t0, 0);
   for (double at = phase_ms;; at += gap_ms) {
     const TimePoint sent = t0 + msecs(at), sampled = sent + msecs(3), end = sent + msecs(8);
     lec::StateData s;
-    s.position_001mm = static_cast<int32_t>(std::lround(p.position(sampled) * 100));
+    s.position_001mm = static_cast<int32_t>(std::lround(tr.pos(sampled) * 100));
     s.target_001mm = goal.target_001mm;
-    s.speed_mm_s = static_cast<uint16_t>(std::lround(std::abs(p.velocity(sampled))));
     StatusFlags f = idle;
-    const bool busy = sampled >= rise && sampled < fall;
+    const bool busy = sampled >= tr.rise && sampled < tr.fall;
     f.set(StatusFlags::Busy, busy);
-    f.set(StatusFlags::Inp, sampled >= fall);
+    f.set(StatusFlags::Inp, sampled >= tr.fall);
     tracker.telemetry(s, std::nullopt, end, 0, sent);
     if (const auto r = c.feed({f, s, end, sent})) {
       nlohmann::json e{{"event", "finished"},
@@ -82,8 +93,8 @@ Polled poll_motion(MotionTracker& tracker, const Motion& mo, double gap_ms, doub
                        {"status", 200},
                        {"ok", r->succeeded()},
                        {"outcome", std::string(client::outcome_name(r->outcome))},
-                       {"target_mm", mo.to_mm},
-                       {"position_mm", mo.to_mm}};
+                       {"target_mm", tr.to_mm},
+                       {"position_mm", tr.to_mm}};
       const auto sec = [](const std::optional<Duration>& d) {
         return d ? nlohmann::json(to_seconds(*d)) : nlohmann::json(nullptr);
       };
@@ -97,15 +108,25 @@ Polled poll_motion(MotionTracker& tracker, const Motion& mo, double gap_ms, doub
                                          r->timeline.origin.time_since_epoch())
                                          .count()}};
       if (with_profile)
-        e["profile"] = {{"from_mm", mo.from_mm},
-                        {"speed_mm_s", mo.speed},
-                        {"acceleration_mm_s2", mo.accel},
-                        {"deceleration_mm_s2", mo.decel}};
+        e["profile"] = {{"from_mm", tr.from_mm},
+                        {"speed_mm_s", asked.speed},
+                        {"acceleration_mm_s2", asked.accel},
+                        {"deceleration_mm_s2", asked.decel}};
       auto rec = tracker.op_event(e, end, 0);
       EXPECT_TRUE(rec);
-      return {rec ? *rec : MotionRecord{}, to_seconds(fall - rise)};
+      return {rec ? *rec : MotionRecord{}, to_seconds(tr.fall - tr.rise)};
     }
   }
+}
+
+Polled poll_motion(MotionTracker& tracker, const Motion& mo, double gap_ms, double phase_ms,
+                   bool with_profile = true) {
+  const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
+  const sim::MotionProfile p = mo.profile(t0);
+  Truth tr{[p](TimePoint t) { return p.position(t); }, p.start_time(), p.end_time(), mo.from_mm,
+           mo.to_mm};
+  return poll_truth(tracker, tr, t0, {mo.speed, mo.accel, mo.decel}, gap_ms, phase_ms, NAN,
+                    with_profile);
 }
 
 // The first moves of a setting are timed by the polls: the offset the fit
@@ -265,74 +286,6 @@ void fresh_attack_tracker() {
   attack_tracker_slot().reset();
 }
 
-// Any motion: position(t) and BUSY [rise, fall), polled like poll_motion.
-struct Truth {
-  std::function<double(TimePoint)> pos;
-  TimePoint rise, fall;
-  double from_mm, to_mm;
-};
-struct Asked {
-  double speed, accel, decel;
-};
-
-Polled poll_truth(const Truth& tr, TimePoint t0, const Asked& asked, double gap_ms, double phase_ms,
-                  double start_sample_mm = NAN) {
-  client::MoveGoal goal;
-  goal.target_001mm = static_cast<int32_t>(std::lround(tr.to_mm * 100));
-  goal.in_position_001mm = 50;
-  lec::StateData before;
-  before.position_001mm = static_cast<int32_t>(
-      std::lround((std::isnan(start_sample_mm) ? tr.from_mm : start_sample_mm) * 100));
-  before.target_001mm = before.position_001mm;
-  StatusFlags idle;
-  idle.set(StatusFlags::Svre, true);
-  idle.set(StatusFlags::Seton, true);
-  idle.set(StatusFlags::Inp, true);
-  client::Completion c({goal, idle, before, false, t0}, t0 + std::chrono::seconds(60));
-  MotionTracker& tracker = attack_tracker();
-  tracker.telemetry(before, idle, t0 - msecs(50), 0, t0 - msecs(58));
-  tracker.op_event({{"event", "started"}, {"op", "move"}, {"source", "test"}}, t0, 0);
-  for (double at = phase_ms;; at += gap_ms) {
-    const TimePoint sent = t0 + msecs(at), sampled = sent + msecs(3), end = sent + msecs(8);
-    lec::StateData s;
-    s.position_001mm = static_cast<int32_t>(std::lround(tr.pos(sampled) * 100));
-    s.target_001mm = goal.target_001mm;
-    StatusFlags f = idle;
-    const bool busy = sampled >= tr.rise && sampled < tr.fall;
-    f.set(StatusFlags::Busy, busy);
-    f.set(StatusFlags::Inp, sampled >= tr.fall);
-    tracker.telemetry(s, std::nullopt, end, 0, sent);
-    if (const auto r = c.feed({f, s, end, sent})) {
-      nlohmann::json e{{"event", "finished"},
-                       {"op", "move"},
-                       {"status", 200},
-                       {"ok", r->succeeded()},
-                       {"outcome", std::string(client::outcome_name(r->outcome))},
-                       {"target_mm", tr.to_mm},
-                       {"position_mm", tr.to_mm}};
-      const auto sec = [](const std::optional<Duration>& d) {
-        return d ? nlohmann::json(to_seconds(*d)) : nlohmann::json(nullptr);
-      };
-      e["timeline"] = {{"busy_up_s", sec(r->timeline.busy_up)},
-                       {"busy_down_s", sec(r->timeline.busy_down)},
-                       {"inp_s", sec(r->timeline.inp)},
-                       {"busy_up_after_s", sec(r->timeline.busy_up_after)},
-                       {"busy_down_after_s", sec(r->timeline.busy_down_after)},
-                       {"inp_after_s", sec(r->timeline.inp_after)},
-                       {"origin_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                         r->timeline.origin.time_since_epoch())
-                                         .count()}};
-      e["profile"] = {{"from_mm", tr.from_mm},
-                      {"speed_mm_s", asked.speed},
-                      {"acceleration_mm_s2", asked.accel},
-                      {"deceleration_mm_s2", asked.decel}};
-      auto rec = tracker.op_event(e, end, 0);
-      EXPECT_TRUE(rec);
-      return {rec ? *rec : MotionRecord{}, to_seconds(tr.fall - tr.rise)};
-    }
-  }
-}
-
 struct Tally {
   int n = 0, by_pos = 0, outside = 0;
   double worst_err = 0, worst_pm = 0, worst_excess = 0;
@@ -371,7 +324,8 @@ TEST(ProfileFitAttacked, AccelClampedByTheActuatorIsNotRefused) {
       const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
       const auto p = sim::MotionProfile::plan(t0 + msecs(20), 0, 0, 1000, {500, 10000, 10000});
       Truth tr{[p](TimePoint t) { return p.position(t); }, p.start_time(), p.end_time(), 0, 1000};
-      t.add(poll_truth(tr, t0, {500, 30000, 30000}, 25.0 * axes, 25.0 * axes * unit(rng)));
+      t.add(poll_truth(attack_tracker(), tr, t0, {500, 30000, 30000}, 25.0 * axes,
+                       25.0 * axes * unit(rng)));
     }
     EXPECT_EQ(t.outside, 0) << axes << " axes: " << t.str();
   }
@@ -392,7 +346,8 @@ TEST(ProfileFitAttacked, AHoldSeenByFewSamplesIsNotRefused) {
       const auto b = sim::MotionProfile::plan(resume, 40, 0, 80, {100, 1000, 1000});
       Truth tr{[a, b, resume](TimePoint t) { return t < resume ? a.position(t) : b.position(t); },
                a.start_time(), b.end_time(), 0, 80};
-      t.add(poll_truth(tr, t0, {100, 1000, 1000}, 25.0 * axes, 25.0 * axes * unit(rng)));
+      t.add(poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, 25.0 * axes,
+                       25.0 * axes * unit(rng)));
     }
     EXPECT_EQ(t.outside, 0) << axes << " axes: " << t.str();
   }
@@ -460,7 +415,8 @@ TEST(ProfileFitAttacked, StaleStartPosition) {
       const TimePoint t0 = TimePoint{} + std::chrono::seconds(10);
       const auto p = sim::MotionProfile::plan(t0 + msecs(20), 53, 0, 250, {100, 1000, 1000});
       Truth tr{[p](TimePoint t) { return p.position(t); }, p.start_time(), p.end_time(), 53, 250};
-      t.add(poll_truth(tr, t0, {100, 1000, 1000}, 25.0 * axes, 25.0 * axes * unit(rng), 50.0));
+      t.add(poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, 25.0 * axes,
+                       25.0 * axes * unit(rng), 50.0));
     }
     EXPECT_EQ(t.outside, 0) << axes << " axes: " << t.str();
   }
@@ -479,7 +435,8 @@ TEST(ProfileFitAttacked, BusyHeldPastTheProfile) {
       const auto p = sim::MotionProfile::plan(t0 + msecs(20), 50, 0, 250, {100, 1000, 1000});
       Truth tr{[p](TimePoint t) { return p.position(t); }, p.start_time(), p.end_time() + msecs(30),
                50, 250};
-      t.add(poll_truth(tr, t0, {100, 1000, 1000}, 25.0 * axes, 25.0 * axes * unit(rng)));
+      t.add(poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, 25.0 * axes,
+                       25.0 * axes * unit(rng)));
     }
     EXPECT_EQ(t.outside, 0) << axes << " axes: " << t.str();
   }
@@ -503,7 +460,8 @@ TEST(ProfileFitAttacked, SCurve) {
         return s / 60;
       };
       Truth tr{pos, p.start_time(), p.end_time() + to_duration(FractionalSeconds(J)), 50, 250};
-      t.add(poll_truth(tr, t0, {100, 1000, 1000}, 25.0 * axes, 25.0 * axes * unit(rng)));
+      t.add(poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, 25.0 * axes,
+                       25.0 * axes * unit(rng)));
     }
     EXPECT_EQ(t.outside, 0) << axes << " axes: " << t.str();
   }
@@ -544,7 +502,8 @@ TEST(ProfileFitAttacked, HoldScanThroughTheTracker) {
       const auto b = plan_at(resume, D * h, D, 100, 1000);
       Truth tr{[a, b, resume](TimePoint t) { return t < resume ? a.position(t) : b.position(t); },
                a.start_time(), b.end_time(), 0, D};
-      t.add(poll_truth(tr, t0, {100, 1000, 1000}, 25.0 * axes, 25.0 * axes * unit(rng)));
+      t.add(poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, 25.0 * axes,
+                       25.0 * axes * unit(rng)));
     }
     EXPECT_EQ(t.outside, 0) << axes << " axes: " << t.str();
   }
@@ -563,7 +522,8 @@ TEST(ProfileFitAttacked, SCurveSmallJ) {
         const auto p = plan_at(t0 + msecs(20), 50, 250, 100, 1000);
         Truth tr{smoothed(p, J), p.start_time(), p.end_time() + to_duration(FractionalSeconds(J)),
                  50, 250};
-        t.add(poll_truth(tr, t0, {100, 1000, 1000}, 25.0 * axes, 25.0 * axes * unit(rng)));
+        t.add(poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, 25.0 * axes,
+                         25.0 * axes * unit(rng)));
       }
       EXPECT_EQ(t.outside, 0) << "J " << J * 1e3 << " ms, " << axes << " axes: " << t.str();
     }
@@ -589,7 +549,8 @@ TEST(ProfileFitAttacked, DriftFalseWarningWhenLoadDrops) {
           plan_at(t0 + msecs(15 + 10 * unit(rng)), 50, 150, 100 / (1 + std::abs(noise(rng))), 1000);
       Truth tr{smoothed(p, J), p.start_time(), p.end_time() + to_duration(FractionalSeconds(J)), 50,
                150};
-      MotionRecord r = poll_truth(tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
+      MotionRecord r =
+          poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
       (i < 100 ? by_pos_hi : by_pos_lo) += r.timed_by == "positions";
       r.id = i + 1;
       r.axis = "x";
@@ -627,7 +588,8 @@ TEST(ProfileFitAttacked, DriftFalseWarningWhenLoadDrops2) {
                                100 / (1 + std::abs(noise(rng))), 1000);
         Truth tr{smoothed(p, J), p.start_time(), p.end_time() + to_duration(FractionalSeconds(J)),
                  50, 50 + D};
-        MotionRecord r = poll_truth(tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
+        MotionRecord r =
+            poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
         (i < 300 ? by_pos_hi : by_pos_lo) += r.timed_by == "positions";
         r.id = i + 1;
         r.axis = "x";
@@ -667,7 +629,8 @@ TEST(ProfileFitAttacked, HealthySweep) {
                                                 {v / (1 + wear), ad.first, ad.second});
         Truth tr{[p](TimePoint t) { return p.position(t); }, p.start_time(), p.end_time(), from,
                  to};
-        t.add(poll_truth(tr, t0, {v, ad.first, ad.second}, 25.0 * axes, 25.0 * axes * unit(rng)));
+        t.add(poll_truth(attack_tracker(), tr, t0, {v, ad.first, ad.second}, 25.0 * axes,
+                         25.0 * axes * unit(rng)));
       }
       EXPECT_EQ(t.outside, 0) << "v " << v << " a " << ad.first << " d " << ad.second << ": "
                               << t.str();
@@ -736,7 +699,8 @@ TEST(ProfileFitAttacked, WearThatLowersAcceleration) {
       const auto p = sim::MotionProfile::plan(t0 + msecs(15 + 10 * unit(rng)), 50, 0, 250,
                                               {100 / (1 + std::abs(noise(rng))), a, a});
       Truth tr{[p](TimePoint t) { return p.position(t); }, p.start_time(), p.end_time(), 50, 250};
-      MotionRecord r = poll_truth(tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
+      MotionRecord r =
+          poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
       if (i >= 300) by_pos_after += r.timed_by == "positions";
       r.id = i + 1;
       r.axis = "x";
@@ -788,7 +752,8 @@ TEST(ProfileFitAttacked, ServoLag) {
           return (*table)[std::size_t(k)];
         };
         Truth tr{pos, s0, fall, 50, 250};
-        t.add(poll_truth(tr, t0, {100, 1000, 1000}, 25.0 * axes, 25.0 * axes * unit(rng)));
+        t.add(poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, 25.0 * axes,
+                         25.0 * axes * unit(rng)));
       }
       EXPECT_EQ(t.outside, 0) << "tau " << tau * 1e3 << " ms, " << axes << " axes: " << t.str();
     }
