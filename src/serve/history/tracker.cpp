@@ -173,6 +173,14 @@ std::optional<MotionRecord> MotionTracker::telemetry(const std::optional<lec::St
     return std::nullopt;
   }
   Motion& m = *motion_;
+  if (busy) {
+    m.high_last_sent = last_flags_at_;
+    m.low_after_at.reset();
+  } else if (!m.busy_seen) {
+    m.low_before_sent = last_flags_at_;
+  } else if (!m.low_after_at) {
+    m.low_after_at = at;
+  }
   if (busy && !m.busy_seen) m.busy_seen = at;
   if (busy && !m.busy_down && state && before) {
     const bool still = state->speed_mm_s == 0 &&
@@ -257,6 +265,18 @@ void MotionTracker::time_from_positions(const Motion& m, const nlohmann::json& e
       to_seconds(TimePoint{} + std::chrono::nanoseconds(origin->get<int64_t>()) - m.started);
   double rise_lo = k + up_after_s, rise_hi = k + *r.busy_up_s;
   double fall_lo = k + down_after_s, fall_hi = k + *r.busy_down_s;
+  // Every read of the flags (the telemetry's too) brackets the edges; the
+  // rise only where a read saw BUSY = 0 after the operation began (else the
+  // first BUSY = 1 may be an earlier motion's).
+  const auto secs = [&](TimePoint t) { return to_seconds(t - m.started); };
+  if (m.busy_seen && m.low_before_sent) {
+    rise_lo = std::max(rise_lo, secs(*m.low_before_sent));
+    rise_hi = std::min(rise_hi, secs(*m.busy_seen));
+  }
+  if (m.high_last_sent && m.low_after_at) {
+    fall_lo = std::max(fall_lo, secs(*m.high_last_sent));
+    fall_hi = std::min(fall_hi, secs(*m.low_after_at));
+  }
   const EdgeBounds edges = busy_edge_bounds(xs, asked);
   if (edges.rise_before) rise_hi = std::min(rise_hi, *edges.rise_before);
   if (edges.fall_after) fall_lo = std::max(fall_lo, *edges.fall_after);

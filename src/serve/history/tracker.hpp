@@ -86,6 +86,11 @@ class MotionTracker {
     std::optional<double> up_after_s, down_after_s;  // the brackets' early ends (telemetry)
     std::optional<TimePoint> rest_since;             // BUSY on, the carriage still (a hold)
     std::optional<TimePoint> busy_seen;              // the first read with BUSY on
+    // Any read of its flags (telemetry's or an operation's) brackets BUSY's
+    // edges on the samples' clock: the last BUSY = 0 read's start before the
+    // first BUSY = 1 read; the last BUSY = 1 read's start, and the first
+    // BUSY = 0 read's end after it.
+    std::optional<TimePoint> low_before_sent, high_last_sent, low_after_at;
     bool interrupted = false;  // a stop, hold or reset of ours came during it: not one trapezoid
     std::vector<Sample> samples;
   };
