@@ -36,6 +36,15 @@ OpResult run_served_cycle(const ServedCycle& served, const std::map<std::string,
     by_name[a.name] = clients.back().get();
     policy.escalate_servo_off = policy.escalate_servo_off && ref.config->stop_servo_off;
   }
+  // A hard stop to any of the cycle's controllers on a line refuses the
+  // cycle's starts to the others there, queued or later (Job::stop_group).
+  // Across lines, the cycle's next look sees it.
+  for (auto& [line, master] : masters) {
+    std::vector<uint8_t> ids;
+    for (const cycle::Axis& a : served.cycle.axes)
+      if (axes.at(a.name).line == line) ids.push_back(axes.at(a.name).id);
+    master->stop_group(std::move(ids));
+  }
   // A stop seen: asked for, through the operations (or a shutdown), or a
   // hard stop to one of the cycle's controllers accepted by its line since
   // the cycle was (a Modbus TCP client's).

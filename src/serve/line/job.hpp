@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <vector>
 
 #include "lec6/clock.hpp"
 #include "lec6/modbus/pdu.hpp"
@@ -41,6 +42,12 @@ struct Job {
   // command's starts however late they are submitted (a move's start comes
   // after its reads: a stop that came meanwhile must still win; scheduler.cpp).
   std::optional<TimePoint> command_accepted{};
+  // The other controllers of the work this write belongs to (a machine cycle
+  // of lec serve's: its axes on this line): a hard stop to any of them
+  // supersedes this write's starts as one to its own controller does (a
+  // reviewer's finding: a stop of axis z left the start of axis x already
+  // queued to go, and x moved after the stop).
+  std::vector<uint8_t> stop_group;
 };
 
 // A job waiting for the wire.

@@ -34,7 +34,10 @@ modbus::ResponseFrame LineMaster::exchange(const modbus::RequestFrame& frame) {
   job.frame = frame;
   const bool resend = lost_write_ && lost_write_->first == frame;
   if (resend) job.first_submitted = lost_write_->second;
-  if (modbus::is_write(frame.pdu)) job.command_accepted = accepted_;
+  if (modbus::is_write(frame.pdu)) {
+    job.command_accepted = accepted_;
+    job.stop_group = stop_group_;
+  }
   job.done = [promise](const JobResult& r) { promise->set_value(r); };
   line_.submit(std::move(job));
   const JobResult r = result.get();  // the line always answers: on the wire, or failed

@@ -39,6 +39,9 @@ class LineMaster final : public client::Master {
   // clock): its writes carry it (Job::command_accepted), so a stop accepted
   // after the command supersedes the command's starts, however late they come.
   void count_from(TimePoint accepted) { accepted_ = accepted; }
+  // The controllers of the work this master serves (a cycle's axes on this
+  // line): a hard stop to any of them supersedes its starts (Job::stop_group).
+  void stop_group(std::vector<uint8_t> ids) { stop_group_ = std::move(ids); }
   client::LinkStats stats() const override { return stats_; }
   Duration last_round_trip() const override { return last_round_trip_; }
   // The line's own times (issue 32): the exchange's start and its reply's
@@ -62,6 +65,7 @@ class LineMaster final : public client::Master {
   // that first attempt supersedes all the same (Job::first_submitted).
   std::optional<std::pair<modbus::RequestFrame, TimePoint>> lost_write_;
   std::optional<TimePoint> accepted_;
+  std::vector<uint8_t> stop_group_;
 };
 
 }  // namespace lec6::serve

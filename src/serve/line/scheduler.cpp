@@ -171,20 +171,26 @@ JobId Scheduler::submit(Job job, TimePoint now) {
           record(it == hard_stop_.end() ? std::nullopt : std::optional<HardStop>(it->second));
       any_hard_stop_ = record(any_hard_stop_);
     }
-    const auto reaches = [&](uint8_t target) {
+    const auto reaches_id = [&](uint8_t target) {
       return target == to || to == modbus::kBroadcastId || target == modbus::kBroadcastId;
     };
-    for (Queued& q : lane_.take_if(
-             [&](const Queued& q) { return reaches(q.job.frame.id) && superseded(q.job, q.id); }))
+    // What this stop refuses: the starts to its controller, and those of work
+    // whose group has it (Job::stop_group).
+    const auto reaches = [&](const Job& j) {
+      return reaches_id(j.frame.id) ||
+             std::find(j.stop_group.begin(), j.stop_group.end(), to) != j.stop_group.end();
+    };
+    for (Queued& q :
+         lane_.take_if([&](const Queued& q) { return reaches(q.job) && superseded(q.job, q.id); }))
       supersede(q.job, q.submitted, now);
     std::vector<Queued> earlier;
     for (auto& q : queues_) {
       for (auto it = q.begin(); it != q.end();) {
         const bool write = modbus::is_write(it->job.frame.pdu);
-        if (write && reaches(it->job.frame.id) && superseded(it->job, it->id)) {
+        if (write && reaches(it->job) && superseded(it->job, it->id)) {
           supersede(it->job, it->submitted, now);
           it = q.erase(it);
-        } else if (write && reaches(it->job.frame.id)) {
+        } else if (write && reaches_id(it->job.frame.id)) {
           earlier.push_back(std::move(*it));
           it = q.erase(it);
         } else {
@@ -440,6 +446,10 @@ bool Scheduler::superseded(const Job& job, JobId id) const {
   };
   if (job.frame.id == modbus::kBroadcastId) return any_hard_stop_ && after(*any_hard_stop_);
   for (const uint8_t to : {job.frame.id, modbus::kBroadcastId}) {
+    const auto it = hard_stop_.find(to);
+    if (it != hard_stop_.end() && after(it->second)) return true;
+  }
+  for (const uint8_t to : job.stop_group) {  // a cycle's other axes
     const auto it = hard_stop_.find(to);
     if (it != hard_stop_.end() && after(it->second)) return true;
   }

@@ -57,8 +57,9 @@ void submit(Harness& h, Submitted& out, std::string name, uint8_t id, modbus::Re
 // As submit(), for a write of one of lec serve's operations: one attempt,
 // dated at its command's acceptance (Job::command_accepted).
 void submit_accepted(Harness& h, Submitted& out, std::string name, uint8_t id, modbus::Request r,
-                     TimePoint accepted) {
+                     TimePoint accepted, std::vector<uint8_t> stop_group = {}) {
   Job j;
+  j.stop_group = std::move(stop_group);
   j.priority = client::stops_or_releases(r) ? Priority::Emergency : Priority::Command;
   j.frame = {id, std::move(r)};
   j.command_accepted = accepted;
@@ -172,6 +173,29 @@ TEST(SchedulerSupersede, AStartAcceptedAfterTheStopIsNotRefused) {
   h.run_for(1s);
   EXPECT_EQ(result_of(s, "hold").failure, Failure::None);
   EXPECT_EQ(result_of(s, "hold off").failure, Failure::None);
+}
+
+// A machine cycle's writes carry its axes on the line (Job::stop_group): a
+// hard stop to one of them refuses the cycle's starts to the others, queued
+// or submitted later (a reviewer's finding: a stop of axis 2 left the
+// cycle's start of axis 1, already queued, to go after it). A start to
+// axis 1 outside the cycle is not refused by axis 2's stop.
+TEST(SchedulerSupersede, AStopOfOneAxisOfACycleRefusesTheCyclesStartsOfItsOtherAxes) {
+  Harness h;
+  Submitted s;
+  const Dispatch first = occupy(h, 3);
+  const TimePoint looked = h.clock.now();
+  submit_accepted(h, s, "cycle drive 1", 1, kDriveOn, looked, {1, 2});
+  h.clock.advance(1ms);
+  submit(h, s, "hold 2", 2, kHoldOn);
+  EXPECT_EQ(result_of(s, "cycle drive 1").failure, Failure::Superseded);
+  submit_accepted(h, s, "cycle drive 1 later", 1, kDriveOn, looked, {1, 2});
+  EXPECT_EQ(result_of(s, "cycle drive 1 later").failure, Failure::Superseded);
+  submit(h, s, "drive 1 alone", 1, kDriveOn);
+  answer_it(h, first);
+  h.run_for(1s);
+  EXPECT_EQ(result_of(s, "hold 2").failure, Failure::None);
+  EXPECT_EQ(result_of(s, "drive 1 alone").failure, Failure::None);
 }
 
 TEST(SchedulerSupersede, ABroadcastStopSupersedesEveryControllersStarts) {
