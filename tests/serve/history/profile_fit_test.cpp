@@ -206,6 +206,17 @@ TEST(ProfileFit, SamplesOfAnotherMotionAreRefused) {
   EXPECT_FALSE(fit_profile({at(slow, 1.0), at(slow, 2.0)}, {0, 200, 100, 1000, 1000}));
 }
 
+// Feeds move `i` to the detector; returns the index of the first duration
+// warning so far (`first`, or i if this move raised one; -1: none yet).
+int add_move(DriftDetector& d, MotionRecord r, int i, int first) {
+  r.id = i + 1;
+  r.axis = "x";
+  r.start_ms = 1'700'000'000'000 + int64_t(i) * 3000;
+  for (const auto& e : d.add(r))
+    if (e.raised && e.warning.metric == Metric::Duration && first < 0) first = i;
+  return first;
+}
+
 // Issue 32's proof through the tracker: the axis' durations feed the drift
 // detector while 1 to 8 axes move on its line. A healthy axis never warns in
 // 10^4 moves as the load changes; +10 % wear is flagged within 50 moves at
@@ -226,11 +237,7 @@ int first_duration_warning(int moves, const std::function<int(int)>& axes_at,
     mo.busy_delay_ms = 15 + 10 * unit(rng);
     const double phase = gap * unit(rng);
     MotionRecord r = poll_motion(tracker, mo, gap, phase).record;
-    r.id = i + 1;
-    r.axis = "x";
-    r.start_ms = 1'700'000'000'000 + int64_t(i) * 3000;
-    for (const auto& e : d.add(r))
-      if (e.raised && e.warning.metric == Metric::Duration && first < 0) first = i;
+    first = add_move(d, r, i, first);
   }
   if (skipped)
     for (const auto& g : d.groups("x")) *skipped += g.skipped_duration;
@@ -272,11 +279,6 @@ TEST(ProfileFit, TenPercentWearIsFlaggedWithinFiftyMovesAtEveryLoad) {
     EXPECT_LE(first, 350) << axes << " axes: +10 % not flagged within 50 moves";
   }
 }
-
-}  // namespace profile_fit_test
-}  // namespace lec6::serve::history
-namespace lec6::serve::history {
-namespace profile_fit_test {
 
 // One tracker per case (its fit offsets are learned across the moves of
 // a case, as lec serve's are across an axis' moves).
@@ -474,12 +476,6 @@ TEST(ProfileFitAttacked, SCurve) {
   }
 }
 
-}  // namespace profile_fit_test
-}  // namespace lec6::serve::history
-
-namespace lec6::serve::history {
-namespace profile_fit_test {
-
 sim::MotionProfile plan_at(TimePoint t, double from, double to, double v, double a) {
   return sim::MotionProfile::plan(t, from, 0, to, {v, a, a});
 }
@@ -561,11 +557,7 @@ TEST(ProfileFitAttacked, DriftFalseWarningWhenLoadDrops) {
       MotionRecord r =
           poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
       (i < 100 ? by_pos_hi : by_pos_lo) += r.timed_by == "positions";
-      r.id = i + 1;
-      r.axis = "x";
-      r.start_ms = 1'700'000'000'000 + int64_t(i) * 3000;
-      for (const auto& e : d.add(r))
-        if (e.raised && e.warning.metric == Metric::Duration && first < 0) first = i;
+      first = add_move(d, r, i, first);
     }
     EXPECT_EQ(first, -1) << loads.first << " then " << loads.second
                          << " axes: first warning at move " << first
@@ -574,11 +566,6 @@ TEST(ProfileFitAttacked, DriftFalseWarningWhenLoadDrops) {
   }
 }
 
-}  // namespace profile_fit_test
-}  // namespace lec6::serve::history
-
-namespace lec6::serve::history {
-namespace profile_fit_test {
 TEST(ProfileFitAttacked, DriftFalseWarningWhenLoadDrops2) {
   for (double J : kSanitized ? std::vector<double>{0.13} : std::vector<double>{0.08, 0.13}) {
     for (double D : kSanitized ? std::vector<double>{110.0} : std::vector<double>{90.0, 110.0}) {
@@ -600,11 +587,7 @@ TEST(ProfileFitAttacked, DriftFalseWarningWhenLoadDrops2) {
         MotionRecord r =
             poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
         (i < 300 ? by_pos_hi : by_pos_lo) += r.timed_by == "positions";
-        r.id = i + 1;
-        r.axis = "x";
-        r.start_ms = 1'700'000'000'000 + int64_t(i) * 3000;
-        for (const auto& e : d.add(r))
-          if (e.raised && e.warning.metric == Metric::Duration && first < 0) first = i;
+        first = add_move(d, r, i, first);
       }
       for (const auto& g : d.groups("x")) skipped += g.skipped_duration;
       EXPECT_EQ(first, -1) << "J " << J * 1e3 << " ms, D " << D << ": first warning at " << first
@@ -613,11 +596,7 @@ TEST(ProfileFitAttacked, DriftFalseWarningWhenLoadDrops2) {
     }
   }
 }
-}  // namespace profile_fit_test
-}  // namespace lec6::serve::history
 
-namespace lec6::serve::history {
-namespace profile_fit_test {
 // Healthy sweep: trapezoid exactly as written, slow/fast, short/long, a != d.
 TEST(ProfileFitAttacked, HealthySweep) {
   std::mt19937 rng(41);
@@ -646,11 +625,7 @@ TEST(ProfileFitAttacked, HealthySweep) {
     }
   }
 }
-}  // namespace profile_fit_test
-}  // namespace lec6::serve::history
 
-namespace lec6::serve::history {
-namespace profile_fit_test {
 // Slow moves: D9000 is in 0.01 mm; at 1 mm/s that is up to 5 ms, not in the windows.
 TEST(ProfileFitAttacked, SlowMoveQuantization) {
   for (bool rounded : {false, true}) {
@@ -684,11 +659,7 @@ TEST(ProfileFitAttacked, SlowMoveQuantization) {
                           << " ms ± " << worst_pm * 1e3 << " ms";
   }
 }
-}  // namespace profile_fit_test
-}  // namespace lec6::serve::history
 
-namespace lec6::serve::history {
-namespace profile_fit_test {
 // Wear that lowers the acceleration the drive reaches (not the cruise speed):
 // +10 % duration from move 300.
 TEST(ProfileFitAttacked, WearThatLowersAcceleration) {
@@ -711,11 +682,7 @@ TEST(ProfileFitAttacked, WearThatLowersAcceleration) {
       MotionRecord r =
           poll_truth(attack_tracker(), tr, t0, {100, 1000, 1000}, gap, gap * unit(rng)).record;
       if (i >= 300) by_pos_after += r.timed_by == "positions";
-      r.id = i + 1;
-      r.axis = "x";
-      r.start_ms = 1'700'000'000'000 + int64_t(i) * 3000;
-      for (const auto& e : d.add(r))
-        if (e.raised && e.warning.metric == Metric::Duration && first < 0) first = i;
+      first = add_move(d, r, i, first);
     }
     for (const auto& g : d.groups("x")) skipped += g.skipped_duration;
     EXPECT_TRUE(first == -1 || first >= 300)
@@ -723,11 +690,7 @@ TEST(ProfileFitAttacked, WearThatLowersAcceleration) {
         << by_pos_after << "/100 timed by positions; skipped " << skipped;
   }
 }
-}  // namespace profile_fit_test
-}  // namespace lec6::serve::history
 
-namespace lec6::serve::history {
-namespace profile_fit_test {
 // A servo's following error: the carriage lags the commanded trapezoid
 // (first-order, tau), BUSY falls when the carriage is within 0.01 mm.
 TEST(ProfileFitAttacked, ServoLag) {
