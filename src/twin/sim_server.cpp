@@ -27,6 +27,7 @@
 #include "lec6/client/link.hpp"
 #include "lec6/lec/memory_map.hpp"
 #include "lec6/modbus/pdu.hpp"
+#include "lec6/sim/wrong_baud.hpp"
 #include "twin/lumped_writer.hpp"
 #include "twin/state_saver.hpp"
 #include "twin/trace_mirror.hpp"
@@ -44,14 +45,6 @@ constexpr int kPtySource = 0;
 constexpr int kNoSource = -1;
 constexpr int kEverySource = -2;  // idle-line noise: every master hears it
 constexpr int kOtherMaster = -4;  // SimServerOptions::other_master_period
-
-// What a UART at the wrong speed makes of bytes: fewer of them, none the same.
-modbus::Bytes garble(std::span<const uint8_t> bytes) {
-  modbus::Bytes out;
-  for (std::size_t i = 0; i < bytes.size(); i += 2)
-    out.push_back(static_cast<uint8_t>(bytes[i] ^ 0x5A));
-  return out;
-}
 
 timespec to_timespec(Duration d) {
   if (d < Duration::zero()) d = Duration::zero();
@@ -270,7 +263,7 @@ struct SimServer::Impl {
 
   // Bytes the pty's master hears (garbled when it listens at the wrong rate).
   ssize_t to_pty(const modbus::Bytes& bytes) {
-    const modbus::Bytes heard = master_at_wrong_baud() ? garble(bytes) : bytes;
+    const modbus::Bytes heard = master_at_wrong_baud() ? sim::garble_wrong_baud(bytes) : bytes;
     const ssize_t n = ::write(self.pty_->master_fd(), heard.data(), heard.size());
     return n == static_cast<ssize_t>(heard.size()) ? static_cast<ssize_t>(bytes.size()) : n;
   }
@@ -282,7 +275,7 @@ struct SimServer::Impl {
     }
     if (o.owner == kPtySource && self.pty_ && usb) {
       // written at the adapter's tick (flush_writers), garbled at a wrong baud
-      usb->put(master_at_wrong_baud() ? garble(o.bytes) : o.bytes, o.at);
+      usb->put(master_at_wrong_baud() ? sim::garble_wrong_baud(o.bytes) : o.bytes, o.at);
       ++replies_sent;
       return true;
     }
@@ -318,7 +311,7 @@ struct SimServer::Impl {
   // Noise goes to every master, best effort (not traced, not counted as replies).
   void spread(const modbus::Bytes& bytes) {
     if (self.pty_ && usb) {
-      usb->put(master_at_wrong_baud() ? garble(bytes) : bytes, clock.now());
+      usb->put(master_at_wrong_baud() ? sim::garble_wrong_baud(bytes) : bytes, clock.now());
     } else if (self.pty_) {
       [[maybe_unused]] const ssize_t n = to_pty(bytes);
     }
@@ -397,7 +390,7 @@ struct SimServer::Impl {
               ::write(self.pty_->master_fd(), buf.data(), bytes.size());
         }
         if (master_at_wrong_baud()) {
-          const modbus::Bytes heard = garble(bytes);
+          const modbus::Bytes heard = sim::garble_wrong_baud(bytes);
           ingest(heard, now, kPtySource);
         } else {
           ingest(bytes, now, kPtySource);
