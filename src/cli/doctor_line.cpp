@@ -2,18 +2,15 @@
 
 #include <array>
 #include <fstream>
-#include <thread>
 
 #include "lec6/client/link.hpp"
 #include "lec6/lec/memory_map.hpp"
 
 namespace lec6::cli::doctor_line {
 
-LineProbe::LineProbe(const transport::PortSpec& spec, twin::PortOptions options) {
-  timing_.baud = options.baud;
-  timing_.silent_interval_k = options.silent_interval_k;
-  timing_.delay_td = options.delay_td;
-  port_ = twin::open_port(spec, options);
+LineProbe::LineProbe(std::unique_ptr<twin::OpenPort> port, const modbus::LineTiming& timing,
+                     std::function<void(Duration)> wait)
+    : port_(std::move(port)), timing_(timing), wait_(std::move(wait)) {
   link_ = port_->master().link();
   if (!link_) throw InvalidArgument("lec doctor probes a line it owns (a serial port)");
 }
@@ -33,7 +30,7 @@ LineProbe::Heard LineProbe::exchange(const modbus::Bytes& query, std::size_t rep
                                      Duration margin, Duration gap, std::size_t split_at) {
   using client::doctor::ReplyKind;
   // The silent interval before a query (and a little more for the twin's wake-ups).
-  std::this_thread::sleep_for(timing_.silent_interval() + std::chrono::microseconds(500));
+  wait_(timing_.silent_interval() + std::chrono::microseconds(500));
   link_->discard_input();
   Heard h;
   const TimePoint start = link_->clock().now();
@@ -42,7 +39,7 @@ LineProbe::Heard LineProbe::exchange(const modbus::Bytes& query, std::size_t rep
     link_->write(q.first(split_at));
     // write() returns when the bytes have left; an adapter may still hold
     // them for their wire time: wait that too, so the gap is at least `gap`.
-    std::this_thread::sleep_for(gap + timing_.wire_time(split_at));
+    wait_(gap + timing_.wire_time(split_at));
     link_->write(q.subspan(split_at));
   } else {
     link_->write(query);

@@ -5,13 +5,13 @@
 // client/doctor (sans-I/O).
 
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 
 #include "lec6/client/doctor.hpp"
 #include "lec6/modbus/pdu.hpp"
-#include "lec6/transport/port_spec.hpp"
 #include "lec6/twin/open_port.hpp"
 
 namespace lec6::cli::doctor_line {
@@ -19,7 +19,9 @@ namespace lec6::cli::doctor_line {
 // The port at one baud, with no echo discard (we want to see the echo) unless asked.
 class LineProbe {
  public:
-  LineProbe(const transport::PortSpec& spec, twin::PortOptions options);
+  // `port` opened at timing.baud; `wait` lets time pass on its link's clock.
+  LineProbe(std::unique_ptr<twin::OpenPort> port, const modbus::LineTiming& timing,
+            std::function<void(Duration)> wait);
   client::Link& link() { return *link_; }
   client::Master& master() { return port_->master(); }
   const modbus::LineTiming& timing() const { return timing_; }
@@ -45,6 +47,7 @@ class LineProbe {
   std::unique_ptr<twin::OpenPort> port_;
   client::Link* link_ = nullptr;
   modbus::LineTiming timing_;
+  std::function<void(Duration)> wait_;
 };
 
 // D9000 x 7 (state data) to `id`: the probe every check uses (its reply,

@@ -79,16 +79,27 @@ std::unique_ptr<OpenPort> open_port(const transport::PortSpec& spec, const PortO
       break;
     }
   }
-  if (port->link_) {
-    client::Link* link = port->link_.get();
-    if (options.record) {
-      port->recording_ = std::make_unique<transport::RecordingLink>(*link, options.record);
-      link = port->recording_.get();
-    }
-    port->master_ = std::make_unique<client::RtuMaster>(*link, rtu_options(options));
-  }
+  if (port->link_) port->attach_master(options);
   port->description_ = port->master_->describe();
   return port;
+}
+
+std::unique_ptr<OpenPort> open_port_over(std::unique_ptr<client::Link> link,
+                                         const PortOptions& options) {
+  auto port = std::make_unique<OpenPort>();
+  port->link_ = std::move(link);
+  port->attach_master(options);
+  port->description_ = port->master_->describe();
+  return port;
+}
+
+void OpenPort::attach_master(const PortOptions& options) {
+  client::Link* link = link_.get();
+  if (options.record) {
+    recording_ = std::make_unique<transport::RecordingLink>(*link, options.record);
+    link = recording_.get();
+  }
+  master_ = std::make_unique<client::RtuMaster>(*link, rtu_options(options));
 }
 
 }  // namespace lec6::twin

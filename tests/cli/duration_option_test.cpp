@@ -64,13 +64,13 @@ struct Parsed {
 Parsed parse(CLI::App& app, std::vector<std::string> args) {
   std::reverse(args.begin(), args.end());  // CLI11 takes them last first
   Parsed p;
-  testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStderr();
   try {
     app.parse(args);
   } catch (const CLI::ParseError& e) {
     p.error = e.what();
   }
-  p.warnings = testing::internal::GetCapturedStderr();
+  p.warnings = ::testing::internal::GetCapturedStderr();
   return p;
 }
 

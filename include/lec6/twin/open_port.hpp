@@ -78,6 +78,10 @@ class OpenPort {
 
  private:
   friend std::unique_ptr<OpenPort> open_port(const transport::PortSpec&, const PortOptions&);
+  friend std::unique_ptr<OpenPort> open_port_over(std::unique_ptr<client::Link>,
+                                                  const PortOptions&);
+  // The RTU master over link_ (recorded, with PortOptions::record).
+  void attach_master(const PortOptions& options);
   SteadyClock clock_;
   std::unique_ptr<sim::Bus> twin_;
   std::unique_ptr<client::Link> link_;
@@ -91,5 +95,11 @@ class OpenPort {
 // when it cannot be opened (the message names it).
 std::unique_ptr<OpenPort> open_port(const transport::PortSpec& spec,
                                     const PortOptions& options = {});
+
+// A port over a link the caller made, as open_port builds one over a serial
+// link (the master, its timing, recording): an in-process line of twins on
+// a virtual clock (twin::VirtualLine), for what probes a line in tests.
+std::unique_ptr<OpenPort> open_port_over(std::unique_ptr<client::Link> link,
+                                         const PortOptions& options = {});
 
 }  // namespace lec6::twin
