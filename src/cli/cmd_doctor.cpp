@@ -94,8 +94,8 @@ void through_gateway(const transport::PortSpec& spec, const GlobalOptions& g,
   }
   obs.bauds.push_back(bp);
   if (!bp.answering.empty()) {
-    doctor_probes::read_controllers(*port, probe_settings(g), bp.answering, fix,
-                                    [] { return g_interrupted.load(); }, obs);
+    doctor_probes::read_controllers(
+        *port, probe_settings(g), bp.answering, fix, [] { return g_interrupted.load(); }, obs);
   }
 }
 
@@ -183,34 +183,22 @@ void run_doctor(Session& s, const DoctorArgs& a) {
     throw UsageError("--serial-ids names what --fix may put into serial mode: give --fix too");
   const TimePoint start = SteadyClock{}.now();
 
-  dx::Observations obs;
-  obs.port = text;
-  obs.id_range = a.ids;
-  obs.echo_option = g.echo;
-  obs.fix = a.fix;
-  obs.assumed.baud = g.baud;
-  obs.assumed.silent_interval_k = g.silent_interval_k;
-  obs.assumed.delay_td = g.delay_td;
+  dx::Observations obs = doctor_probes::asked(text, a.ids, g.echo, a.fix, probe_settings(g));
 
   if (spec.kind == transport::PortKind::Tcp) {
     through_gateway(spec, g, id_list, fix, obs);
   } else {
-    const auto line = probe_line_on(spec, g);
-    doctor_probes::probe_line(line, probe_settings(g), id_list, obs);
-    if (obs.found_baud) {
-      if (spec.kind == transport::PortKind::Serial) {
-        // LEC6_SYSFS_ROOT: a stand-in sysfs tree (the tests' USB adapter).
-        const char* root = std::getenv("LEC6_SYSFS_ROOT");
-        if (auto t = doctor_line::read_latency_timer(spec.device, root && *root ? root : "/sys")) {
+    doctor_probes::probe_line(
+        probe_line_on(spec, g), probe_settings(g), id_list, fix, g.echo, obs, [&] {
+          if (spec.kind != transport::PortKind::Serial) return;
+          // LEC6_SYSFS_ROOT: a stand-in sysfs tree (the tests' USB adapter).
+          const char* root = std::getenv("LEC6_SYSFS_ROOT");
+          auto t = doctor_line::read_latency_timer(spec.device, root && *root ? root : "/sys");
+          if (!t) return;
           obs.latency_timer_ms = t->ms;
           obs.latency_timer_path = t->file.string();
           if (a.fix && t->ms > 1) obs.latency_fixed = doctor_line::set_latency_timer_1ms(*t);
-        }
-      }
-      auto port = line.open(*obs.found_baud, obs.echo_seen || g.echo);
-      doctor_probes::read_controllers(*port, probe_settings(g), obs.bauds.back().answering, fix,
-                                      line.interrupted, obs);
-    }
+        });
   }
   const dx::Report r = dx::diagnose(obs);
   if (s.json()) {

@@ -66,10 +66,21 @@ void search(const ProbeLine& line, const ProbeSettings& g, const std::vector<uin
       auto scan = [&](Duration margin) {
         bp = {};
         bp.baud = baud;
+        // An echo is the adapter's when most queries come back (a 2-wire
+        // adapter echoes every one), not when one does: another master's
+        // query to the same ID, in our window, is our query byte for byte
+        // (a reviewer's finding: "echo" on a line with another master, and
+        // the controllers then read with echo discard failed).
+        int asked = 0, echoes = 0;
         for (uint8_t id : ids) {
           if (line.interrupted() || line.clock->now() >= until) break;
           const auto h = p.exchange(state_query(id), kStateReplyBytes, margin);
-          bp.echo = bp.echo || h.result.echo;
+          ++asked;
+          // Another master heard asking this ID: its query is no echo of ours.
+          const bool theirs =
+              std::ranges::find(obs.foreign_query_ids, id) != obs.foreign_query_ids.end();
+          if (h.result.echo && !theirs) ++echoes;
+          bp.echo = echoes * 2 > asked;
           bp.stray_bytes += h.result.noise_bytes;
           switch (h.result.kind) {
             case dx::ReplyKind::Good:
@@ -377,8 +388,22 @@ void read_controllers(twin::OpenPort& port, const ProbeSettings& s, const std::v
   }
 }
 
+dx::Observations asked(std::string port, std::string id_range, bool echo_option, bool fix,
+                       const ProbeSettings& s) {
+  dx::Observations obs;
+  obs.port = std::move(port);
+  obs.id_range = std::move(id_range);
+  obs.echo_option = echo_option;
+  obs.fix = fix;
+  obs.assumed.baud = s.baud;
+  obs.assumed.silent_interval_k = s.silent_interval_k;
+  obs.assumed.delay_td = s.delay_td;
+  return obs;
+}
+
 void probe_line(const ProbeLine& line, const ProbeSettings& s, const std::vector<uint8_t>& ids,
-                dx::Observations& obs) {
+                const Fix& fix, bool echo_option, dx::Observations& obs,
+                const std::function<void()>& before_controllers) {
   search(line, s, ids, obs);
   if (!obs.found_baud) return;
   obs.assumed.baud = *obs.found_baud;
@@ -395,6 +420,9 @@ void probe_line(const ProbeLine& line, const ProbeSettings& s, const std::vector
   burst(line, s, asked, obs);
   // Not with another master on the line: its replies would answer for ours.
   if (obs.foreign_query_ids.empty()) probe_silent_interval(line, s, found.front(), obs);
+  if (before_controllers) before_controllers();
+  auto port = line.open(*obs.found_baud, obs.echo_seen || echo_option);
+  read_controllers(*port, s, obs.bauds.back().answering, fix, line.interrupted, obs);
 }
 
 }  // namespace lec6::cli::doctor_probes

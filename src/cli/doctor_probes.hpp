@@ -7,9 +7,8 @@
 // a VirtualClock, so every scenario runs in no wall time
 // (tests/cli/doctor_probes_test.cpp).
 //
-//   doctor_probes::probe_line(line, settings, ids, obs);   // search, echo, burst, Silent INT
-//   ...the adapter's latency timer (sysfs: the caller's)...
-//   if (obs.found_baud) doctor_probes::read_controllers(*line.open(baud, echo), ...);
+//   doctor_probes::probe_line(line, settings, ids, fix, echo_option, obs,
+//                             [&] { /* the adapter's latency timer (sysfs) */ });
 
 #include <cstdint>
 #include <functional>
@@ -63,12 +62,20 @@ inline constexpr Duration kBurstBudget = std::chrono::seconds(3);
 inline constexpr int kBurstExchanges = 200;
 inline constexpr int kNoisyRescans = 4;
 
-// 1-7 on a line lec owns: the baud and IDs (listening for another master
+// What the user asked, as the judgement needs it, before the probes fill in
+// what they saw: the port as named, the IDs, --echo, --fix, lec's timing.
+client::doctor::Observations asked(std::string port, std::string id_range, bool echo_option,
+                                   bool fix, const ProbeSettings& s);
+
+// 1-8 on a line lec owns: the baud and IDs (listening for another master
 // first), whether echo discard works, a burst of reads (noise, timing,
-// duplicates), the controllers' Silent INT. Fills `obs` (found_baud set
-// when something answered).
+// duplicates), the controllers' Silent INT; then, when something answered,
+// `before_controllers` (the caller's: the adapter's latency timer in sysfs)
+// and each controller's state through the port at the found baud, its echo
+// discarded when one was seen or `echo_option` (--echo) says so. Fills `obs`.
 void probe_line(const ProbeLine& line, const ProbeSettings& s, const std::vector<uint8_t>& ids,
-                client::doctor::Observations& obs);
+                const Fix& fix, bool echo_option, client::doctor::Observations& obs,
+                const std::function<void()>& before_controllers = {});
 
 // 8. Each controller's state, read only (--fix: serial mode on where allowed,
 // resettable alarms reset), through `port`.

@@ -341,6 +341,11 @@ void Builder::line_quality() {
   std::vector<uint8_t> dup;
   for (const auto& [id, n] : b.per_id_exchanges) {
     if (n < 5 || garbled_rate(id) < 0.1) continue;
+    // Another master heard asking this ID: its queries (our query, byte for
+    // byte, to the same ID) and the replies to them land in our windows
+    // with the ID in their first byte. That master is the finding, not a
+    // second controller (a reviewer's case on the virtual line).
+    if (std::ranges::find(o_.foreign_query_ids, id) != o_.foreign_query_ids.end()) continue;
     double others = 0;
     for (const auto& [other, m] : b.per_id_exchanges)
       if (other != id && m >= 5) others = std::max(others, garbled_rate(other));

@@ -29,6 +29,7 @@ client::RtuOptions rtu_options(const PortOptions& o) {
   r.reply_spin = o.reply_spin;
   r.trace = o.trace;
   r.interrupted = o.interrupted;
+  r.backoff_seed = o.backoff_seed;
   return r;
 }
 

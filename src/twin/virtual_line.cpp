@@ -88,10 +88,21 @@ struct VirtualLine::State {
 
   // Bytes on the bus from a master, their last one in no sooner than `arrival`.
   // Returns when it is in.
+  // Byte by byte, one character apart (as lec sim's event loop feeds its
+  // bus): two masters' queries back to back are one bad frame to the
+  // controllers, as on a real line, and a query split by a gap is seen with
+  // that gap (the Silent INT probe), not the whole chunk's wire time more.
   TimePoint feed(std::span<const uint8_t> bytes, TimePoint arrival) {
     arrival = std::max({arrival, line_in + bus_wire(bytes.size()), bus_time});
     line_in = arrival;
-    if (!bytes.empty()) bus.receive(bytes, arrival);
+    const auto n = static_cast<int64_t>(bytes.size());
+    for (int64_t i = 0; i < n; ++i) {
+      // Never before what the bus has already seen (a master at a faster
+      // wrong baud: its bytes are fewer and would start earlier).
+      const TimePoint at = std::max(bus_time, arrival - bus_wire(1) * (n - 1 - i));
+      bus.receive(bytes.subspan(static_cast<std::size_t>(i), 1), at);
+      bus_time = at;
+    }
     bus_time = std::max(bus_time, arrival);
     collect();
     return arrival;

@@ -2,7 +2,8 @@
 // alone and in combination, on a twin::VirtualLine, through the same probes
 // `lec doctor` runs on a serial port (cli/doctor_probes.cpp) and the same
 // judgement (client/doctor). Each case runs over several seeds (the noise,
-// the collisions, the other master's phase) and its verdict must hold in
+// the collisions, the doctor's phase against the other master's period and
+// the adapter's timer) and its verdict must hold in
 // every one: on the virtual clock no host stalls a twin, so there is no
 // "a loaded host? once more". A whole doctor run costs milliseconds of wall
 // time here against 3-20 s on a pty (tests/integration/doctor_test.sh keeps
@@ -45,6 +46,8 @@ struct Plant {
   doctor_probes::Fix fix{};
   // Before the doctor: alarm 62 on this ID (a move past its stroke).
   std::optional<uint8_t> alarm_on{};
+  // Ctrl-C after this much of the doctor's run (on the virtual clock).
+  std::optional<Duration> interrupt_after{};
 };
 
 struct Seen {  // one doctor run
@@ -65,7 +68,10 @@ std::vector<uint8_t> parse_range(const std::string& r) {  // "1-4"
 
 // Alarm 62 on `id`: serial on, servo on, home, then direct operation past the stroke.
 void raise_alarm_62(twin::VirtualLine& line, const sim::Bus& bus, uint8_t id) {
-  auto port = twin::open_port_over(line.open(bus.line().line.baud), {.baud = bus.line().line.baud});
+  twin::PortOptions po;
+  po.baud = bus.line().line.baud;
+  po.backoff_seed = 1;
+  auto port = twin::open_port_over(line.open(po.baud), po);
   client::Client c(port->master(), {.id = id, .retries = 3});
   client::Actuator axis(c);
   axis.set_serial_mode(true);
@@ -88,11 +94,15 @@ Seen doctor(const Plant& p, uint64_t seed) {
   lc.timing = p.timing;
   sim::FaultConfig faults = p.faults;
   faults.seed = seed;
-  VirtualClock clock{TimePoint{} + seconds(1) + milliseconds(seed % 97)};
+  VirtualClock clock{TimePoint{} + seconds(1)};
   sim::Bus bus(lc, faults);
   for (uint8_t id : p.ids) bus.add(id, {}, clock.now());
   twin::VirtualLineOptions lo = p.line;
   twin::VirtualLine line(bus, clock, lo);
+  // The doctor comes at a phase of its own against the line's clocks (the
+  // other master's period, the adapter's timer ticks), drawn from the seed:
+  // 0-100 ms, a prime step apart.
+  clock.advance(std::chrono::microseconds((seed * 7919) % 100000));
   if (p.alarm_on) raise_alarm_62(line, bus, *p.alarm_on);
 
   doctor_probes::ProbeSettings s;  // lec's defaults: 38400, Silent INT 1, Td 5 ms
@@ -103,24 +113,22 @@ Seen doctor(const Plant& p, uint64_t seed) {
     po.silent_interval_k = s.silent_interval_k;
     po.delay_td = s.delay_td;
     po.timeout_margin = s.reply_margin;
+    po.backoff_seed = static_cast<uint32_t>(seed);  // a seed replays, whatever ran before
     return twin::open_port_over(line.open(baud, discard_echo), po);
   };
   pl.clock = &clock;
   pl.wait = [&](Duration d) { clock.advance(d); };
+  const TimePoint began = clock.now();
+  if (p.interrupt_after) {
+    pl.interrupted = [&clock, began, after = *p.interrupt_after] {
+      return clock.now() - began >= after;
+    };
+  }
 
   Seen r;
-  r.obs.port = "line";
-  r.obs.id_range = p.id_range;
-  r.obs.echo_option = p.echo_option;
-  r.obs.fix = p.fix.on;
-  r.obs.assumed.baud = s.baud;
-  const TimePoint start = clock.now();
-  doctor_probes::probe_line(pl, s, parse_range(p.id_range), r.obs);
-  if (r.obs.found_baud) {
-    auto port = pl.open(*r.obs.found_baud, r.obs.echo_seen || p.echo_option);
-    doctor_probes::read_controllers(*port, s, r.obs.bauds.back().answering, p.fix, pl.interrupted,
-                                    r.obs);
-  }
+  r.obs = doctor_probes::asked("line", p.id_range, p.echo_option, p.fix.on, s);
+  const TimePoint start = began;
+  doctor_probes::probe_line(pl, s, parse_range(p.id_range), p.fix, p.echo_option, r.obs);
   r.took = clock.now() - start;
   r.report = dx::diagnose(r.obs);
   for (const auto& f : r.report.findings) {
@@ -131,7 +139,9 @@ Seen doctor(const Plant& p, uint64_t seed) {
 }
 
 // Seeds per case: enough to see a verdict that holds only now and then.
-int seeds() { return lec6::testing::kSanitized ? 8 : 40; }
+int seeds() {
+  return lec6::testing::kSanitized ? 8 : 40;
+}
 
 // Runs the plant over the seeds; `check` asserts on each run.
 template <typename Check>
@@ -142,6 +152,9 @@ void every_seed(const Plant& p, Check check) {
     if (std::getenv("LEC6_DOCTOR_PRINT")) {  // what each run found, to look at
       std::printf("seed %d: %d burst exchanges, %.1f s (virtual)\n%s", seed, r.obs.burst.exchanges,
                   std::chrono::duration<double>(r.took).count(), r.text.c_str());
+      for (const auto& c : r.obs.controllers)
+        if (!c.read_error.empty())
+          std::printf("  ID %d not read: %s\n", c.id, c.read_error.c_str());
     }
     check(r);
     if (::testing::Test::HasFailure()) {
@@ -149,6 +162,21 @@ void every_seed(const Plant& p, Check check) {
       return;
     }
   }
+}
+
+// The finding of `check` ("echo", "other-master"), if there is one.
+const dx::Finding* finding(const Seen& r, const std::string& check) {
+  for (const auto& f : r.report.findings)
+    if (f.check == check) return &f;
+  return nullptr;
+}
+
+// Every controller found was read (no "could not be read").
+bool controllers_read(const Seen& r) {
+  if (r.obs.controllers.empty()) return false;
+  for (const auto& c : r.obs.controllers)
+    if (!c.read_error.empty()) return false;
+  return true;
 }
 
 bool only_info(const Seen& r) {
@@ -203,9 +231,13 @@ TEST(DoctorProbes, AnEchoingAdapterIsBrokenUntilEchoIsGivenAndTheFixIsVerified) 
   every_seed(p, [](const Seen& r) {
     EXPECT_EQ(r.report.health, dx::Health::Broken);
     EXPECT_TRUE(r.has("add --echo to every lec command (verified"));
+    EXPECT_TRUE(controllers_read(r)) << "read with the echo discarded";
   });
   p.echo_option = true;
-  every_seed(p, [](const Seen& r) { EXPECT_EQ(r.report.health, dx::Health::Healthy); });
+  every_seed(p, [](const Seen& r) {
+    EXPECT_EQ(r.report.health, dx::Health::Healthy);
+    EXPECT_TRUE(controllers_read(r));
+  });
 }
 
 TEST(DoctorProbes, NoiseOnTheLineGivesTheCausesInOrder) {
@@ -232,7 +264,17 @@ TEST(DoctorProbes, AnotherMasterPollingTheLineIsNamed) {
   p.line.other_master_period = milliseconds(50);  // lec sim --other-master 20
   every_seed(p, [](const Seen& r) {
     EXPECT_EQ(r.report.health, dx::Health::Broken);
+    ASSERT_NE(finding(r, "other-master"), nullptr);
+    EXPECT_EQ(finding(r, "other-master")->severity, dx::Severity::Error);
     EXPECT_TRUE(r.has("another master polls this line"));
+    // Its query to ID 1 is ours byte for byte: no echo, and its frames in
+    // our windows are no second controller on ID 1 (a reviewer's finding).
+    EXPECT_EQ(finding(r, "echo"), nullptr);
+    EXPECT_EQ(finding(r, "duplicate-id"), nullptr);
+    // Read without echo discard: when the other master's traffic takes
+    // every attempt (it may, at 20/s), the report says so, never "echo".
+    for (const auto& c : r.obs.controllers)
+      EXPECT_THAT(c.read_error, ::testing::Not(::testing::HasSubstr("echo")));
   });
 }
 
@@ -291,7 +333,10 @@ TEST(DoctorProbes, AnotherMasterAndALongTdAreBrokenWithTheMasterNamed) {
   p.td = milliseconds(20);
   every_seed(p, [](const Seen& r) {
     EXPECT_EQ(r.report.health, dx::Health::Broken);
+    ASSERT_NE(finding(r, "other-master"), nullptr);
+    EXPECT_EQ(finding(r, "other-master")->severity, dx::Severity::Error);
     EXPECT_TRUE(r.has("another master polls this line"));
+    EXPECT_EQ(finding(r, "echo"), nullptr);
   });
 }
 
@@ -307,6 +352,38 @@ TEST(DoctorProbes, ADuplicateIdAt115200WithAnAlarmOnTheOtherIdIsNamedWithBoth) {
     EXPECT_TRUE(r.has("two controllers answer ID 4"));
     EXPECT_TRUE(r.has("alarm 62"));
   });
+}
+
+// Replies whole but after their window (a slow converter, a busy host): the
+// reply window is what to change, not the cabling.
+TEST(DoctorProbes, LateButWholeRepliesPointAtTheReplyWindowNotTheCabling) {
+  Plant p;
+  p.faults.delay = 0.1;
+  p.faults.extra_delay = milliseconds(70);  // past the 50 ms margin, within one more
+  every_seed(p, [](const Seen& r) {
+    EXPECT_TRUE(r.has("ID 1 at 38400"));
+    ASSERT_NE(finding(r, "line-quality"), nullptr);
+    EXPECT_THAT(finding(r, "line-quality")->saw, ::testing::HasSubstr("whole but late"));
+    EXPECT_THAT(finding(r, "line-quality")->todo, ::testing::HasSubstr("--reply-margin"));
+    EXPECT_THAT(finding(r, "line-quality")->todo,
+                ::testing::Not(::testing::HasSubstr("termination")));
+  });
+}
+
+// Ctrl-C: the probes end at their next exchange, whatever they were doing.
+TEST(DoctorProbes, CtrlCEndsTheProbesAtOnce) {
+  for (const Duration after :
+       std::vector<Duration>{milliseconds(100), milliseconds(700), seconds(2), seconds(5)}) {
+    Plant p;
+    p.ids = {1, 3};
+    p.baud = 57600;
+    p.id_range = "1-32";
+    p.interrupt_after = after;
+    const Seen r = doctor(p, 1);
+    // The first listen for another master (0.5 s) is not cut short.
+    EXPECT_LT(r.took, std::max(after, doctor_probes::kListen) + milliseconds(200))
+        << "interrupted after " << after.count() << " ns";
+  }
 }
 
 TEST(DoctorProbes, ADeadLineIsBrokenWithTheChecklistWithinTheBudget) {

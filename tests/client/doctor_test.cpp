@@ -332,6 +332,23 @@ TEST(DoctorDiagnose, AnotherMastersQueriesAreNamed) {
   EXPECT_THAT(find(r, "other-master")->todo, HasSubstr("lec serve"));
 }
 
+// Another master polling ID 1: its queries and the replies to them land in
+// our windows with ID 1 in their first byte. That is the other master, not
+// two controllers on ID 1 (the doctor said both on the virtual line).
+TEST(DoctorDiagnose, GarbledRepliesOfAnIdAnotherMasterAsksAreNoDuplicate) {
+  Observations o = clean();
+  o.listened = milliseconds(500);
+  o.foreign_query_ids = {1, 1, 1, 1, 1};
+  o.burst.per_id_exchanges = {{1, 56}};
+  o.burst.per_id_garbled = {{1, 11}};
+  o.burst.framing = 11;
+  const Report r = diagnose(o);
+  EXPECT_EQ(find(r, "duplicate-id"), nullptr);
+  ASSERT_NE(find(r, "other-master"), nullptr);
+  o.foreign_query_ids = {2, 2, 2};  // it asks another ID: ID 1's collisions are a duplicate
+  EXPECT_NE(find(diagnose(o), "duplicate-id"), nullptr);
+}
+
 TEST(DoctorDiagnose, AnAlarmNamesItsMeaningAndTheCommandThatClearsIt) {
   Observations o = clean();
   o.found_baud = 57600;

@@ -5,10 +5,11 @@
 # with no options, and --fix clears the alarm and leaves serial mode alone
 # unless told; a 2-wire adapter's echo, discarded by the serial link once
 # --echo is given; the USB adapter's latency timer in sysfs, set by --fix;
-# bad input (a missing port, a port held by lec serve) is named; through lec
-# serve's Modbus TCP. Every other line fault (noise, a duplicate ID, another
-# master, Td, Silent INT, USB lumps, a port no wire paces, the combinations,
-# a dead line) runs through the same probes on the virtual clock, over
+# lec sim's duplicate IDs and second master on a pty; bad input (a missing
+# port, a port held by lec serve) is named; through lec serve's Modbus TCP.
+# Every line fault (noise, a duplicate ID, another master, Td, Silent INT,
+# USB lumps, late replies, a port no wire paces, the combinations, a dead
+# line, Ctrl-C) runs through the same probes on the virtual clock, over
 # seeds: tests/cli/doctor_probes_test.cpp.
 # Needs: LEC (the lec binary), /usr/bin/python3.
 
@@ -129,8 +130,30 @@ warm "$TMP/echo"
 doctor_expect 8 echo --port "$TMP/echo" doctor --ids 1-4
 check "echo: exit 8" test "$RC" -eq 8
 check "echo: named, with --echo verified" has echo "add --echo to every lec command (verified"
+check "echo: the controller read with the echo discarded" has echo "controller    ID 1 (LEC6-TWIN)"
 doctor_healthy echo-fixed --port "$TMP/echo" --echo doctor --ids 1-4
 check "echo with --echo: healthy" test "$RC" -eq 0
+stop_twin "$TWIN_PID"
+
+# lec sim's own line faults on a pty (their only test through lec sim; the
+# doctor's judgement of them, over seeds, is DoctorProbes'): two controllers
+# with ID 2, and a second master polling ID 1 (whose query to ID 1 is the
+# doctor's own byte for byte: no echo).
+start_twin dup --pty "$TMP/dup" --ids 1,2 --duplicate-ids 2 --strict-baud || exit 1
+warm "$TMP/dup"
+doctor_expect 8 dup --port "$TMP/dup" doctor --ids 1-4
+check "duplicate: exit 8" test "$RC" -eq 8
+check "duplicate: ID 2 named" has dup "two controllers answer ID 2"
+stop_twin "$TWIN_PID"
+start_twin other --pty "$TMP/other" --ids 1 --other-master 20 --strict-baud || exit 1
+warm "$TMP/other"
+doctor_expect 8 other --port "$TMP/other" doctor --ids 1-4
+check "other master: exit 8" test "$RC" -eq 8
+check "other master: named" has other "another master polls this line"
+check "other master: no echo" hasnt other "BROKEN echo"
+# (Its traffic may take every attempt of the controller's read: then the
+# report says so; never with echo discard, which fails on a line with no echo.)
+check "other master: the controller not read as if echoed" hasnt other "echoed"
 stop_twin "$TWIN_PID"
 
 # A USB adapter's latency timer at 16 ms (a stand-in sysfs: a pty has none), then --fix.

@@ -22,6 +22,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,9 @@ struct PortOptions {
   client::TraceSink trace{};
   // Ctrl-C: ends waits on the line (see client::RtuOptions::interrupted).
   std::function<bool()> interrupted{};
+  // The seed of the master's pause after a failure (client::RtuOptions::backoff_seed):
+  // a simulation that gives it replays exactly, whatever ran before in the process.
+  std::optional<uint32_t> backoff_seed{};
   // `sim`: the ID of its one controller, and the controller: the default twin
   // of `lec sim` (the field's evidence, sim::default_config()) unless told
   // otherwise (`lec --sim-profile ideal`: sim::ideal_config()).
