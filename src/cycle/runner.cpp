@@ -319,6 +319,22 @@ struct Runner::Impl {
     return end;
   }
 
+  // The cycle ends before its engine did (a line fault, a stop that failed
+  // the exchange under way, an exception reply): the step under way is
+  // reported with `decision`, every axis is stopped, and where each stood
+  // goes into the report.
+  void end_early(Engine& engine, CycleReport& report, std::optional<StepReport>& running,
+                 const std::string& decision, const std::string& reason) {
+    engine.end(reason);
+    if (running) {
+      running->end = since_start();
+      running->decision = decision;
+      report.steps.push_back(*running);
+      if (options.on_step) options.on_step(report.steps.back());
+    }
+    report.stood = stop_all();
+  }
+
   CycleReport run() {
     CycleReport report;
     t0 = clock().now();
@@ -358,21 +374,27 @@ struct Runner::Impl {
         if (engine.result()) break;
       }
     } catch (const client::TransportError& e) {
-      if (running) {
-        engine.end(fmt::format("line fault during step {} ({}): {}", running->path, running->text,
-                               e.what()));
-        running->end = since_start();
-        running->decision = "line fault";
-        report.steps.push_back(*running);
-        if (options.on_step) options.on_step(report.steps.back());
+      const std::string during =
+          running ? fmt::format(" during step {} ({})", running->path, running->text) : "";
+      if (stop_requested()) {
+        // A stop came, and the exchange under way failed with it (lec serve
+        // shutting down fails what is not a stop): the stop ended the cycle,
+        // not the line. Its axes are stopped and read as for any stop.
+        end_early(engine, report, running, "stopped",
+                  "stopped by request" + during + "; the exchange under way: " + e.what());
       } else {
-        engine.end(fmt::format("line fault: {}", e.what()));
+        end_early(engine, report, running, "line fault", "line fault" + during + ": " + e.what());
       }
-      report.stood = stop_all();
+    } catch (const client::ControllerException& e) {
+      // An exception reply outside a step's own action (the reads between
+      // steps): the cycle cannot go on, and says where its axes stood.
+      const std::string during =
+          running ? fmt::format(" during step {} ({})", running->path, running->text) : "";
+      end_early(engine, report, running, "abort", "aborted" + during + ": " + e.what());
     } catch (...) {
-      // Anything else (a caller's stop_requested or on_step that threw, a
-      // controller's exception reply) ends the cycle too, never with its
-      // axes left moving: every axis is stopped, then the error goes on.
+      // Anything else (a caller's stop_requested or on_step that threw) ends
+      // the cycle too, never with its axes left moving: every axis is
+      // stopped, then the error goes on.
       try {
         stop_all();
       } catch (...) {

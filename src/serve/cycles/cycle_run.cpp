@@ -45,12 +45,14 @@ OpResult run_served_cycle(const ServedCycle& served, const std::map<std::string,
       if (axes.at(a.name).line == line) ids.push_back(axes.at(a.name).id);
     master->stop_group(std::move(ids));
   }
-  // A stop seen: asked for, through the operations (or a shutdown), or a
-  // hard stop to one of the cycle's controllers accepted by its line since
-  // the cycle was (a Modbus TCP client's).
+  // A stop seen: asked for, through the operations (or a shutdown, seen by
+  // the operations or by a line that takes only stops now), or a hard stop
+  // to one of the cycle's controllers accepted by its line since the cycle
+  // was (a Modbus TCP client's).
   const auto stop_seen = [&] {
     if (asked() || claim.stopped()) return true;
     for (const auto& [name, ref] : axes) {
+      if (ref.line->stopping()) return true;  // lec serve shuts down: a stop of every axis
       const auto at = ref.line->last_hard_stop(ref.id);
       if (at && *at >= claim.accepted) return true;
     }
@@ -65,7 +67,12 @@ OpResult run_served_cycle(const ServedCycle& served, const std::map<std::string,
     // stop under the lock this look takes).
     std::vector<std::pair<LineMaster*, TimePoint>> looked;
     for (auto& [line, master] : masters) looked.emplace_back(master.get(), line->clock().now());
-    if (stop_seen()) return true;
+    if (stop_seen()) {
+      // The runner stops every axis now and reads each until it is at rest:
+      // those reads go at Emergency, as an operation's stop's do.
+      for (auto& [line, master] : masters) master->reads_urgent();
+      return true;
+    }
     for (auto& [master, at] : looked) master->count_from(at);
     return false;
   };

@@ -108,22 +108,27 @@ json summary_of(const OpResult& r, const std::string& source) {
 void CycleService::run(std::string_view name, std::string source,
                        std::function<void(OpResult)> done) {
   std::shared_ptr<State> s;
+  std::optional<OpResult> refused;  // answered once the lock is let go
   {
     std::lock_guard lock(mutex_);
     const auto it = states_.find(name);
-    if (it == states_.end()) return done(unknown_cycle(name));
-    s = it->second;
-    if (s->running) {
-      return done(refusal(
-          409, fmt::format("cycle {} is running: started {:.1f} s ago by {}; stop "
-                           "it first (POST /api/cycles/{}/stop)",
-                           name, to_seconds(kCycleClock.now() - s->since), s->source, name)));
+    if (it == states_.end()) {
+      refused = unknown_cycle(name);
+    } else if (it->second->running) {
+      const State& r = *it->second;
+      refused =
+          refusal(409, fmt::format("cycle {} is running: started {:.1f} s ago by {}; stop "
+                                   "it first (POST /api/cycles/{}/stop)",
+                                   name, to_seconds(kCycleClock.now() - r.since), r.source, name));
+    } else {
+      s = it->second;
+      s->running = true;
+      s->source = source;
+      s->since = kCycleClock.now();
+      s->stop_asked = false;
     }
-    s->running = true;
-    s->source = source;
-    s->since = kCycleClock.now();
-    s->stop_asked = false;
   }
+  if (refused) return done(std::move(*refused));
   auto started = std::make_shared<std::atomic<bool>>(false);
   auto work = [s, started](const Operations::Claim& claim) {
     *started = true;
@@ -174,22 +179,28 @@ void CycleService::stop(std::string_view name, std::string source,
   };
   auto pending = std::make_shared<Pending>();
   pending->done = std::move(done);
+  std::optional<OpResult> refused;  // answered once the lock is let go
   {
     std::lock_guard lock(mutex_);
     const auto it = states_.find(name);
-    if (it == states_.end()) return pending->done(unknown_cycle(name));
-    s = it->second;
-    if (!s->running) {
-      return pending->done(refusal(409, fmt::format("cycle {} is not running", name)));
+    if (it == states_.end()) {
+      refused = unknown_cycle(name);
+    } else if (!it->second->running) {
+      refused = refusal(409, fmt::format("cycle {} is not running", name));
+    } else {
+      s = it->second;
     }
-    s->stop_asked = true;
-    pending->waiting = s->claimed.size();
-    s->on_end.push_back([pending](const OpResult& r) {
-      std::lock_guard lock(pending->mutex);
-      pending->report = r;
-      pending->answer_if_complete();
-    });
+    if (s) s->stop_asked = true;
+    if (s) {
+      pending->waiting = s->claimed.size();
+      s->on_end.push_back([pending](const OpResult& r) {
+        std::lock_guard lock(pending->mutex);
+        pending->report = r;
+        pending->answer_if_complete();
+      });
+    }
   }
+  if (refused) return pending->done(std::move(*refused));
   log_(LogLevel::Info, fmt::format("stop of cycle {} by {}", name, source));
   // The stop rule of every channel (operations.hpp): each axis's stop goes at
   // Emergency, judged by the axis; the cycle ends on the first.

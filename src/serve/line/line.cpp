@@ -268,6 +268,11 @@ DeviceHealth Line::health(uint8_t id) const {
   return scheduler_.health(id);
 }
 
+bool Line::stopping() const {
+  std::lock_guard lock(mutex_);
+  return scheduler_.shutting_down();
+}
+
 std::optional<TimePoint> Line::last_hard_stop(uint8_t id) const {
   std::lock_guard lock(mutex_);
   return scheduler_.last_hard_stop(id);

@@ -102,6 +102,8 @@ class Line {
   // line's lock: telemetry views call this per axis and per sample).
   DeviceCounters device_counters(uint8_t id) const;
   DeviceHealth health(uint8_t id) const;
+  // lec serve is stopping: the line takes only Emergency jobs (begin_stop).
+  bool stopping() const;
   // Scheduler::last_hard_stop, under the line's lock.
   std::optional<TimePoint> last_hard_stop(uint8_t id) const;
   AxisSnapshot snapshot(uint8_t id) const;

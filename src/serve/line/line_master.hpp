@@ -42,6 +42,9 @@ class LineMaster final : public client::Master {
   // The controllers of the work this master serves (a cycle's axes on this
   // line): a hard stop to any of them supersedes its starts (Job::stop_group).
   void stop_group(std::vector<uint8_t> ids) { stop_group_ = std::move(ids); }
+  // From now on its reads go at Emergency, as a stop's own reads do (the
+  // work it serves is stopping: its axes are read until seen at rest).
+  void reads_urgent() { reads_ = Priority::Emergency; }
   client::LinkStats stats() const override { return stats_; }
   Duration last_round_trip() const override { return last_round_trip_; }
   // The line's own times (issue 32): the exchange's start and its reply's

@@ -184,6 +184,8 @@ class Scheduler {
   void line_down(const std::string& why, TimePoint now);
   void line_up(TimePoint now);
   bool is_line_down() const noexcept { return !line_down_.empty(); }
+  // begin_shutdown came: only Emergency jobs are taken.
+  bool shutting_down() const noexcept { return shutting_down_; }
   const std::string& down_reason() const noexcept { return line_down_; }
   // lec serve is stopping: every queued job but the stops fails with
   // ShuttingDown, and so do later submits but stops; the stops queued and

@@ -83,7 +83,9 @@ struct Operations::Unsettled {
   Op op = Op::Move;
   std::string source;
   std::string why;
-  TimePoint ended{};  // on the line's clock
+  TimePoint ended{};   // on the line's clock
+  std::string what{};  // what ran, when not the op (a cycle: Running::what)
+  std::string name() const { return what.empty() ? std::string(op_name(op)) : what; }
 };
 
 struct Operations::Slot {

@@ -342,7 +342,7 @@ OpResult Operations::unsettled_refusal(const AxisRef& axis, const Unsettled& u) 
       409, fmt::format("axis {} may still be moving: its {} (started by {}) ended {:.1f} s ago "
                        "without the axis seen stopped ({}); a new motion is accepted once a read "
                        "of its flags shows BUSY = 0 ({}); stop it to be sure",
-                       axis.name, op_name(u.op), u.source,
+                       axis.name, u.name(), u.source,
                        to_seconds(axis.line->clock().now() - u.ended), u.why,
                        fresh ? "the last read shows BUSY = 1" : "no read since"));
 }

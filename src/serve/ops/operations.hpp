@@ -166,6 +166,11 @@ class Operations {
                     nlohmann::json started, std::function<void(OpResult)> done);
   void finished(const AxisRef& axis, const std::shared_ptr<Running>& run, const OpResult& result);
   bool settled(const AxisRef& axis, const Unsettled& u) const;
+  // run_claimed's thread: the work, then the slots freed and `done` called.
+  void start_claimed(const std::vector<AxisRef>& axes,
+                     const std::vector<std::shared_ptr<Running>>& runs,
+                     std::function<OpResult(const Claim&)> work,
+                     std::shared_ptr<std::function<void(OpResult)>> done_once);
   OpResult unsettled_refusal(const AxisRef& axis, const Unsettled& u) const;
   void notify(const std::string& axis, const nlohmann::json& event);
 

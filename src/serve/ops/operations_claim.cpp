@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <system_error>
 #include <thread>
 
 #include "ops/op_results.hpp"
@@ -23,9 +24,11 @@ void Operations::run_claimed(const std::vector<AxisRef>& axes, std::string what,
   std::optional<OpResult> refused;
   {
     std::lock_guard lock(mutex_);
-    if (shutting_down_) return done(refusal(503, "lec serve is shutting down"));
-    // Every axis checked first: all slots are taken, or none.
+    // Every axis checked first: all slots are taken, or none. (`done` is
+    // called after the lock is let go: it may ask Operations again.)
+    if (shutting_down_) refused = refusal(503, "lec serve is shutting down");
     for (const AxisRef& axis : axes) {
+      if (refused) break;
       Slot& slot = slots_[axis.name];
       std::erase_if(slot.stops, [](const auto& w) { return w.expired(); });
       if (slot.motion) {
@@ -42,7 +45,6 @@ void Operations::run_claimed(const std::vector<AxisRef>& axes, std::string what,
                                            "nothing was sent: try again once it has ended",
                                            axis.name, s ? s->name() : "stop", s ? s->source : "?"));
       }
-      if (refused) break;
     }
     if (!refused) {
       const TimePoint accepted = axes.front().line->clock().now();
@@ -66,7 +68,36 @@ void Operations::run_claimed(const std::vector<AxisRef>& axes, std::string what,
     ++active_;
   }
   log_(LogLevel::Info, fmt::format("{} on {} axes by {}", what, axes.size(), source));
-  std::thread([this, axes, runs, work = std::move(work), done = std::move(done)] {
+  // `done` is kept here until the thread has it: a thread that cannot be
+  // made (std::system_error: no resources) frees the slots and says so.
+  auto done_once = std::make_shared<std::function<void(OpResult)>>(std::move(done));
+  try {
+    start_claimed(axes, runs, std::move(work), done_once);
+  } catch (const std::system_error& e) {
+    {
+      std::lock_guard lock(mutex_);
+      for (std::size_t i = 0; i < axes.size(); ++i) {
+        Slot& slot = slots_[axes[i].name];
+        if (slot.motion == runs[i]) slot.motion.reset();
+      }
+    }
+    for (const auto& r : runs) r->ended_promise.set_value();
+    {
+      std::lock_guard lock(active_mutex_);
+      if (--active_ == 0) idle_.notify_all();
+    }
+    if (*done_once)
+      (*done_once)(
+          refusal(503, fmt::format("{}: not started ({}); nothing was sent", what, e.what())));
+  }
+}
+
+void Operations::start_claimed(const std::vector<AxisRef>& axes,
+                               const std::vector<std::shared_ptr<Running>>& runs,
+                               std::function<OpResult(const Claim&)> work,
+                               std::shared_ptr<std::function<void(OpResult)>> done_once) {
+  std::thread([this, axes, runs, work = std::move(work), done_once] {
+    const auto done = std::move(*done_once);
     Claim claim;
     claim.accepted = runs.front()->accepted;
     // Looked at under the lock a stop is accepted under: one accepted (and
@@ -100,7 +131,7 @@ void Operations::run_claimed(const std::vector<AxisRef>& axes, std::string what,
         if (result.status >= 500) {
           slot.unsettled = Unsettled{runs[i]->op, runs[i]->source,
                                      result.body.value("error", result.body.value("ended", "")),
-                                     axes[i].line->clock().now()};
+                                     axes[i].line->clock().now(), runs[i]->what};
         }
       }
     }

@@ -14,6 +14,7 @@
 #include <fstream>
 #include <future>
 #include <memory>
+#include <thread>
 
 #include "cycles/cycle_service.hpp"
 #include "cycles/served_cycle.hpp"
@@ -230,6 +231,54 @@ TEST(ServeCycles, ASecondRunWhileOneRunsIs409AndTheCyclesStopEndsIt) {
   EXPECT_EQ(report["stops"].size(), 2u) << stop.body;
   EXPECT_FALSE(body_of(rig.call("GET", "/api/cycles/slow-pair")).value("running", true));
   EXPECT_EQ(rig.call("POST", "/api/cycles/slow-pair/stop").status, 409) << "not running";
+}
+
+// lec serve shutting down during a cycle (SIGTERM): the lines take only
+// stops, and the exchange the cycle had under way fails with "shutting
+// down". That is the stop ending the cycle, not a line fault: every axis is
+// stopped and read at Emergency (which the stopping line still takes), and
+// the report says where each stood. (A reviewer's finding: the report said
+// "line fault" and had no positions.)
+TEST(ServeCycles, AShutdownDuringACycleStopsEveryAxisAndTheReportSaysWhereEachStood) {
+  CycleFiles files;
+  CycleRig rig({files.write("slow-pair.yaml", kSlowPair)});
+  auto run = rig.send("POST", "/api/cycles/slow-pair/run");
+  ASSERT_TRUE(eventually([&] { return rig.both_moving(); })) << "the parallel group runs";
+
+  // As Daemon::begin_stop: the lines first, then the operations.
+  rig.axes.line1().begin_stop();
+  rig.axes.ops.begin_shutdown();
+  ASSERT_EQ(run.wait_for(60s), std::future_status::ready);
+  const auto ended = run.get();
+  EXPECT_EQ(ended.status, 422) << ended.body;
+  const json report = body_of(ended);
+  EXPECT_THAT(report.value("ended", ""), ::testing::StartsWith("stopped by request")) << ended.body;
+  ASSERT_EQ(report["steps"].size(), 1u) << ended.body;
+  EXPECT_EQ(report["steps"][0].value("decision", ""), "stopped") << ended.body;
+  expect_all_stood_stopped(report, 2);
+  for (const auto& s : report["stood"]) EXPECT_LT(s.value("position_mm", 400.0), 380.0) << s.dump();
+}
+
+// Operations::run_claimed answers a refusal after letting its lock go: the
+// answer may ask the operations again (a front-end reading the axis's
+// state for its reply). Before, the 503 of a shutdown was answered under
+// the lock, and such an answer deadlocked.
+TEST(ServeCycles, ARefusedClaimIsAnsweredOutsideTheOperationsLock) {
+  TwinDirectory axes;
+  axes.ops.begin_shutdown();
+  auto answered = std::make_shared<std::promise<int>>();
+  auto f = answered->get_future();
+  std::thread([&axes, answered] {
+    axes.ops.run_claimed(
+        {axes.axis1()}, "cycle test", "test",
+        [](const Operations::Claim&) { return OpResult{200, json::object()}; },
+        [&axes, answered](OpResult r) {
+          (void)axes.ops.running(axes.axis1());  // takes the operations' lock
+          answered->set_value(r.status);
+        });
+  }).detach();
+  ASSERT_EQ(f.wait_for(10s), std::future_status::ready) << "the answer deadlocked";
+  EXPECT_EQ(f.get(), 503);
 }
 
 TEST(ServeCycles, AnUnknownCycleIs404) {
