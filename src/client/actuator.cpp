@@ -144,6 +144,10 @@ MoveResult Actuator::poll_until_done(Completion& done, TimePoint started_at,
     bool unanswered = false;  // polls are failing now, since the start of the first
     TimePoint unanswered_since{};
     for (;;) {
+      if (wait.poll_jitter) {
+        if (const Duration j = wait.poll_jitter(); j > Duration::zero())
+          client_.idle_until(client_.clock().now() + j);
+      }
       const TimePoint began = client_.clock().now();
       lec::StatusFlags flags;
       lec::StateData state;

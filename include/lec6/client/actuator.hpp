@@ -49,6 +49,11 @@ struct WaitOptions {
   // e.g. other threads on a SharedMaster); 0 (the default, and what `lec`
   // uses): back to back at the wire's speed.
   Duration poll_interval{};
+  // Before each poll, this long more (drawn anew each time; none when
+  // unset). A daemon whose axes move in step polls each at the same delay
+  // after its edges every time; a few ms of jitter varies the polls' phase,
+  // so that the move history's brackets narrow from both sides (issue 32).
+  std::function<Duration()> poll_jitter{};
   CompletionOptions completion{};  // the start window
   // How long the polls may go unanswered on a working line (timeouts, CRC
   // and framing errors: is_line_fault) before the wait gives up with the
