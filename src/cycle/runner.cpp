@@ -246,15 +246,25 @@ struct Runner::Impl {
       }
       return end;
     } catch (const client::TransportError& e) {  // the step's members stay in its report
-      for (auto& l : live) {
-        if (!l.result) {
-          l.span.end = since_start();
-          l.span.outcome = Outcome::LineFault;
-          l.span.detail = e.what();
-        }
-        report.axes.push_back(l.span);
-      }
+      keep_members(live, report, Outcome::LineFault, e.what());
       throw;
+    } catch (const client::ControllerException& e) {  // an exception reply to a poll
+      keep_members(live, report, Outcome::Refused, e.what());
+      throw;
+    }
+  }
+
+  // The members of a step cut short by an exception: those still running end
+  // now with `outcome`, and every member goes into the step's report.
+  void keep_members(std::vector<Live>& live, StepReport& report, Outcome outcome,
+                    const std::string& detail) {
+    for (auto& l : live) {
+      if (!l.result) {
+        l.span.end = since_start();
+        l.span.outcome = outcome;
+        l.span.detail = detail;
+      }
+      report.axes.push_back(l.span);
     }
   }
 
@@ -326,13 +336,22 @@ struct Runner::Impl {
   void end_early(Engine& engine, CycleReport& report, std::optional<StepReport>& running,
                  const std::string& decision, const std::string& reason) {
     engine.end(reason);
+    report.stood = stop_all();  // first: nothing after may leave an axis moving
     if (running) {
       running->end = since_start();
       running->decision = decision;
       report.steps.push_back(*running);
       if (options.on_step) options.on_step(report.steps.back());
     }
-    report.stood = stop_all();
+  }
+
+  // RunOptions::failure_is_stop, and a stop asked for: a throw is "no".
+  bool failure_was_stop() const noexcept {
+    try {
+      return options.failure_is_stop && options.failure_is_stop() && stop_requested();
+    } catch (...) {
+      return false;
+    }
   }
 
   CycleReport run() {
@@ -351,9 +370,16 @@ struct Runner::Impl {
         }
         // Every axis, flags and state, before the first step and every step
         // that moves; its flags before a dwell; nothing at the end.
-        auto next =
-            engine.next(read_all(first ? Engine::AxesNeeded::FlagsAndState : engine.next_needs()));
+        AxisStates seen = read_all(first ? Engine::AxesNeeded::FlagsAndState : engine.next_needs());
         first = false;
+        // A stop that came during those reads (lec serve shutting down
+        // fails them: the next step would be refused as "does not answer").
+        if (stop_requested()) {
+          report.stood = stop_all();
+          engine.end("stopped by request between steps");
+          break;
+        }
+        auto next = engine.next(std::move(seen));
         if (std::holds_alternative<Finished>(next)) break;
         const Batch& b = std::get<Batch>(next);
         running = StepReport{b.path, b.step->text, since_start(), {}, {}, {}};
@@ -376,7 +402,7 @@ struct Runner::Impl {
     } catch (const client::TransportError& e) {
       const std::string during =
           running ? fmt::format(" during step {} ({})", running->path, running->text) : "";
-      if (stop_requested()) {
+      if (failure_was_stop()) {
         // A stop came, and the exchange under way failed with it (lec serve
         // shutting down fails what is not a stop): the stop ended the cycle,
         // not the line. Its axes are stopped and read as for any stop.

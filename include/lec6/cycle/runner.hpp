@@ -93,6 +93,11 @@ enum class StepMoment { Before, Started, Ended };
 
 struct RunOptions {
   std::function<bool()> stop_requested;  // polled between transactions
+  // Whether a failed exchange was the stop's doing, not the line's (lec
+  // serve shutting down fails every exchange that is not a stop): then the
+  // cycle ends "stopped by request", not "line fault". Unset (lec cycle
+  // run): a failed exchange is a line fault. Must not throw.
+  std::function<bool()> failure_is_stop;
   client::StopPolicy stop_policy{};
   // Each step as it ends (a live printout).
   std::function<void(const StepReport&)> on_step;

@@ -1,5 +1,6 @@
 #include "cycles/cycle_run.hpp"
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -60,6 +61,15 @@ OpResult run_served_cycle(const ServedCycle& served, const std::map<std::string,
   };
   cycle::RunOptions options;
   options.stop_policy = policy;
+  // Only lec serve's shutdown fails the cycle's exchanges for a stop (a
+  // stop of an axis or of the cycle fails none): any other failure is the
+  // line's (a reviewer's finding: a real fault, relabelled a stop, left the
+  // axes free although none was seen at rest).
+  options.failure_is_stop = [&] {
+    for (const auto& [name, ref] : axes)
+      if (ref.line->stopping()) return true;
+    return false;
+  };
   options.stop_requested = [&] {
     // The times first, then the look: a stop accepted after these times
     // supersedes the starts that follow (their writes carry them); one
@@ -82,7 +92,11 @@ OpResult run_served_cycle(const ServedCycle& served, const std::map<std::string,
   result.body = nlohmann::json::parse(
       cycle::report_json(served.name(), report, cycle::analyse(report), /*simulated=*/false));
   const bool line_fault = report.ended.rfind("line fault", 0) == 0;
-  result.status = report.completed ? 200 : line_fault ? 502 : 422;
+  // An axis the stop could not see at rest: 502 like a line fault, so its
+  // motion slot stays taken until a read shows BUSY = 0 (unsettled).
+  const bool unseen = std::any_of(report.stood.begin(), report.stood.end(),
+                                  [](const auto& s) { return !s.stopped; });
+  result.status = report.completed ? 200 : (line_fault || unseen) ? 502 : 422;
   if (!report.completed) result.body["error"] = report.ended;
   return result;
 }

@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <random>
+#include <system_error>
+
 #include "history/motion_settings.hpp"  // issue 26: what the history groups moves by
 #include "lec6/client/step_sync.hpp"
 #include "lec6/lec/step_table.hpp"
@@ -159,7 +162,7 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
     std::lock_guard lock(active_mutex_);
     ++active_;
   }
-  std::thread([this, axis, cmd = std::move(cmd), run, started = std::move(started),
+  auto body = [this, axis, cmd = std::move(cmd), run, started = std::move(started),
                done = std::move(done)] {
     OpResult result;
     try {
@@ -181,7 +184,16 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
     done(result);
     std::lock_guard lock(active_mutex_);
     if (--active_ == 0) idle_.notify_all();
-  }).detach();
+  };
+  try {
+    std::thread(body).detach();  // a copy: `body` is whole if no thread can be made
+  } catch (const std::system_error& e) {
+    // No thread (the process is out of them): the operation runs here, on
+    // the caller's thread, rather than not at all (a stop must go).
+    log_(LogLevel::Warning,
+         fmt::format("no thread for an operation ({}): it runs on the caller's", e.what()));
+    body();
+  }
 }
 
 std::optional<OpResult> Operations::wait_for_stops(const Command& cmd, Running& run) const {
@@ -282,7 +294,7 @@ void Operations::run_task(const AxisRef& axis, std::string name, std::string sou
   if (name != "step-read" && name != "step-plan") {
     log_(LogLevel::Info, fmt::format("{} on {} by {}", name, axis.name, source));
   }
-  std::thread([this, axis, task = std::move(task), done = std::move(done)] {
+  auto body = [this, axis, task = std::move(task), done = std::move(done)] {
     OpResult result;
     try {
       LineMaster master(*axis.line, Priority::Command, Priority::Command);
@@ -298,7 +310,16 @@ void Operations::run_task(const AxisRef& axis, std::string name, std::string sou
     done(result);
     std::lock_guard lock(active_mutex_);
     if (--active_ == 0) idle_.notify_all();
-  }).detach();
+  };
+  try {
+    std::thread(body).detach();  // a copy: `body` is whole if no thread can be made
+  } catch (const std::system_error& e) {
+    // No thread (the process is out of them): the operation runs here, on
+    // the caller's thread, rather than not at all (a stop must go).
+    log_(LogLevel::Warning,
+         fmt::format("no thread for an operation ({}): it runs on the caller's", e.what()));
+    body();
+  }
 }
 
 void Operations::finished(const AxisRef& axis, const std::shared_ptr<Running>& run,
@@ -339,12 +360,12 @@ OpResult Operations::unsettled_refusal(const AxisRef& axis, const Unsettled& u) 
     axis.line->submit(std::move(read));
   }
   return refusal(
-      409, fmt::format("axis {} may still be moving: its {} (started by {}) ended {:.1f} s ago "
-                       "without the axis seen stopped ({}); a new motion is accepted once a read "
-                       "of its flags shows BUSY = 0 ({}); stop it to be sure",
-                       axis.name, u.name(), u.source,
-                       to_seconds(axis.line->clock().now() - u.ended), u.why,
-                       fresh ? "the last read shows BUSY = 1" : "no read since"));
+      409,
+      fmt::format("axis {} may still be moving: its {} (started by {}) ended {:.1f} s ago "
+                  "without the axis seen stopped ({}); a new motion is accepted once a read "
+                  "of its flags shows BUSY = 0 ({}); stop it to be sure",
+                  axis.name, u.name(), u.source, to_seconds(axis.line->clock().now() - u.ended),
+                  u.why, fresh ? "the last read shows BUSY = 1" : "no read since"));
 }
 
 void Operations::tie_jog(const std::string& axis, std::function<bool()> closed) {
@@ -362,8 +383,8 @@ std::optional<OpStatus> Operations::running(const AxisRef& axis) const {
   if (!it->second.motion) {
     const auto& u = it->second.unsettled;
     if (!u || settled(axis, *u)) return std::nullopt;
-    return OpStatus{std::string(op_name(u->op)), u->source,
-                    to_seconds(axis.line->clock().now() - u->ended), true, ""};
+    return OpStatus{u->name(), u->source, to_seconds(axis.line->clock().now() - u->ended), true,
+                    ""};
   }
   const Running& r = *it->second.motion;
   OpStatus s{r.name(), r.source, to_seconds(kClock.now() - r.since), false, ""};
@@ -437,6 +458,16 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
       std::chrono::seconds(5),
       2 * std::chrono::duration_cast<Duration>(
               std::chrono::duration<double, std::milli>(axis.line_config->probe_interval_ms)));
+  // The polls of a motion come 0 to one flags read's transaction time later
+  // than back to back, drawn anew each time: axes that move in step would
+  // otherwise be polled at the same delay after their edges every move, and
+  // the history's brackets of them never narrow from above (issue 32,
+  // docs/history.md "Narrowed by the positions").
+  std::minstd_rand jitter_rng(static_cast<uint32_t>(std::random_device{}()));
+  const Duration jitter_max = axis.line->timing().transaction_limit(8, 5 + 2 * 2);
+  wait.poll_jitter = [&jitter_rng, jitter_max] {
+    return Duration(std::uniform_int_distribution<int64_t>(0, jitter_max.count())(jitter_rng));
+  };
   if (cmd.op == Op::Home || cmd.op == Op::Move || cmd.op == Op::RunStep) {
     // A stop or reset for this axis wins over its motion, even one whose start
     // has not reached the line yet (the stop goes first, at emergency

@@ -69,11 +69,13 @@ void Operations::run_claimed(const std::vector<AxisRef>& axes, std::string what,
   }
   log_(LogLevel::Info, fmt::format("{} on {} axes by {}", what, axes.size(), source));
   // `done` is kept here until the thread has it: a thread that cannot be
-  // made (std::system_error: no resources) frees the slots and says so.
+  // made (std::system_error: no resources) frees the slots and says so. (A
+  // cycle starts motion: refused, not run on the caller's thread.)
   auto done_once = std::make_shared<std::function<void(OpResult)>>(std::move(done));
   try {
     start_claimed(axes, runs, std::move(work), done_once);
-  } catch (const std::system_error& e) {
+  } catch (const std::exception& e) {  // no thread (system_error), no memory for it
+    log_(LogLevel::Warning, fmt::format("{}: not started: {}", what, e.what()));
     {
       std::lock_guard lock(mutex_);
       for (std::size_t i = 0; i < axes.size(); ++i) {

@@ -245,10 +245,12 @@ TEST(ServeCycles, AShutdownDuringACycleStopsEveryAxisAndTheReportSaysWhereEachSt
   auto run = rig.send("POST", "/api/cycles/slow-pair/run");
   ASSERT_TRUE(eventually([&] { return rig.both_moving(); })) << "the parallel group runs";
 
-  // As Daemon::begin_stop: the lines first, then the operations.
+  // As Daemon::begin_stop, the line first. The operations are told after
+  // the cycle has ended: what ends it here is the line's stopping alone
+  // (Line::stopping), not the operations' own flag.
   rig.axes.line1().begin_stop();
-  rig.axes.ops.begin_shutdown();
   ASSERT_EQ(run.wait_for(60s), std::future_status::ready);
+  rig.axes.ops.begin_shutdown();
   const auto ended = run.get();
   EXPECT_EQ(ended.status, 422) << ended.body;
   const json report = body_of(ended);
