@@ -74,9 +74,6 @@ bool Actuator::watch(StopKind kind, const StopPolicy& policy, TimePoint until_re
     } catch (const TransportError& e) {
       report.problem = e.what();
       if (++failed >= kFailedReadsGiveUp) return false;
-    } catch (const ControllerException& e) {  // refused: said, never thrown past a stop
-      report.problem = e.what();
-      if (++failed >= kFailedReadsGiveUp) return false;
     }
     const TimePoint now = clock.now();
     ++looks;
@@ -96,12 +93,6 @@ StopReport Actuator::stop(StopKind kind, const StopPolicy& policy) {
       write();
       return true;
     } catch (const TransportError& e) {
-      report.problem = e.what();
-      return false;
-    } catch (const ControllerException& e) {
-      // An exception reply (a controller in parallel mode refuses RESET
-      // over serial): the report says it; a stop never throws it at its
-      // caller, who would lose where the other axes stood.
       report.problem = e.what();
       return false;
     }

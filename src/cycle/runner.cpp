@@ -86,10 +86,17 @@ struct Runner::Impl {
     }
     std::vector<AxisStand> stood;
     for (const auto& a : cycle.axes) {
-      const client::StopReport r =
-          axes.at(a.name).actuator->stop(client::StopKind::Stop, options.stop_policy);
-      stood.push_back({a.name, r.stopped, r.answered, r.state.position_001mm, r.describe()});
-      states[a.name].state = r.state;
+      try {
+        const client::StopReport r =
+            axes.at(a.name).actuator->stop(client::StopKind::Stop, options.stop_policy);
+        stood.push_back({a.name, r.stopped, r.answered, r.state.position_001mm, r.describe()});
+        states[a.name].state = r.state;
+      } catch (const client::ControllerException& e) {
+        // Refused (a controller in parallel mode refuses RESET over serial):
+        // said for this axis; the others' stops still go and are judged.
+        stood.push_back({a.name, false, false, 0,
+                         fmt::format("the stop was refused by the controller: {}", e.what())});
+      }
     }
     return stood;
   }
@@ -346,9 +353,12 @@ struct Runner::Impl {
   }
 
   // RunOptions::failure_is_stop, and a stop asked for: a throw is "no".
+  // stop_requested() is looked at first, always: the caller may act on a
+  // stop seen (lec serve: its reads go at Emergency from then on).
   bool failure_was_stop() const noexcept {
     try {
-      return options.failure_is_stop && options.failure_is_stop() && stop_requested();
+      const bool stop = stop_requested();
+      return stop && options.failure_is_stop && options.failure_is_stop();
     } catch (...) {
       return false;
     }

@@ -430,5 +430,60 @@ TEST(Actuator, PollsUnansweredLongerThanTheGraceEndTheWaitSayingHowLong) {
   }
 }
 
+// WaitOptions::poll_jitter (lec serve: 0 to one transaction, issue 32):
+// every poll comes that much later, is dated when it was on the wire (not
+// before the wait), the move still ends reached, and a cancel is still seen
+// at the next poll.
+TEST(Actuator, APollJitterDelaysEachPollAndTheMoveStillEnds) {
+  std::vector<Duration> shortest;  // between two flags reads of the move: without, with
+  for (const Duration jitter : {Duration{}, Duration(std::chrono::milliseconds(15))}) {
+    SimFixture f;
+    f.prepare();
+    std::vector<TimePoint> flags_reads;  // FC02 queries sent during the move
+    bool moving = false;
+    f.on_trace = [&](const TraceEvent& e) {
+      if (moving && e.outgoing && e.bytes.size() > 1 && e.bytes[1] == 0x02)
+        flags_reads.push_back(e.at);
+    };
+    WaitOptions w;
+    if (jitter > Duration{}) w.poll_jitter = [jitter] { return jitter; };
+    DirectMove m;
+    m.position_001mm = 10000;
+    moving = true;
+    const MoveResult r = f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(30)), w);
+    moving = false;
+    EXPECT_EQ(r.outcome, MoveOutcome::Reached) << r.describe();
+    ASSERT_GE(flags_reads.size(), 3u);
+    Duration least = Duration::max();
+    for (std::size_t i = 1; i < flags_reads.size(); ++i)
+      least = std::min(least, flags_reads[i] - flags_reads[i - 1]);
+    shortest.push_back(least);
+  }
+  // Back to back, a poll round (flags, then state); with the jitter, 15 ms
+  // more each, less the silent interval before a query that the wait covers.
+  EXPECT_GE(shortest[1], shortest[0] + std::chrono::milliseconds(14));
+  EXPECT_LT(shortest[1], shortest[0] + std::chrono::milliseconds(17));
+}
+
+TEST(Actuator, ACancelIsSeenAtTheNextPollWithAJitter) {
+  SimFixture f;
+  f.prepare();
+  WaitOptions w;
+  w.poll_jitter = [] { return Duration(std::chrono::milliseconds(15)); };
+  const TimePoint cancel_at = f.clock.now() + std::chrono::milliseconds(300);
+  w.cancel = [&] { return f.clock.now() >= cancel_at; };
+  DirectMove m;
+  m.position_001mm = 30000;
+  m.speed_mm_s = 50;
+  try {
+    f.axis->move(m, f.axis->deadline_in(std::chrono::seconds(30)), w);
+    ADD_FAILURE() << "the move ran to its end";
+  } catch (const Cancelled&) {
+  }
+  // Within one poll round (the jitter, flags and state reads) of the cancel,
+  // plus the stop that follows it.
+  EXPECT_LT(f.clock.now() - cancel_at, std::chrono::milliseconds(600));
+}
+
 }  // namespace
 }  // namespace lec6::client

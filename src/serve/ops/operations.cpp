@@ -4,6 +4,7 @@
 
 #include <random>
 #include <system_error>
+#include <thread>
 
 #include "history/motion_settings.hpp"  // issue 26: what the history groups moves by
 #include "lec6/client/step_sync.hpp"
@@ -162,6 +163,8 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
     std::lock_guard lock(active_mutex_);
     ++active_;
   }
+  const Command cmd_copy = cmd;  // for a refusal, when no thread can be made
+  const std::function<void(OpResult)> done_copy = done;
   auto body = [this, axis, cmd = std::move(cmd), run, started = std::move(started),
                done = std::move(done)] {
     OpResult result;
@@ -188,11 +191,28 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
   try {
     std::thread(body).detach();  // a copy: `body` is whole if no thread can be made
   } catch (const std::system_error& e) {
-    // No thread (the process is out of them): the operation runs here, on
-    // the caller's thread, rather than not at all (a stop must go).
-    log_(LogLevel::Warning,
-         fmt::format("no thread for an operation ({}): it runs on the caller's", e.what()));
-    body();
+    // No thread (the process is out of them). A stop, hold, reset or servo
+    // off runs here, on the caller's thread (the event loop: it is short,
+    // and must go); anything else is refused with nothing sent (a move run
+    // here would block every other front-end's stops until it ended).
+    if (stop_like(cmd_copy)) {
+      log_(LogLevel::Warning, fmt::format("no thread for a {} ({}): it runs on the caller's",
+                                          op_name(cmd_copy.op), e.what()));
+      body();
+    } else {
+      log_(LogLevel::Warning,
+           fmt::format("no thread for a {} ({}): refused", op_name(cmd_copy.op), e.what()));
+      OpResult r = refusal(503, fmt::format("{}: not started: no thread ({}); nothing was sent",
+                                            op_name(cmd_copy.op), e.what()));
+      run->nothing_sent = true;  // its slot frees without "unsettled"
+      finished(axis, run, r);
+      run->ended_promise.set_value();
+      {
+        std::lock_guard lock(active_mutex_);
+        if (--active_ == 0) idle_.notify_all();
+      }
+      done_copy(std::move(r));
+    }
   }
 }
 
@@ -294,6 +314,7 @@ void Operations::run_task(const AxisRef& axis, std::string name, std::string sou
   if (name != "step-read" && name != "step-plan") {
     log_(LogLevel::Info, fmt::format("{} on {} by {}", name, axis.name, source));
   }
+  const std::function<void(OpResult)> done_copy = done;  // when no thread can be made
   auto body = [this, axis, task = std::move(task), done = std::move(done)] {
     OpResult result;
     try {
@@ -314,11 +335,12 @@ void Operations::run_task(const AxisRef& axis, std::string name, std::string sou
   try {
     std::thread(body).detach();  // a copy: `body` is whole if no thread can be made
   } catch (const std::system_error& e) {
-    // No thread (the process is out of them): the operation runs here, on
-    // the caller's thread, rather than not at all (a stop must go).
-    log_(LogLevel::Warning,
-         fmt::format("no thread for an operation ({}): it runs on the caller's", e.what()));
-    body();
+    log_(LogLevel::Warning, fmt::format("no thread for {} ({}): refused", name, e.what()));
+    {
+      std::lock_guard lock(active_mutex_);
+      if (--active_ == 0) idle_.notify_all();
+    }
+    done_copy(refusal(503, fmt::format("{}: not started: no thread ({})", name, e.what())));
   }
 }
 
@@ -463,10 +485,14 @@ OpResult Operations::execute(const AxisRef& axis, const Command& cmd, Running& r
   // otherwise be polled at the same delay after their edges every move, and
   // the history's brackets of them never narrow from above (issue 32,
   // docs/history.md "Narrowed by the positions").
-  std::minstd_rand jitter_rng(static_cast<uint32_t>(std::random_device{}()));
-  const Duration jitter_max = axis.line->timing().transaction_limit(8, 5 + 2 * 2);
-  wait.poll_jitter = [&jitter_rng, jitter_max] {
-    return Duration(std::uniform_int_distribution<int64_t>(0, jitter_max.count())(jitter_rng));
+  // (Seeded per thread once: no system call in an operation, a stop's least
+  // of all.) A flags read: FC02 of 16 inputs, an 8-byte query, a 7-byte reply.
+  const Duration jitter_max = axis.line->timing().transaction_limit(8, 7);
+  wait.poll_jitter = [jitter_max] {
+    thread_local std::minstd_rand rng(static_cast<uint32_t>(
+        std::hash<std::thread::id>{}(std::this_thread::get_id()) ^
+        static_cast<std::size_t>(std::chrono::steady_clock::now().time_since_epoch().count())));
+    return Duration(std::uniform_int_distribution<int64_t>(0, jitter_max.count())(rng));
   };
   if (cmd.op == Op::Home || cmd.op == Op::Move || cmd.op == Op::RunStep) {
     // A stop or reset for this axis wins over its motion, even one whose start

@@ -240,25 +240,31 @@ TEST(ServeCycles, ASecondRunWhileOneRunsIs409AndTheCyclesStopEndsIt) {
 // the report says where each stood. (A reviewer's finding: the report said
 // "line fault" and had no positions.)
 TEST(ServeCycles, AShutdownDuringACycleStopsEveryAxisAndTheReportSaysWhereEachStood) {
-  CycleFiles files;
-  CycleRig rig({files.write("slow-pair.yaml", kSlowPair)});
-  auto run = rig.send("POST", "/api/cycles/slow-pair/run");
-  ASSERT_TRUE(eventually([&] { return rig.both_moving(); })) << "the parallel group runs";
+  // Both orders: the daemon's (the line, then the operations, back to back)
+  // and the line's stopping alone (the operations told after the cycle has
+  // ended: Line::stopping is what ends it then).
+  for (const bool daemon_order : {true, false}) {
+    SCOPED_TRACE(daemon_order ? "line then operations" : "the line alone");
+    CycleFiles files;
+    CycleRig rig({files.write("slow-pair.yaml", kSlowPair)});
+    auto run = rig.send("POST", "/api/cycles/slow-pair/run");
+    ASSERT_TRUE(eventually([&] { return rig.both_moving(); })) << "the parallel group runs";
 
-  // As Daemon::begin_stop, the line first. The operations are told after
-  // the cycle has ended: what ends it here is the line's stopping alone
-  // (Line::stopping), not the operations' own flag.
-  rig.axes.line1().begin_stop();
-  ASSERT_EQ(run.wait_for(60s), std::future_status::ready);
-  rig.axes.ops.begin_shutdown();
-  const auto ended = run.get();
-  EXPECT_EQ(ended.status, 422) << ended.body;
-  const json report = body_of(ended);
-  EXPECT_THAT(report.value("ended", ""), ::testing::StartsWith("stopped by request")) << ended.body;
-  ASSERT_EQ(report["steps"].size(), 1u) << ended.body;
-  EXPECT_EQ(report["steps"][0].value("decision", ""), "stopped") << ended.body;
-  expect_all_stood_stopped(report, 2);
-  for (const auto& s : report["stood"]) EXPECT_LT(s.value("position_mm", 400.0), 380.0) << s.dump();
+    rig.axes.line1().begin_stop();
+    if (daemon_order) rig.axes.ops.begin_shutdown();
+    ASSERT_EQ(run.wait_for(60s), std::future_status::ready);
+    if (!daemon_order) rig.axes.ops.begin_shutdown();
+    const auto ended = run.get();
+    EXPECT_EQ(ended.status, 422) << ended.body;
+    const json report = body_of(ended);
+    EXPECT_THAT(report.value("ended", ""), ::testing::StartsWith("stopped by request"))
+        << ended.body;
+    ASSERT_EQ(report["steps"].size(), 1u) << ended.body;
+    EXPECT_EQ(report["steps"][0].value("decision", ""), "stopped") << ended.body;
+    expect_all_stood_stopped(report, 2);
+    for (const auto& s : report["stood"])
+      EXPECT_LT(s.value("position_mm", 400.0), 380.0) << s.dump();
+  }
 }
 
 // Operations::run_claimed answers a refusal after letting its lock go: the
@@ -273,7 +279,9 @@ TEST(ServeCycles, ARefusedClaimIsAnsweredOutsideTheOperationsLock) {
   std::thread([&axes, answered] {
     axes.ops.run_claimed(
         {axes.axis1()}, "cycle test", "test",
-        [](const Operations::Claim&) { return OpResult{200, json::object()}; },
+        [](const Operations::Claim&) {
+          return OpResult{200, json::object()};
+        },
         [&axes, answered](OpResult r) {
           (void)axes.ops.running(axes.axis1());  // takes the operations' lock
           answered->set_value(r.status);
