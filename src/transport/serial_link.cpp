@@ -268,14 +268,8 @@ void SerialLink::write(std::span<const uint8_t> bytes) {
 
 void SerialLink::swallow_echo(std::span<const uint8_t> sent) {
   std::vector<uint8_t> echo(sent.size());
-  std::size_t got = 0;
   const Duration allowed = wire_time(sent.size(), options_.baud) + options_.echo_timeout;
-  const TimePoint deadline = clock_.now() + allowed;
-  while (got < echo.size()) {
-    const std::size_t n = read_some(std::span(echo).subspan(got), deadline);
-    if (n == 0) break;
-    got += n;
-  }
+  const std::size_t got = client::read_until_full(*this, echo, clock_.now() + allowed);
   const std::span<const uint8_t> echoed(echo.data(), got);
   const bool prefix_matches = std::equal(echoed.begin(), echoed.end(), sent.begin());
   if (got == sent.size() && prefix_matches) return;

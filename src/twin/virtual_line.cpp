@@ -204,14 +204,8 @@ class VirtualLine::Port final : public client::Link {
   // As transport::SerialLink::swallow_echo: exactly the bytes sent, back in time.
   void swallow_echo(std::span<const uint8_t> sent) {
     modbus::Bytes echo(sent.size());
-    std::size_t got = 0;
     const Duration allowed = s_->wire(sent.size(), baud_) + kVirtualEchoTimeout;
-    const TimePoint deadline = s_->clock.now() + allowed;
-    while (got < echo.size()) {
-      const std::size_t n = read_some(std::span(echo).subspan(got), deadline);
-      if (n == 0) break;
-      got += n;
-    }
+    const std::size_t got = client::read_until_full(*this, echo, s_->clock.now() + allowed);
     const std::span<const uint8_t> echoed(echo.data(), got);
     const bool prefix_matches = std::equal(echoed.begin(), echoed.end(), sent.begin());
     if (got == sent.size() && prefix_matches) return;

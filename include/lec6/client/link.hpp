@@ -69,4 +69,17 @@ class Link {
   virtual std::string describe() const = 0;
 };
 
+// Reads until `buffer` is full or `deadline` passes (read_some until it
+// returns 0); returns how many bytes came. A 2-wire adapter's echo is read
+// back so (transport::SerialLink, twin::VirtualLine).
+inline std::size_t read_until_full(Link& link, std::span<uint8_t> buffer, TimePoint deadline) {
+  std::size_t got = 0;
+  while (got < buffer.size()) {
+    const std::size_t n = link.read_some(buffer.subspan(got), deadline);
+    if (n == 0) break;
+    got += n;
+  }
+  return got;
+}
+
 }  // namespace lec6::client
