@@ -194,13 +194,19 @@ TEST(DoctorProbes, ACleanLineIsHealthyWithInformationOnly) {
   });
 }
 
-TEST(DoctorProbes, TwoControllersAt57600WithAnAlarmAreFoundWithNoOptions) {
+// The integration case: IDs 1 and 3 at 57600 (not lec's default), ID 3 in
+// alarm 62, the whole ID range asked.
+Plant two_at_57600() {
   Plant p;
   p.ids = {1, 3};
   p.baud = 57600;
   p.alarm_on = 3;
   p.id_range = "1-32";
-  every_seed(p, [](const Seen& r) {
+  return p;
+}
+
+TEST(DoctorProbes, TwoControllersAt57600WithAnAlarmAreFoundWithNoOptions) {
+  every_seed(two_at_57600(), [](const Seen& r) {
     EXPECT_EQ(r.report.health, dx::Health::Degraded);
     EXPECT_TRUE(r.has("ID 1 and 3 at 57600; nothing at 38400, 9600, 19200"));
     EXPECT_TRUE(r.has("give --baud 57600"));
@@ -211,10 +217,7 @@ TEST(DoctorProbes, TwoControllersAt57600WithAnAlarmAreFoundWithNoOptions) {
 }
 
 TEST(DoctorProbes, FixClearsTheAlarmAndLeavesSerialModeAloneUnlessTold) {
-  Plant p;
-  p.ids = {1, 3};
-  p.baud = 57600;
-  p.alarm_on = 3;
+  Plant p = two_at_57600();
   p.fix.on = true;
   const Seen r = doctor(p, 1);
   EXPECT_TRUE(r.has("alarm 62 cleared (RESET)")) << r.text;
@@ -374,10 +377,7 @@ TEST(DoctorProbes, LateButWholeRepliesPointAtTheReplyWindowNotTheCabling) {
 TEST(DoctorProbes, CtrlCEndsTheProbesAtOnce) {
   for (const Duration after :
        std::vector<Duration>{milliseconds(100), milliseconds(700), seconds(2), seconds(5)}) {
-    Plant p;
-    p.ids = {1, 3};
-    p.baud = 57600;
-    p.id_range = "1-32";
+    Plant p = two_at_57600();
     p.interrupt_after = after;
     const Seen r = doctor(p, 1);
     // The first listen for another master (0.5 s) is not cut short.
