@@ -50,10 +50,14 @@ OpResult run_served_cycle(const ServedCycle& served, const std::map<std::string,
   // the operations or by a line that takes only stops now), or a hard stop
   // to one of the cycle's controllers accepted by its line since the cycle
   // was (a Modbus TCP client's).
+  // lec serve shuts down: a line of the cycle takes only stops now.
+  const auto shutting_down = [&] {
+    return std::any_of(axes.begin(), axes.end(),
+                       [](const auto& a) { return a.second.line->stopping(); });
+  };
   const auto stop_seen = [&] {
-    if (asked() || claim.stopped()) return true;
+    if (asked() || claim.stopped() || shutting_down()) return true;
     for (const auto& [name, ref] : axes) {
-      if (ref.line->stopping()) return true;  // lec serve shuts down: a stop of every axis
       const auto at = ref.line->last_hard_stop(ref.id);
       if (at && *at >= claim.accepted) return true;
     }
@@ -65,11 +69,7 @@ OpResult run_served_cycle(const ServedCycle& served, const std::map<std::string,
   // stop of an axis or of the cycle fails none): any other failure is the
   // line's (a reviewer's finding: a real fault, relabelled a stop, left the
   // axes free although none was seen at rest).
-  options.failure_is_stop = [&] {
-    for (const auto& [name, ref] : axes)
-      if (ref.line->stopping()) return true;
-    return false;
-  };
+  options.failure_is_stop = shutting_down;
   options.stop_requested = [&] {
     // The times first, then the look: a stop accepted after these times
     // supersedes the starts that follow (their writes carry them); one

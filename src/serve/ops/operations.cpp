@@ -159,10 +159,7 @@ void Operations::run(const AxisRef& axis, Command cmd, std::string source,
 
 void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<Running> run,
                               nlohmann::json started, std::function<void(OpResult)> done) {
-  {
-    std::lock_guard lock(active_mutex_);
-    ++active_;
-  }
+  began_one();
   const Command cmd_copy = cmd;  // for a refusal, when no thread can be made
   const std::function<void(OpResult)> done_copy = done;
   auto body = [this, axis, cmd = std::move(cmd), run, started = std::move(started),
@@ -185,8 +182,7 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
     // After its "finished": what waited for it says "started" after that.
     run->ended_promise.set_value();
     done(result);
-    std::lock_guard lock(active_mutex_);
-    if (--active_ == 0) idle_.notify_all();
+    ended_one();
   };
   try {
     std::thread(body).detach();  // a copy: `body` is whole if no thread can be made
@@ -207,10 +203,7 @@ void Operations::start_thread(const AxisRef& axis, Command cmd, std::shared_ptr<
       run->nothing_sent = true;  // its slot frees without "unsettled"
       finished(axis, run, r);
       run->ended_promise.set_value();
-      {
-        std::lock_guard lock(active_mutex_);
-        if (--active_ == 0) idle_.notify_all();
-      }
+      ended_one();
       done_copy(std::move(r));
     }
   }
@@ -307,10 +300,7 @@ void Operations::run_task(const AxisRef& axis, std::string name, std::string sou
     std::lock_guard lock(mutex_);
     if (shutting_down_) return done(refusal(503, "lec serve is shutting down"));
   }
-  {
-    std::lock_guard lock(active_mutex_);
-    ++active_;
-  }
+  began_one();
   if (name != "step-read" && name != "step-plan") {
     log_(LogLevel::Info, fmt::format("{} on {} by {}", name, axis.name, source));
   }
@@ -329,17 +319,13 @@ void Operations::run_task(const AxisRef& axis, std::string name, std::string sou
       result = result_of(std::current_exception(), false);
     }
     done(result);
-    std::lock_guard lock(active_mutex_);
-    if (--active_ == 0) idle_.notify_all();
+    ended_one();
   };
   try {
     std::thread(body).detach();  // a copy: `body` is whole if no thread can be made
   } catch (const std::system_error& e) {
     log_(LogLevel::Warning, fmt::format("no thread for {} ({}): refused", name, e.what()));
-    {
-      std::lock_guard lock(active_mutex_);
-      if (--active_ == 0) idle_.notify_all();
-    }
+    ended_one();
     done_copy(refusal(503, fmt::format("{}: not started: no thread ({})", name, e.what())));
   }
 }
@@ -426,6 +412,16 @@ void Operations::begin_shutdown() {
   for (auto& [name, slot] : slots_) {
     if (slot.motion && slot.motion->op == Op::Jog) slot.motion->cancel = true;
   }
+}
+
+void Operations::began_one() {
+  std::lock_guard lock(active_mutex_);
+  ++active_;
+}
+
+void Operations::ended_one() {
+  std::lock_guard lock(active_mutex_);
+  if (--active_ == 0) idle_.notify_all();
 }
 
 bool Operations::idle() const {

@@ -184,6 +184,10 @@ class Operations {
   mutable std::mutex active_mutex_;
   std::condition_variable idle_;
   std::size_t active_ = 0;
+  // An operation's thread (or its stand-in) begins / has ended: idle() and
+  // shutdown() wait on the count.
+  void began_one();
+  void ended_one();
 };
 
 }  // namespace lec6::serve

@@ -63,10 +63,7 @@ void Operations::run_claimed(const std::vector<AxisRef>& axes, std::string what,
     }
   }
   if (refused) return done(std::move(*refused));
-  {
-    std::lock_guard lock(active_mutex_);
-    ++active_;
-  }
+  began_one();
   log_(LogLevel::Info, fmt::format("{} on {} axes by {}", what, axes.size(), source));
   // `done` is kept here until the thread has it: a thread that cannot be
   // made (std::system_error: no resources) frees the slots and says so. (A
@@ -84,10 +81,7 @@ void Operations::run_claimed(const std::vector<AxisRef>& axes, std::string what,
       }
     }
     for (const auto& r : runs) r->ended_promise.set_value();
-    {
-      std::lock_guard lock(active_mutex_);
-      if (--active_ == 0) idle_.notify_all();
-    }
+    ended_one();
     if (*done_once)
       (*done_once)(
           refusal(503, fmt::format("{}: not started ({}); nothing was sent", what, e.what())));
@@ -139,8 +133,7 @@ void Operations::start_claimed(const std::vector<AxisRef>& axes,
     }
     for (const auto& r : runs) r->ended_promise.set_value();
     done(std::move(result));
-    std::lock_guard lock(active_mutex_);
-    if (--active_ == 0) idle_.notify_all();
+    ended_one();
   }).detach();
 }
 
